@@ -1,0 +1,119 @@
+"""Every key expression LunarSim uses, built in one place.
+
+Keys mirror the report's ROS topics: ``roverX/<topic>`` becomes ``lunar/<world>/rover/<X>/<topic>``.
+The ``<world>`` segment lets several simulations (or a replay beside a live run) share a router.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Final
+
+ROOT: Final = "lunar"
+LANDER_ID: Final = 0
+"""The lander's address on the radio; rovers are numbered from 1 as in the report (rover1, rover2...)."""
+
+# Rover topics, named as in report section 10 (plus the few the design doc adds).
+PERCEPTION: Final = "perception"
+MOVE_ACTION: Final = "move_action"
+ROTATE_ACTION: Final = "rotate_action"
+NAVIGATION_STATUS: Final = "navigation_status"
+CANCEL_ACTION: Final = "cancel_action"
+CANCEL_RESULT: Final = "cancel_result"
+SPEED_ACTION: Final = "speed_action"
+ACTION_REJECTED: Final = "action_rejected"
+GYROSCOPE: Final = "gyroscope"
+COMM_OUT: Final = "comm_out"
+COMM_IN: Final = "comm_in"
+COMM_PARTNERS: Final = "comm_partners"
+MISSION_DIRECTION: Final = "mission_direction"
+CALIBRATION: Final = "calibration"
+PHOTO_ACTION: Final = "photo_action"
+PHOTO: Final = "photo"
+STATUS: Final = "status"
+
+ROVER_ACTION_TOPICS: Final = (MOVE_ACTION, ROTATE_ACTION, CANCEL_ACTION, SPEED_ACTION, PHOTO_ACTION)
+"""Topics a rover agent publishes to its simulated (or real) rover."""
+
+_FORBIDDEN = set("/*$#?")
+
+
+def check_world_name(world: str) -> str:
+    """Reject world names that would break or widen key expressions."""
+    if not world or _FORBIDDEN & set(world) or world.strip() != world:
+        raise ValueError(f"invalid world name {world!r}: use letters, digits, '-' or '_' (no '/', '*', '$', '#', '?')")
+    return world
+
+
+@dataclass(frozen=True)
+class Keyspace:
+    """Key expressions of one simulated (or real) world."""
+
+    world: str = "default"
+
+    def __post_init__(self) -> None:
+        check_world_name(self.world)
+
+    @property
+    def prefix(self) -> str:
+        return f"{ROOT}/{self.world}"
+
+    @property
+    def all(self) -> str:
+        return f"{self.prefix}/**"
+
+    def rover(self, rover_id: int, topic: str) -> str:
+        return f"{self.prefix}/rover/{rover_id}/{topic}"
+
+    def rovers(self, topic: str) -> str:
+        """Wildcard over every rover id for one topic (what the world service subscribes to)."""
+        return f"{self.prefix}/rover/*/{topic}"
+
+    def lander(self, topic: str) -> str:
+        return f"{self.prefix}/lander/{topic}"
+
+    @property
+    def ground_command(self) -> str:
+        return f"{self.prefix}/ground/command"
+
+    @property
+    def clock(self) -> str:
+        return f"{self.prefix}/world/clock"
+
+    @property
+    def state(self) -> str:
+        return f"{self.prefix}/world/state"
+
+    @property
+    def stats(self) -> str:
+        return f"{self.prefix}/world/stats"
+
+    def alive_rover(self, rover_id: int) -> str:
+        """Liveliness token a rover agent holds while it runs."""
+        return f"{self.prefix}/alive/rover/{rover_id}"
+
+    @property
+    def alive_rovers(self) -> str:
+        return f"{self.prefix}/alive/rover/*"
+
+    @property
+    def alive_lander(self) -> str:
+        return f"{self.prefix}/alive/lander"
+
+    def parse_rover_key(self, key: str) -> tuple[int, str]:
+        """Split ``lunar/<w>/rover/<X>/<topic>`` into (X, topic); ValueError names the bad part."""
+        head = f"{self.prefix}/rover/"
+        if not key.startswith(head):
+            raise ValueError(f"key {key!r} is not a rover key of world {self.world!r}")
+        parts = key[len(head):].split("/")
+        if len(parts) != 2 or not parts[0].isdigit():
+            raise ValueError(f"key {key!r} does not name a rover id and topic")
+        return int(parts[0]), parts[1]
+
+    def parse_alive_key(self, key: str) -> int:
+        """Rover id from a liveliness key."""
+        head = f"{self.prefix}/alive/rover/"
+        tail = key[len(head):] if key.startswith(head) else ""
+        if not tail.isdigit():
+            raise ValueError(f"key {key!r} is not a rover liveliness key of world {self.world!r}")
+        return int(tail)

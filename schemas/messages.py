@@ -1,0 +1,253 @@
+"""Message models of the rover interface (report section 10) and of the LunarSim additions.
+
+One model per key; the key names the type (see ``TOPIC_MODELS``). Conventions follow the report:
+metres, an x/z ground plane, headings in degrees with 0 = +z and 90 = +x, positive rotation to the
+right. Rover-relative coordinates: +z straight ahead, +x to the right. Times are simulation seconds.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from schemas import keyspace as ks
+
+HitKind = Literal["rover", "obstacle", "terrain", "lander", "crater_terrain"]
+HIT_KINDS: tuple[HitKind, ...] = ("rover", "obstacle", "terrain", "lander", "crater_terrain")
+GoalKind = Literal["crater", "waypoint"]
+
+
+class Message(BaseModel):
+    """Base of every payload: strict about unknown fields so garbage is caught, not half-read."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+# ---- perception, navigation, gyroscope (report 10.1-10.3) ----
+
+
+class Perception(Message):
+    """PerceptionData: one scan of rays; columns rather than a list of hit objects to keep decoding cheap."""
+
+    stamp: float
+    angles_deg: list[float] = Field(description="angle of each hit relative to the rover, negative left")
+    distances_m: list[float]
+    kinds: list[HitKind]
+
+    @model_validator(mode="after")
+    def _same_length(self) -> Perception:
+        if not len(self.angles_deg) == len(self.distances_m) == len(self.kinds):
+            raise ValueError("angles_deg, distances_m and kinds must have the same length")
+        return self
+
+
+class MoveAction(Message):
+    """Move to a point relative to the rover (+x right, +z ahead); must be in view."""
+
+    x: float
+    z: float
+
+
+class RotateAction(Message):
+    """Rotate in place; negative is left, positive right."""
+
+    degrees: float
+
+
+class NavigationStatus(Message):
+    """Metres (move) or degrees (rotate) still to go; the last one of an action has remaining 0."""
+
+    stamp: float
+    action: Literal["move", "rotate"]
+    remaining: float
+    outcome: Literal["running", "completed", "cancelled", "collided"] = "running"
+
+
+class CancelAction(Message):
+    """Cancel the move in progress (empty, as in the report)."""
+
+
+class CancelResult(Message):
+    """Where the rover stopped, relative to the start of the move that ended early."""
+
+    x: float
+    z: float
+    angle_deg: float
+    reason: Literal["cancelled", "collided"] = "cancelled"
+
+
+class SpeedAction(Message):
+    level: int = Field(ge=1, le=3)
+
+
+class ActionRejected(Message):
+    """New in LunarSim: why an action was refused, so a behaviour never waits for nothing."""
+
+    action: Literal["move", "rotate", "cancel", "speed", "photo"]
+    reason: Literal["out_of_view", "out_of_range", "blocked", "action_in_progress", "no_action", "collided"]
+    detail: str = ""
+
+
+class Gyroscope(Message):
+    stamp: float
+    pitch_deg: float = Field(description="positive nose up")
+
+
+# ---- radio (report 10.4) ----
+
+RadioChannel = Literal["comm_in", "mission_direction", "calibration"]
+
+
+class OutboundComm(Message):
+    """A radio transmission. ``channel`` says which key of the target it lands on; the payload is opaque."""
+
+    targets: list[int]
+    payload: bytes
+    channel: RadioChannel = "comm_in"
+
+
+class InboundComm(Message):
+    sender: int
+    payload: bytes
+
+
+class CommPartners(Message):
+    """Ids in direct radio range and line of sight (0 is the lander)."""
+
+    ids: list[int]
+
+
+class MissionDirection(Message):
+    """The current goal as the lander knows it: bearing and distance from the lander (report 10.4.3)."""
+
+    goal_index: int = Field(ge=0)
+    goals_total: int = Field(ge=1)
+    kind: GoalKind
+    bearing_deg: float
+    distance_m: float = Field(ge=0)
+
+
+class Calibration(Message):
+    """Where the lander set the rover down (dispatch), relative to the lander: the origin of dead reckoning."""
+
+    x: float
+    z: float
+    heading_deg: float
+
+
+# ---- observation (report 10.5) ----
+
+
+class PhotoAction(Message):
+    label: str = ""
+
+
+class Photo(Message):
+    stamp: float
+    label: str = ""
+    png: bytes
+
+
+# ---- agent telemetry, lander, ground, world ----
+
+RoverState = Literal["waiting", "migration", "avoiding", "climbing", "observing", "done", "stuck"]
+
+
+class RoverStatus(Message):
+    """Agent telemetry for the ground and viewers: what the behaviour is doing."""
+
+    stamp: float
+    state: RoverState
+    goal_index: int = -1
+    detail: str = ""
+
+
+class LanderStatus(Message):
+    stamp: float
+    phase: Literal["dispatch", "calibration", "migration", "observation", "complete"]
+    rover_goals: dict[int, int] = Field(default_factory=dict, description="rover id -> goal index")
+    connected: list[int] = Field(default_factory=list)
+    relay_chain: list[int] = Field(default_factory=list)
+
+
+class Clock(Message):
+    tick: int
+    sim_time: float
+    time_scale: float
+    running: bool = True
+
+
+class RoverTruth(Message):
+    """Ground truth of one rover: for viewers, recorder and statistics, never for agents."""
+
+    id: int
+    x: float
+    z: float
+    heading_deg: float
+    action: Literal["idle", "move", "rotate", "cancel"]
+    state: RoverState
+    goal_index: int
+    distance_to_goal_m: float
+    distance_covered_m: float
+    alive: bool
+
+
+class WorldState(Message):
+    stamp: float
+    rovers: list[RoverTruth]
+    comm_links: list[tuple[int, int]] = Field(default_factory=list)
+
+
+class MissionReport(Message):
+    """Statistics of report 3.4.7: the fields of ``report.json``."""
+
+    scenario: str
+    seed: int
+    relative_path_length_m: float
+    average_distance_covered_m: float
+    average_path_efficiency: float
+    total_distance_covered_m: float
+    rovers_reached_final_goal: int
+    rovers_total: int
+    rover_collisions: int
+    obstacle_collisions: int
+    rovers_stuck: int
+    mission_duration_s: float
+    wall_time_s: float = 0.0
+    complete: bool = False
+    rejected_messages: int = 0
+
+
+class WorldStats(Message):
+    stamp: float
+    report: MissionReport
+    final: bool = False
+
+
+TOPIC_MODELS: dict[str, type[Message]] = {
+    ks.PERCEPTION: Perception,
+    ks.MOVE_ACTION: MoveAction,
+    ks.ROTATE_ACTION: RotateAction,
+    ks.NAVIGATION_STATUS: NavigationStatus,
+    ks.CANCEL_ACTION: CancelAction,
+    ks.CANCEL_RESULT: CancelResult,
+    ks.SPEED_ACTION: SpeedAction,
+    ks.ACTION_REJECTED: ActionRejected,
+    ks.GYROSCOPE: Gyroscope,
+    ks.COMM_OUT: OutboundComm,
+    ks.COMM_IN: InboundComm,
+    ks.COMM_PARTNERS: CommPartners,
+    ks.MISSION_DIRECTION: MissionDirection,
+    ks.CALIBRATION: Calibration,
+    ks.PHOTO_ACTION: PhotoAction,
+    ks.PHOTO: Photo,
+    ks.STATUS: RoverStatus,
+}
+"""Rover topic -> payload model: the one table that says which type travels on which key."""
+
+RADIO_CHANNEL_MODELS: dict[str, type[Message]] = {
+    "mission_direction": MissionDirection,
+    "calibration": Calibration,
+}
+"""Radio channels other than comm_in carry an encoded message of a fixed type, checked by the radio."""

@@ -1,0 +1,107 @@
+"""Rover and spawn parameters: the report's appendix C.2 tables, with its initial values as defaults.
+
+This is the one place these defaults live. Where the report's unit is garbled we say what we use.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class Params(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class SpawnParams(Params):
+    """Table 3: where ``--rovers N`` places a formation of rovers."""
+
+    rover_count: int = Field(10, ge=1, le=10_000)
+    start_spawn_x: float = -510.0
+    start_spawn_z: float = 100.0
+    spawn_spacing_x: float = Field(10.0, gt=0)
+    spawn_spacing_z: float = Field(10.0, gt=0)
+    spawn_group_orientation: float = Field(90.0, description="direction in which a row of the formation runs")
+    spawn_individual_orientation: float = Field(180.0, description="heading of each rover; 0 = +z, 90 = +x")
+
+    def formation(self, count: int) -> list[tuple[float, float, float]]:
+        """(x, z, heading) of ``count`` rovers: rows of ceil(sqrt(count)), rows stepping to the group's right.
+
+        With the defaults this reproduces the report's scenarios: rows along +x, the second row 10 m behind.
+        """
+        per_row = max(1, math.ceil(math.sqrt(count)))
+        g = math.radians(self.spawn_group_orientation)
+        row_dx, row_dz = math.sin(g), math.cos(g)
+        back_dx, back_dz = math.sin(g + math.pi / 2), math.cos(g + math.pi / 2)
+        spots = []
+        for i in range(count):
+            col, row = i % per_row, i // per_row
+            x = self.start_spawn_x + col * self.spawn_spacing_x * row_dx + row * self.spawn_spacing_z * back_dx
+            z = self.start_spawn_z + col * self.spawn_spacing_x * row_dz + row * self.spawn_spacing_z * back_dz
+            spots.append((round(x, 6), round(z, 6), self.spawn_individual_orientation))
+        return spots
+
+
+class NavigationParams(Params):
+    """Table 4."""
+
+    in_place_rotation_speed: float = Field(
+        2.0, gt=0, description="rad/s (the report prints m/s; 2 rad/s ~ 115 deg/s matches its angular_speed)"
+    )
+    move_action_tolerance_factor: float = Field(0.1, ge=0, description="slack on the perception-range check")
+    strict_line_of_sight: bool = Field(
+        False, description="true: the rover's whole body must pass (swept check); false: the centre line only"
+    )
+    speed_mode_one: float = Field(1.5, gt=0, description="m/s")
+    speed_mode_two: float = Field(2.5, gt=0, description="m/s")
+    speed_mode_three: float = Field(3.5, gt=0, description="m/s")
+    angular_speed: float = Field(120.0, gt=0, description="deg/s while turning towards a move goal")
+    acceleration: float = Field(20.0, gt=0, description="m/s^2, linear")
+    publish_frequency: float = Field(5.0, gt=0, description="navigation_status rate, Hz")
+
+    def speed(self, level: int) -> float:
+        return (self.speed_mode_one, self.speed_mode_two, self.speed_mode_three)[level - 1]
+
+
+class PerceptionParams(Params):
+    """Table 5, perception part."""
+
+    field_of_view_degrees: float = Field(210.0, gt=0, le=360)
+    perception_radius: float = Field(10.0, gt=0)
+    perception_granularity: int = Field(50, ge=2, le=4096)
+    publish_frequency: float = Field(5.0, gt=0, description="perception rate, Hz")
+    gyroscope_frequency: float = Field(20.0, gt=0, description="gyroscope rate, Hz")
+
+
+class CommunicationParams(Params):
+    """Table 5, communication part, plus the lander's radio (the report's environment reached every rover)."""
+
+    comm_range: float = Field(10.0, gt=0, description="rover radio range, m")
+    lander_comm_range: float = Field(
+        1000.0, gt=0, description="lander radio range, m; set it to comm_range to make the daisy chain matter"
+    )
+    partners_frequency: float = Field(1.0, gt=0, description="comm_partners rate, Hz")
+
+
+class BehaviourParams(Params):
+    """Tables 7 and 8: the rover behaviour's tunables (state flags of those tables are not parameters)."""
+
+    rover_radius: float = Field(0.5, gt=0, description="physical radius, m; also used by the world for collisions")
+    max_wait_time: float = Field(0.5, ge=0, description="s to wait for another rover after a cancel")
+    collision_danger_dist: float = Field(4.0, ge=0, description="m ahead at which a rover in the way cancels a move")
+    rotate_action: float = Field(60.0, description="deg to rotate when the view is blocked everywhere")
+    turn_step: float = Field(4.0, gt=0)
+    path_area: float = Field(2.0, ge=0, description="m either side of the path counted as on it")
+    scan_angle: float = Field(10.0, gt=0, description="deg between scanned directions")
+    scanner_field_of_view: float = Field(160.0, gt=0, le=360)
+    extra_distance_between_rovers: float = Field(2.0, ge=0)
+    min_move_size: float = Field(2.0, gt=0)
+    photo_step_deg: float = Field(30.0, gt=0, description="report 10.5.3: a photo every 30 degrees on the rim")
+
+
+class RoverParams(Params):
+    navigation: NavigationParams = NavigationParams()
+    perception: PerceptionParams = PerceptionParams()
+    communication: CommunicationParams = CommunicationParams()
+    behaviour: BehaviourParams = BehaviourParams()

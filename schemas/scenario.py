@@ -1,0 +1,202 @@
+"""Scenario files: a declarative YAML description of one mission, validated by pydantic.
+
+An invalid file raises ``ScenarioError`` with one line naming the file, the field path and the problem.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from schemas.params import RoverParams, SpawnParams
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be used; the message is one line meant for the user."""
+
+
+class Spec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class TerrainSpec(Spec):
+    origin: tuple[float, float] = Field(description="x, z of the terrain's minimum corner, m")
+    size_m: tuple[float, float] = Field(description="extent along x and z, m")
+    resolution_m: float = Field(1.0, gt=0, le=100)
+    roughness_m: float = Field(0.0, ge=0, description="amplitude of seeded random undulation, m")
+
+    @model_validator(mode="after")
+    def _positive_size(self) -> TerrainSpec:
+        if min(self.size_m) <= 0:
+            raise ValueError("size_m must be positive along both axes")
+        return self
+
+    def contains(self, x: float, z: float) -> bool:
+        ox, oz = self.origin
+        return ox <= x <= ox + self.size_m[0] and oz <= z <= oz + self.size_m[1]
+
+
+class LanderSpec(Spec):
+    x: float
+    z: float
+    radius_m: float = Field(1.5, gt=0)
+
+
+class RoverSpawn(Spec):
+    x: float
+    z: float
+    heading_deg: float = 180.0
+
+
+class Crater(Spec):
+    """A bowl with a raised rim: crest at ``radius_m``, rim falling off outside over ``rim_width`` x radius."""
+
+    x: float
+    z: float
+    radius_m: float = Field(gt=0)
+    depth_m: float | None = Field(None, ge=0, description="default 0.2 x radius")
+    rim_height_m: float | None = Field(None, ge=0, description="default 0.04 x radius")
+    rim_width: float = Field(0.3, gt=0, le=2, description="outer rim width as a fraction of the radius")
+
+    @property
+    def depth(self) -> float:
+        return self.depth_m if self.depth_m is not None else 0.2 * self.radius_m
+
+    @property
+    def rim_height(self) -> float:
+        return self.rim_height_m if self.rim_height_m is not None else 0.04 * self.radius_m
+
+    @property
+    def outer_radius(self) -> float:
+        """Where the rim starts to rise: what rovers perceive as crater terrain."""
+        return self.radius_m * (1 + self.rim_width)
+
+
+class Rock(Spec):
+    x: float
+    z: float
+    radius_m: float = Field(gt=0)
+
+
+class Wall(Spec):
+    points: list[tuple[float, float]] = Field(min_length=2)
+    thickness_m: float = Field(0.5, gt=0)
+
+
+class Obstacles(Spec):
+    rocks: list[Rock] = Field(default_factory=list)
+    walls: list[Wall] = Field(default_factory=list)
+
+
+class Goal(Spec):
+    x: float
+    z: float
+    kind: Literal["crater", "waypoint"] = "waypoint"
+
+
+class Scenario(Spec):
+    name: str = Field(min_length=1)
+    seed: int = 0
+    terrain: TerrainSpec | None = None
+    lander: LanderSpec
+    rovers: list[RoverSpawn] = Field(min_length=1)
+    craters: list[Crater] = Field(default_factory=list)
+    obstacles: Obstacles = Obstacles()
+    mission: list[Goal] = Field(min_length=1)
+    rover_params: RoverParams = RoverParams()
+    spawn: SpawnParams | None = Field(None, description="Table 3; used by --rovers N")
+    behaviour: str = "default"
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Scenario:
+        for i, goal in enumerate(self.mission):
+            if goal.kind == "crater" and self.crater_of(goal) is None:
+                raise ValueError(f"mission.{i}: crater goal ({goal.x}, {goal.z}) lies in no crater")
+        if self.terrain is not None:
+            for what, x, z in self._placed():
+                if not self.terrain.contains(x, z):
+                    raise ValueError(f"{what} ({x}, {z}) lies outside the terrain")
+        return self
+
+    def _placed(self) -> list[tuple[str, float, float]]:
+        spots = [("lander", self.lander.x, self.lander.z)]
+        spots += [(f"rovers.{i}", r.x, r.z) for i, r in enumerate(self.rovers)]
+        spots += [(f"mission.{i}", g.x, g.z) for i, g in enumerate(self.mission)]
+        return spots
+
+    def crater_of(self, goal: Goal) -> Crater | None:
+        """The crater a crater goal designates: the one whose rim encloses it (nearest centre first)."""
+        inside = [c for c in self.craters if math.hypot(goal.x - c.x, goal.z - c.z) <= c.radius_m]
+        return min(inside, key=lambda c: math.hypot(goal.x - c.x, goal.z - c.z), default=None)
+
+    def terrain_spec(self, margin_m: float = 60.0) -> TerrainSpec:
+        """The declared terrain, or one fitted around everything in the scenario."""
+        if self.terrain is not None:
+            return self.terrain
+        xs = [x for _, x, _ in self._placed()] + [c.x - c.outer_radius for c in self.craters]
+        xs += [c.x + c.outer_radius for c in self.craters]
+        zs = [z for _, _, z in self._placed()] + [c.z - c.outer_radius for c in self.craters]
+        zs += [c.z + c.outer_radius for c in self.craters]
+        lo_x, lo_z = math.floor(min(xs) - margin_m), math.floor(min(zs) - margin_m)
+        return TerrainSpec(origin=(lo_x, lo_z), size_m=(math.ceil(max(xs) + margin_m) - lo_x,
+                                                         math.ceil(max(zs) + margin_m) - lo_z))
+
+    def with_overrides(self, seed: int | None = None, rovers: int | None = None) -> Scenario:
+        """Apply command-line overrides; ``rovers`` respawns N rovers in the Table 3 formation."""
+        update: dict = {}
+        if seed is not None:
+            update["seed"] = seed
+        if rovers is not None:
+            if rovers < 1:
+                raise ScenarioError(f"--rovers must be at least 1, got {rovers}")
+            spawn = self.spawn or SpawnParams()
+            update["rovers"] = [RoverSpawn(x=x, z=z, heading_deg=h) for x, z, h in spawn.formation(rovers)]
+        return self.model_validate({**self.model_dump(), **{k: _dump(v) for k, v in update.items()}})
+
+
+def _dump(value: object) -> object:
+    if isinstance(value, list):
+        return [v.model_dump() if isinstance(v, BaseModel) else v for v in value]
+    return value
+
+
+def _format_error(source: str, exc: ValidationError) -> str:
+    first = exc.errors()[0]
+    where = ".".join(str(p) for p in first["loc"]) or "<root>"
+    more = f" (and {exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
+    return f"{source}: {where}: {first['msg']}{more}"
+
+
+def parse_scenario(data: object, source: str = "<scenario>") -> Scenario:
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError(_format_error(source, exc)) from None
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read scenario: {exc.strerror or exc}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise ScenarioError(f"{path}: not valid YAML{at}: {getattr(exc, 'problem', exc)}") from None
+    return parse_scenario(data, str(path))
+
+
+def dump_scenario(scenario: Scenario) -> str:
+    """YAML text of a scenario, without the parameters that still have their defaults."""
+    data = scenario.model_dump(mode="json", exclude_defaults=True)
+    data = {"name": scenario.name, "seed": scenario.seed, **data}
+    return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
