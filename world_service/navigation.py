@@ -1,0 +1,156 @@
+"""Rover navigation (report 10.2) as pure state updates: move, rotate, cancel and speed.
+
+A move first turns the rover towards its goal at ``angular_speed`` and then drives the straight line the
+move check validated, accelerating and braking at ``acceleration``; so a completed move leaves the
+rover on its goal facing along the move, which is what the agent's dead reckoning assumes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from schemas.params import NavigationParams
+
+
+def wrap(angle: float) -> float:
+    return (angle + 180.0) % 360.0 - 180.0
+
+
+def to_world(x: float, z: float, heading_deg: float, rel_x: float, rel_z: float) -> tuple[float, float]:
+    """Rover-relative (+x right, +z ahead) to world coordinates."""
+    h = math.radians(heading_deg)
+    return x + rel_z * math.sin(h) + rel_x * math.cos(h), z + rel_z * math.cos(h) - rel_x * math.sin(h)
+
+
+def to_relative(x: float, z: float, heading_deg: float, wx: float, wz: float) -> tuple[float, float]:
+    """World to rover-relative coordinates (inverse of ``to_world``)."""
+    h = math.radians(heading_deg)
+    dx, dz = wx - x, wz - z
+    return dx * math.cos(h) - dz * math.sin(h), dx * math.sin(h) + dz * math.cos(h)
+
+
+@dataclass
+class Move:
+    goal_x: float
+    goal_z: float
+    start: tuple[float, float, float]  # x, z, heading at acceptance
+    turning: bool = True
+    cancelling: bool = False
+
+
+@dataclass
+class Rotate:
+    remaining_deg: float
+
+
+@dataclass
+class Ended:
+    """How an action finished this tick: what the world answers on navigation_status / cancel_result."""
+
+    action: str  # "move" | "rotate"
+    outcome: str  # "completed" | "cancelled" | "collided"
+    start: tuple[float, float, float] | None = None
+
+
+@dataclass
+class RoverBody:
+    id: int
+    x: float
+    z: float
+    heading: float
+    speed_level: int = 3
+    velocity: float = 0.0
+    action: Move | Rotate | None = None
+    distance_covered: float = 0.0
+    path: list[tuple[float, float]] = field(default_factory=list)
+
+    @property
+    def busy(self) -> bool:
+        return self.action is not None
+
+    def remaining(self) -> float:
+        """What navigation_status reports: metres to the move goal, or degrees still to turn."""
+        if isinstance(self.action, Move):
+            return math.hypot(self.action.goal_x - self.x, self.action.goal_z - self.z)
+        if isinstance(self.action, Rotate):
+            return abs(self.action.remaining_deg)
+        return 0.0
+
+    def start_move(self, rel_x: float, rel_z: float) -> None:
+        gx, gz = to_world(self.x, self.z, self.heading, rel_x, rel_z)
+        self.action = Move(gx, gz, (self.x, self.z, self.heading))
+
+    def start_rotate(self, degrees: float) -> None:
+        self.action = Rotate(degrees)
+
+    def cancel(self) -> None:
+        if isinstance(self.action, Move):
+            self.action.cancelling = True
+        elif isinstance(self.action, Rotate):
+            self.action.remaining_deg = 0.0
+
+    def relative_to_start(self, start: tuple[float, float, float]) -> tuple[float, float, float]:
+        """(x, z, angle) of the rover in the frame of where an action started: the CancelResult."""
+        sx, sz, sh = start
+        rx, rz = to_relative(sx, sz, sh, self.x, self.z)
+        return rx, rz, wrap(self.heading - sh)
+
+
+def step(body: RoverBody, dt: float, params: NavigationParams) -> Ended | None:
+    """Advance one rover by ``dt`` seconds; returns how its action ended, if it did."""
+    action = body.action
+    if isinstance(action, Rotate):
+        return _step_rotate(body, action, dt, params)
+    if isinstance(action, Move):
+        return _step_move(body, action, dt, params)
+    return None
+
+
+def _step_rotate(body: RoverBody, action: Rotate, dt: float, params: NavigationParams) -> Ended | None:
+    turn = math.degrees(params.in_place_rotation_speed) * dt
+    delta = max(-turn, min(turn, action.remaining_deg))
+    body.heading = (body.heading + delta) % 360.0
+    action.remaining_deg -= delta
+    if abs(action.remaining_deg) < 1e-9:
+        body.action = None
+        return Ended("rotate", "completed")
+    return None
+
+
+def _step_move(body: RoverBody, move: Move, dt: float, params: NavigationParams) -> Ended | None:
+    dist = math.hypot(move.goal_x - body.x, move.goal_z - body.z)
+    if move.turning:
+        if move.cancelling:
+            return _end_move(body, move, "cancelled")
+        bearing = math.degrees(math.atan2(move.goal_x - body.x, move.goal_z - body.z)) if dist > 1e-9 else body.heading
+        diff = wrap(bearing - body.heading)
+        turn = params.angular_speed * dt
+        body.heading = (body.heading + max(-turn, min(turn, diff))) % 360.0
+        if abs(diff) > turn:
+            return None
+        move.turning = False
+    accel = params.acceleration
+    if move.cancelling:
+        body.velocity = max(0.0, body.velocity - accel * dt)
+        if body.velocity == 0.0:
+            return _end_move(body, move, "cancelled")
+    else:
+        braking = math.sqrt(2 * accel * dist)
+        body.velocity = min(body.velocity + accel * dt, params.speed(body.speed_level), braking)
+    advance = body.velocity * dt if move.cancelling else min(body.velocity * dt, dist)
+    if dist > 1e-9 and advance > 0:
+        h = math.radians(body.heading)
+        body.x += advance * math.sin(h)
+        body.z += advance * math.cos(h)
+        body.distance_covered += advance
+    if not move.cancelling and (dist - advance) < 1e-6:
+        body.x, body.z = move.goal_x, move.goal_z
+        return _end_move(body, move, "completed")
+    return None
+
+
+def _end_move(body: RoverBody, move: Move, outcome: str) -> Ended:
+    body.action = None
+    body.velocity = 0.0
+    return Ended("move", outcome, move.start)

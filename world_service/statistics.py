@@ -1,0 +1,94 @@
+"""Mission statistics of report 3.4.7, computed from ground truth.
+
+"Reached" follows the report: the rover finished its final goal *and* stands at the correct final
+location. For a crater goal that is on the rim: within ``RIM_TOLERANCE`` x radius of the crest. For a
+waypoint it is having the goal in view: within the perception radius.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from schemas.messages import MissionReport
+from schemas.scenario import Goal, Scenario
+
+RIM_TOLERANCE = 0.15
+
+
+def relative_path_length(scenario: Scenario, start: tuple[float, float]) -> float:
+    """Crow-flies length from a start through every goal in order, to where each goal is reached.
+
+    A crater goal is reached on its crest, so its leg ends at the crest point nearest the leg's start
+    (the report measured to the goal marker in the crater, which rewards stopping short of it).
+    """
+    length, here = 0.0, start
+    for goal in scenario.mission:
+        there = _arrival_point(scenario, goal, here)
+        length += math.dist(here, there)
+        here = there
+    return length
+
+
+def _arrival_point(scenario: Scenario, goal: Goal, here: tuple[float, float]) -> tuple[float, float]:
+    crater = scenario.crater_of(goal) if goal.kind == "crater" else None
+    if crater is None:
+        return goal.x, goal.z
+    d = math.hypot(here[0] - crater.x, here[1] - crater.z)
+    if d < 1e-9:
+        return crater.x, crater.z + crater.radius_m
+    scale = crater.radius_m / d
+    return crater.x + (here[0] - crater.x) * scale, crater.z + (here[1] - crater.z) * scale
+
+
+def mission_path_length(scenario: Scenario) -> float:
+    """The report's relative path length: the mean over rovers of each one's ideal path."""
+    lengths = [relative_path_length(scenario, (r.x, r.z)) for r in scenario.rovers]
+    return sum(lengths) / len(lengths)
+
+
+def distance_to_goal(scenario: Scenario, goal: Goal, x: float, z: float) -> float:
+    """How far a rover is from being at a goal: from the crater's crest, or from the waypoint."""
+    crater = scenario.crater_of(goal) if goal.kind == "crater" else None
+    if crater is not None:
+        return abs(math.hypot(x - crater.x, z - crater.z) - crater.radius_m)
+    return math.hypot(x - goal.x, z - goal.z)
+
+
+def at_goal(scenario: Scenario, goal: Goal, x: float, z: float) -> bool:
+    crater = scenario.crater_of(goal) if goal.kind == "crater" else None
+    if crater is not None:
+        return distance_to_goal(scenario, goal, x, z) <= RIM_TOLERANCE * crater.radius_m
+    return distance_to_goal(scenario, goal, x, z) <= scenario.rover_params.perception.perception_radius
+
+
+def build_report(
+    scenario: Scenario,
+    distances: Sequence[float],
+    reached: int,
+    stuck: int,
+    rover_collisions: int,
+    obstacle_collisions: int,
+    duration_s: float,
+    complete: bool,
+    rejected_messages: int = 0,
+) -> MissionReport:
+    total = float(sum(distances))
+    average = total / len(distances) if distances else 0.0
+    path = mission_path_length(scenario)
+    return MissionReport(
+        scenario=scenario.name,
+        seed=scenario.seed,
+        relative_path_length_m=round(path, 4),
+        average_distance_covered_m=round(average, 4),
+        average_path_efficiency=round(path / average, 6) if average > 0 else 0.0,
+        total_distance_covered_m=round(total, 4),
+        rovers_reached_final_goal=reached,
+        rovers_total=len(distances),
+        rover_collisions=rover_collisions,
+        obstacle_collisions=obstacle_collisions,
+        rovers_stuck=stuck,
+        mission_duration_s=round(duration_s, 4),
+        complete=complete,
+        rejected_messages=rejected_messages,
+    )
