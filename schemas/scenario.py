@@ -200,3 +200,23 @@ def dump_scenario(scenario: Scenario) -> str:
     data = scenario.model_dump(mode="json", exclude_defaults=True)
     data = {"name": scenario.name, "seed": scenario.seed, **data}
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
+
+
+def load_rover_params(path: str | Path | None) -> RoverParams:
+    """Rover parameters from a YAML file: either a bare parameter mapping or a scenario's ``rover_params``.
+
+    A rover agent reads only these (its own specification), never the rest of a scenario.
+    """
+    if path is None:
+        return RoverParams()
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise ScenarioError(f"{path}: cannot read rover parameters: {exc}") from None
+    if isinstance(data, dict) and ("rover_params" in data or "mission" in data):
+        data = data.get("rover_params") or {}
+    try:
+        return RoverParams.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError(_format_error(str(path), exc)) from None

@@ -8,26 +8,10 @@ rover on its goal facing along the move, which is what the agent's dead reckonin
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
+from schemas.frames import to_relative, to_world, wrap_deg
 from schemas.params import NavigationParams
-
-
-def wrap(angle: float) -> float:
-    return (angle + 180.0) % 360.0 - 180.0
-
-
-def to_world(x: float, z: float, heading_deg: float, rel_x: float, rel_z: float) -> tuple[float, float]:
-    """Rover-relative (+x right, +z ahead) to world coordinates."""
-    h = math.radians(heading_deg)
-    return x + rel_z * math.sin(h) + rel_x * math.cos(h), z + rel_z * math.cos(h) - rel_x * math.sin(h)
-
-
-def to_relative(x: float, z: float, heading_deg: float, wx: float, wz: float) -> tuple[float, float]:
-    """World to rover-relative coordinates (inverse of ``to_world``)."""
-    h = math.radians(heading_deg)
-    dx, dz = wx - x, wz - z
-    return dx * math.cos(h) - dz * math.sin(h), dx * math.sin(h) + dz * math.cos(h)
 
 
 @dataclass
@@ -42,6 +26,8 @@ class Move:
 @dataclass
 class Rotate:
     remaining_deg: float
+    start: tuple[float, float, float]
+    cancelling: bool = False
 
 
 @dataclass
@@ -63,7 +49,6 @@ class RoverBody:
     velocity: float = 0.0
     action: Move | Rotate | None = None
     distance_covered: float = 0.0
-    path: list[tuple[float, float]] = field(default_factory=list)
 
     @property
     def busy(self) -> bool:
@@ -82,19 +67,17 @@ class RoverBody:
         self.action = Move(gx, gz, (self.x, self.z, self.heading))
 
     def start_rotate(self, degrees: float) -> None:
-        self.action = Rotate(degrees)
+        self.action = Rotate(degrees, (self.x, self.z, self.heading))
 
     def cancel(self) -> None:
-        if isinstance(self.action, Move):
+        if self.action is not None:
             self.action.cancelling = True
-        elif isinstance(self.action, Rotate):
-            self.action.remaining_deg = 0.0
 
     def relative_to_start(self, start: tuple[float, float, float]) -> tuple[float, float, float]:
         """(x, z, angle) of the rover in the frame of where an action started: the CancelResult."""
         sx, sz, sh = start
         rx, rz = to_relative(sx, sz, sh, self.x, self.z)
-        return rx, rz, wrap(self.heading - sh)
+        return rx, rz, wrap_deg(self.heading - sh)
 
 
 def step(body: RoverBody, dt: float, params: NavigationParams) -> Ended | None:
@@ -108,13 +91,16 @@ def step(body: RoverBody, dt: float, params: NavigationParams) -> Ended | None:
 
 
 def _step_rotate(body: RoverBody, action: Rotate, dt: float, params: NavigationParams) -> Ended | None:
+    if action.cancelling:
+        body.action = None
+        return Ended("rotate", "cancelled", action.start)
     turn = math.degrees(params.in_place_rotation_speed) * dt
     delta = max(-turn, min(turn, action.remaining_deg))
     body.heading = (body.heading + delta) % 360.0
     action.remaining_deg -= delta
     if abs(action.remaining_deg) < 1e-9:
         body.action = None
-        return Ended("rotate", "completed")
+        return Ended("rotate", "completed", action.start)
     return None
 
 
@@ -124,7 +110,7 @@ def _step_move(body: RoverBody, move: Move, dt: float, params: NavigationParams)
         if move.cancelling:
             return _end_move(body, move, "cancelled")
         bearing = math.degrees(math.atan2(move.goal_x - body.x, move.goal_z - body.z)) if dist > 1e-9 else body.heading
-        diff = wrap(bearing - body.heading)
+        diff = wrap_deg(bearing - body.heading)
         turn = params.angular_speed * dt
         body.heading = (body.heading + max(-turn, min(turn, diff))) % 360.0
         if abs(diff) > turn:

@@ -1,0 +1,1 @@
+"""Launching and deploying LunarSim: the ``lunarsim`` command, Zenoh configuration, process supervision."""

@@ -1,0 +1,83 @@
+"""One process's view of Zenoh: cached publishers, and subscriptions that feed a single inbox.
+
+Callbacks only enqueue (no decoding, no Zenoh calls), as the zenoh-python examples advise; the
+process's own loop drains the inbox. Kept light: the rover agent uses it.
+"""
+
+from __future__ import annotations
+
+import queue
+from typing import NamedTuple
+
+import zenoh
+
+from schemas import codec
+
+
+class Received(NamedTuple):
+    key: str
+    payload: bytes
+    alive: bool | None = None  # set for liveliness changes, None for data samples
+
+
+class Bus:
+    def __init__(self, session: zenoh.Session) -> None:
+        self.session = session
+        self.inbox: queue.SimpleQueue[Received] = queue.SimpleQueue()
+        self._publishers: dict[str, zenoh.Publisher] = {}
+        self._declared: list = []
+
+    def subscribe(self, key_expr: str) -> None:
+        self._declared.append(self.session.declare_subscriber(key_expr, self._on_sample))
+
+    def watch_liveliness(self, key_expr: str) -> None:
+        """Liveliness changes arrive in the inbox with ``alive`` set; tokens already there are reported too."""
+        sub = self.session.liveliness().declare_subscriber(key_expr, self._on_liveliness, history=True)
+        self._declared.append(sub)
+
+    def declare_token(self, key: str) -> None:
+        self._declared.append(self.session.liveliness().declare_token(key))
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        self.inbox.put(Received(str(sample.key_expr), sample.payload.to_bytes()))
+
+    def _on_liveliness(self, sample: zenoh.Sample) -> None:
+        self.inbox.put(Received(str(sample.key_expr), b"", sample.kind == zenoh.SampleKind.PUT))
+
+    def publish(self, key: str, message) -> None:
+        self.put(key, codec.encode(message))
+
+    def put(self, key: str, payload: bytes) -> None:
+        publisher = self._publishers.get(key)
+        if publisher is None:
+            publisher = self._publishers[key] = self.session.declare_publisher(key)
+        publisher.put(payload)
+
+    def receive(self, timeout: float | None) -> Received | None:
+        try:
+            return self.inbox.get(timeout=timeout) if timeout is None or timeout > 0 else self.inbox.get_nowait()
+        except queue.Empty:
+            return None
+
+    def drain(self) -> list[Received]:
+        items = []
+        while True:
+            try:
+                items.append(self.inbox.get_nowait())
+            except queue.Empty:
+                return items
+
+    def close(self) -> None:
+        for entity in reversed(self._declared):
+            entity.undeclare()
+        for publisher in self._publishers.values():
+            publisher.undeclare()
+        self._declared.clear()
+        self._publishers.clear()
+        self.session.close()
+
+    def __enter__(self) -> Bus:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

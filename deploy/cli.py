@@ -1,0 +1,45 @@
+"""The ``lunarsim`` command: one entry, one subcommand per job.
+
+Subcommand modules are imported only to add their arguments; what they need to run (NumPy for the
+world, rich for the launcher) is imported when they run, so ``lunarsim rover`` starts fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from deploy import process
+
+COMMANDS = {
+    "run": ("deploy.launcher", "run a whole mission locally: router, world, lander and rovers"),
+    "router": ("deploy.router", "run a Zenoh router"),
+    "world": ("world_service.app", "run the world service (simulated terrain, sensors, radio, clock)"),
+    "lander": ("lander_agent.app", "run the lander agent"),
+    "rover": ("rover_agent.app", "run one rover agent"),
+    "scenario": ("deploy.scenario_cli", "import, export and check scenarios"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="lunarsim", description="Distributed lunar rover middleware and "
+                                     "digital twin over Zenoh.")
+    parser.add_argument("--verbose", "-v", action="store_true", help="log progress at INFO level")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, (module_name, help_text) in COMMANDS.items():
+        module = importlib.import_module(module_name)
+        command = sub.add_parser(name, help=help_text, description=module.__doc__)
+        module.add_arguments(command)
+        command.set_defaults(run=module.run_from_args)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    process.setup_logging(args.verbose)
+    return process.run_guarded(args.run, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,164 @@
+"""``lunarsim run``: a whole mission on this machine, every part its own OS process.
+
+Starts a Zenoh router (unless ``--connect`` names one), the world service, the lander agent and one
+rover agent per rover; shows progress; stops when every rover is done or stuck, or at
+``--max-sim-time``; writes ``report.json`` into the run folder; and stops every process it started,
+also on Ctrl-C or SIGTERM.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import time
+from pathlib import Path
+
+from deploy import process
+from deploy.zenoh_config import DEFAULT_PORT
+
+START_TIMEOUT_S = 30.0
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path, help="scenario YAML (see scenarios/)")
+    parser.add_argument("--out", type=Path, metavar="DIR", help="run folder (default runs/<scenario>-<timestamp>)")
+    parser.add_argument("--max-sim-time", type=float, metavar="S", help="stop after S simulated seconds")
+    parser.add_argument("--seed", type=int, help="override the scenario's seed")
+    parser.add_argument("--rovers", type=int, metavar="N", help="spawn N rovers in the scenario's formation")
+    parser.add_argument("--time-scale", type=float, default=1.0, metavar="K",
+                        help="simulated seconds per wall second (default 1 = real time)")
+    parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port of the embedded router "
+                        f"on 127.0.0.1 (default {DEFAULT_PORT})")
+    parser.add_argument("--connect", metavar="ENDPOINT", help="use a running router instead of starting one")
+    parser.add_argument("--quiet", "-q", action="store_true", help="no live progress, only the summary")
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from schemas.scenario import dump_scenario, load_scenario
+
+    if args.time_scale <= 0:
+        raise process.UsageError(f"--time-scale must be positive for a live run, got {args.time_scale}")
+    scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers)
+    out = args.out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
+    out.mkdir(parents=True, exist_ok=True)
+    scenario_file = out / "scenario.yaml"
+    scenario_file.write_text(dump_scenario(scenario))
+    console = Console()
+    console.print(f"[bold]{scenario.name}[/]: {len(scenario.rovers)} rovers, seed {scenario.seed}, "
+                  f"run folder {out}")
+    return Mission(args, scenario, scenario_file, out, console).run()
+
+
+class Mission:
+    def __init__(self, args, scenario, scenario_file: Path, out: Path, console) -> None:
+        from deploy.children import Children
+
+        self.args = args
+        self.scenario = scenario
+        self.scenario_file = scenario_file
+        self.out = out
+        self.console = console
+        self.children = Children(out / "logs")
+        self.endpoint = args.connect or f"tcp/127.0.0.1:{args.port}"
+        self.reported_dead: set[str] = set()
+
+    def run(self) -> int:
+        from deploy.progress import summary_table
+
+        started = time.monotonic()
+        report, code = None, 0
+        with process.stop_on_signals() as stop:
+            try:
+                self._start_processes()
+                report, interrupted = self._monitor(stop)
+                code = process.EXIT_INTERRUPTED if interrupted else 0
+            finally:
+                self._shutdown()
+        if report is None:
+            return code or 1
+        report = report.model_copy(update={"wall_time_s": round(time.monotonic() - started, 3)})
+        (self.out / "report.json").write_text(json.dumps(report.model_dump(), indent=2) + "\n")
+        self.console.print(summary_table(report))
+        self.console.print(f"report written to {self.out / 'report.json'}")
+        return code
+
+    def _start_processes(self) -> None:
+        from deploy.children import port_in_use, wait_for_port
+
+        common = ["--world", self.args.world, "--connect", self.endpoint]
+        if not self.args.connect:
+            if port_in_use("127.0.0.1", self.args.port):
+                raise process.UsageError(f"port {self.args.port} is already in use: pass --port to start the "
+                                         f"router elsewhere, or --connect tcp/127.0.0.1:{self.args.port} to use "
+                                         "the router that is there")
+            router = self.children.start("router", "deploy.router", "--listen", self.endpoint)
+            if not wait_for_port("127.0.0.1", self.args.port, 10.0, router):
+                raise RuntimeError(f"the router did not start: {self.children.log_tail('router')}")
+        world_args = [str(self.scenario_file), *common, "--time-scale", str(self.args.time_scale),
+                      "--start-timeout", str(START_TIMEOUT_S)]
+        if self.args.max_sim_time is not None:
+            world_args += ["--max-sim-time", str(self.args.max_sim_time)]
+        self.children.start("world", "world_service", *world_args)
+        self.children.start("lander", "lander_agent", str(self.scenario_file), *common)
+        for rover_id in range(1, len(self.scenario.rovers) + 1):
+            self.children.start(f"rover{rover_id}", "rover_agent", "--id", str(rover_id),
+                                "--params", str(self.scenario_file), *common)
+
+    def _monitor(self, stop) -> tuple:
+        """Follow the world's statistics until the final report; returns (report, interrupted)."""
+        from deploy.bus import Bus
+        from deploy.progress import ProgressView
+        from deploy.zenoh_config import build_config, open_session
+        from schemas import codec
+        from schemas import messages as m
+        from schemas.keyspace import Keyspace
+
+        keys = Keyspace(self.args.world)
+        state = report = None
+        deadline = self._wall_deadline()
+        session = open_session(build_config(connect=[self.endpoint]), self.endpoint, 10.0, who="lunarsim run")
+        with Bus(session) as bus, ProgressView(self.console, self.scenario.name, self.args.quiet) as view:
+            bus.subscribe(keys.stats)
+            bus.subscribe(keys.state)
+            while not stop.is_set():
+                self._check_world_alive()
+                if deadline is not None and time.monotonic() > deadline:
+                    self.console.print("[yellow]warning: the world did not finish in time; reporting what it "
+                                       "had[/]")
+                    return report, False
+                item = bus.receive(timeout=0.25)
+                if item is None:
+                    continue
+                if item.key == keys.state:
+                    state = codec.decode(m.WorldState, item.payload)
+                else:
+                    stats = codec.decode(m.WorldStats, item.payload)
+                    report = stats.report
+                    if stats.final:
+                        view.update(state, report)
+                        return report, False
+                view.update(state, report)
+        return report, True
+
+    def _wall_deadline(self) -> float | None:
+        if self.args.max_sim_time is None:
+            return None
+        return time.monotonic() + START_TIMEOUT_S + 60.0 + 2.0 * self.args.max_sim_time / self.args.time_scale
+
+    def _check_world_alive(self) -> None:
+        """The router and world are essential; a lost agent is reported once and its rover stops."""
+        for name, code in self.children.dead().items():
+            if name in ("router", "world"):
+                raise RuntimeError(f"the {name} process exited with status {code}:\n{self.children.log_tail(name)}")
+            if name not in self.reported_dead:
+                self.reported_dead.add(name)
+                self.console.print(f"[red]{name} exited with status {code}[/]: {self.children.log_tail(name, 2)}")
+
+    def _shutdown(self) -> None:
+        agents = [n for n in self.children.procs if n != "router"]
+        self.children.stop(agents)
+        self.children.stop(["router"])

@@ -1,0 +1,85 @@
+"""Zenoh configuration, layered as in the zenoh-python examples, and opening a session with a clear error.
+
+Layers, later wins: defaults (client mode, multicast scouting off), a json5 file from ``--config`` or
+``ZENOH_CONFIG``, then ``--connect`` / ``--listen`` endpoints. Only this module and the command line
+read the environment; domain code receives a finished ``zenoh.Config``.
+Kept light (no NumPy, no pydantic): the rover agent imports it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from collections.abc import Sequence
+
+import zenoh
+
+DEFAULT_PORT = 7447
+DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+
+
+class RouterUnreachable(RuntimeError):
+    """No Zenoh router (or peer) answered at the configured endpoints."""
+
+
+def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False) -> None:
+    group = parser.add_argument_group("zenoh")
+    group.add_argument("--connect", "-e", action="append", metavar="ENDPOINT",
+                       help=f"router endpoint to connect to (default {DEFAULT_ENDPOINT}); repeatable")
+    if listen:
+        group.add_argument("--listen", "-l", action="append", metavar="ENDPOINT",
+                           help="endpoint to listen on; repeatable")
+    group.add_argument("--config", "-c", metavar="FILE", help="Zenoh json5 config file (else $ZENOH_CONFIG)")
+    group.add_argument("--router-timeout", type=float, default=10.0, metavar="S",
+                       help="seconds to keep trying to reach the router before giving up (default 10)")
+
+
+def build_config(mode: str = "client", config_file: str | None = None, connect: Sequence[str] | None = None,
+                 listen: Sequence[str] | None = None, environ: dict[str, str] | None = None) -> zenoh.Config:
+    environ = os.environ if environ is None else environ
+    path = config_file or environ.get("ZENOH_CONFIG")
+    conf = zenoh.Config.from_file(path) if path else zenoh.Config()
+    if not path:
+        conf.insert_json5("mode", json.dumps(mode))
+        conf.insert_json5("scouting/multicast/enabled", "false")
+    if connect:
+        conf.insert_json5("connect/endpoints", json.dumps(list(connect)))
+    elif not path and mode == "client":
+        conf.insert_json5("connect/endpoints", json.dumps([DEFAULT_ENDPOINT]))
+    if listen:
+        conf.insert_json5("listen/endpoints", json.dumps(list(listen)))
+    return conf
+
+
+def config_from_args(args: argparse.Namespace, mode: str = "client") -> zenoh.Config:
+    return build_config(mode, args.config, args.connect, getattr(args, "listen", None))
+
+
+def describe_endpoints(args: argparse.Namespace) -> str:
+    if args.connect:
+        return ", ".join(args.connect)
+    if args.config or os.environ.get("ZENOH_CONFIG"):
+        return f"the endpoints in {args.config or os.environ['ZENOH_CONFIG']}"
+    return DEFAULT_ENDPOINT
+
+
+def open_session(conf: zenoh.Config, where: str, timeout_s: float = 10.0, who: str = "lunarsim") -> zenoh.Session:
+    """Open a session, retrying until ``timeout_s``; say plainly on stderr that we are waiting, then give up."""
+    deadline = time.monotonic() + timeout_s
+    warned = False
+    while True:
+        try:
+            return zenoh.open(conf)
+        except zenoh.ZError as exc:
+            if time.monotonic() >= deadline:
+                raise RouterUnreachable(
+                    f"{who}: no Zenoh router reachable at {where} after {timeout_s:g} s ({exc}). "
+                    "Start one with 'lunarsim router' or point --connect at a running one."
+                ) from None
+            if not warned:
+                print(f"{who}: waiting for a Zenoh router at {where} ...", file=sys.stderr, flush=True)
+                warned = True
+            time.sleep(0.5)

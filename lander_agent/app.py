@@ -1,0 +1,29 @@
+"""Command line of the lander agent: ``lunarsim lander SCENARIO`` and ``python -m lander_agent SCENARIO``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from deploy import process
+from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path, help="scenario YAML: the lander takes its mission plan from it")
+    parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
+    add_zenoh_arguments(parser)
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    from deploy.bus import Bus
+    from lander_agent.mission import MissionPlan
+    from lander_agent.runtime import Lander, run
+    from schemas.keyspace import Keyspace
+    from schemas.scenario import load_scenario
+
+    plan = MissionPlan(load_scenario(args.scenario))
+    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="lander")
+    with Bus(session) as bus, process.stop_on_signals() as stop:
+        run(Lander(plan, Keyspace(args.world)), bus, stop)
+    return 0

@@ -1,0 +1,79 @@
+"""The lander's Zenoh loop: every simulated second it re-sends calibration and mission directions over
+its radio (rovers that were out of range catch up), and it answers goal reports at once."""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import defaultdict
+
+from deploy.bus import Bus
+from lander_agent.mission import MissionPlan
+from schemas import codec, radio
+from schemas import keyspace as ks
+from schemas import messages as m
+
+log = logging.getLogger("lunarsim.lander")
+SEND_PERIOD_S = 1.0
+
+
+class Lander:
+    def __init__(self, plan: MissionPlan, keys: ks.Keyspace) -> None:
+        self.plan = plan
+        self.keys = keys
+        self.partners: list[int] = []
+        self.next_send = 0.0
+        self.rejected = 0
+
+    def _transmit(self, targets: list[int], message: m.Message, channel: str) -> tuple[str, m.Message]:
+        out = m.OutboundComm(targets=targets, payload=codec.encode(message), channel=channel)
+        return self.keys.lander(ks.COMM_OUT), out
+
+    def broadcast(self, now: float) -> list[tuple[str, m.Message]]:
+        out = [self._transmit([rid], cal, "calibration") for rid, cal in self.plan.calibration.items()]
+        by_goal: dict[int, list[int]] = defaultdict(list)
+        for rid, goal in self.plan.goal_of.items():
+            by_goal[goal].append(rid)
+        out += [self._transmit(rids, self.plan.directions[g], "mission_direction") for g, rids in by_goal.items()]
+        out.append((self.keys.lander("status"), self.plan.status(now, self.partners)))
+        return out
+
+    def on_clock(self, clock: m.Clock) -> list[tuple[str, m.Message]]:
+        if not clock.running or clock.sim_time < self.next_send:
+            return []
+        self.next_send = clock.sim_time + SEND_PERIOD_S
+        return self.broadcast(clock.sim_time)
+
+    def on_comm_in(self, msg: m.InboundComm) -> list[tuple[str, m.Message]]:
+        report = radio.unpack(msg.payload)
+        if isinstance(report, radio.GoalReport) and self.plan.on_report(msg.sender, report):
+            log.info("rover %d: goal %d done, sending goal %d", msg.sender, report.goal_index,
+                     self.plan.goal_of[msg.sender])
+            return [self._transmit([msg.sender], self.plan.direction_for(msg.sender), "mission_direction")]
+        return []
+
+    def handle(self, key: str, payload: bytes) -> list[tuple[str, m.Message]]:
+        try:
+            if key == self.keys.clock:
+                return self.on_clock(codec.decode(m.Clock, payload))
+            if key == self.keys.lander(ks.COMM_IN):
+                return self.on_comm_in(codec.decode(m.InboundComm, payload))
+            if key == self.keys.lander(ks.COMM_PARTNERS):
+                self.partners = codec.decode(m.CommPartners, payload).ids
+            return []
+        except codec.DecodeError as exc:
+            self.rejected += 1
+            log.warning("lander: rejected sample on %s: %s", key, exc)
+            return []
+
+
+def run(lander: Lander, bus: Bus, stop: threading.Event) -> None:
+    keys = lander.keys
+    for key in (keys.clock, keys.lander(ks.COMM_IN), keys.lander(ks.COMM_PARTNERS)):
+        bus.subscribe(key)
+    bus.declare_token(keys.alive_lander)
+    while not stop.is_set():
+        item = bus.receive(timeout=0.2)
+        if item is not None:
+            for key, message in lander.handle(item.key, item.payload):
+                bus.publish(key, message)

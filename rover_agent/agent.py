@@ -1,0 +1,216 @@
+"""One rover's agent: turns incoming samples into outgoing actions, keeping one action in flight.
+
+``RoverAgent.handle(topic, payload)`` returns the (key, message) pairs to publish; the Zenoh loop in
+``runtime`` only moves bytes. So the whole agent, not just its behaviour, runs in tests without a router.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+from rover_agent.behaviour import DefaultBehaviour, Finish, Goal, Hit, Hold, MoveTo, Rotate, View
+from rover_agent.dead_reckoning import Pose
+from schemas import codec, radio
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.params import RoverParams
+
+log = logging.getLogger("lunarsim.rover")
+
+Out = tuple[str, m.Message]
+SUBSCRIBED_TOPICS = (ks.PERCEPTION, ks.NAVIGATION_STATUS, ks.CANCEL_RESULT, ks.ACTION_REJECTED, ks.GYROSCOPE,
+                     ks.COMM_IN, ks.COMM_PARTNERS, ks.MISSION_DIRECTION, ks.CALIBRATION)
+GOAL_REPORT_RETRY_S = 2.0
+STATUS_PERIOD_S = 1.0
+
+
+@dataclass
+class InFlight:
+    decision: MoveTo | Rotate
+    start: Pose
+    cancel_sent: bool = False
+    awaiting_cancel_result: bool = False
+
+
+class RoverAgent:
+    def __init__(self, rover_id: int, keys: ks.Keyspace, params: RoverParams,
+                 behaviour: DefaultBehaviour | None = None) -> None:
+        self.id = rover_id
+        self.keys = keys
+        self.params = params
+        self.behaviour = behaviour or DefaultBehaviour(rover_id, params)
+        self.pose: Pose | None = None
+        self.goal: Goal | None = None
+        self.now = 0.0
+        self.pitch = (0.0, -1.0)  # (degrees, stamp)
+        self.in_flight: InFlight | None = None
+        self.settled_at = 0.0
+        self.finished_goal: tuple[int, str] | None = None  # (index, outcome) reported but not yet followed up
+        self._last_report = -math.inf
+        self._last_status = -math.inf
+        self.rejected = 0
+        self.partners: list[int] = []
+
+    @property
+    def state(self) -> str:
+        return self.behaviour.state
+
+    def handle(self, topic: str, payload: bytes) -> list[Out]:
+        handler = getattr(self, f"_on_{topic}", None)
+        if handler is None:
+            self.rejected += 1
+            log.warning("rover %d: no handler for topic %r", self.id, topic)
+            return []
+        try:
+            return handler(codec.decode(m.TOPIC_MODELS[topic], payload))
+        except codec.DecodeError as exc:
+            self.rejected += 1
+            log.warning("rover %d: rejected sample on %s: %s", self.id, topic, exc)
+            return []
+
+    def on_clock(self, clock: m.Clock) -> list[Out]:
+        self.now = max(self.now, clock.sim_time)
+        out: list[Out] = []
+        if self.finished_goal and self.now - self._last_report >= GOAL_REPORT_RETRY_S:
+            out += self._report_goal()
+        if self.now - self._last_status >= STATUS_PERIOD_S:
+            out.append(self._status())
+        return out
+
+    # ---- lander, via radio ----
+
+    def _on_calibration(self, msg: m.Calibration) -> list[Out]:
+        if self.pose is None:
+            self.pose = Pose(msg.x, msg.z, msg.heading_deg % 360.0)
+        return []
+
+    def _on_mission_direction(self, msg: m.MissionDirection) -> list[Out]:
+        rad = math.radians(msg.bearing_deg)
+        goal = Goal(msg.goal_index, msg.goals_total, msg.kind, msg.distance_m * math.sin(rad),
+                    msg.distance_m * math.cos(rad))
+        current = self.goal
+        if current is not None and goal.index < current.index:
+            return []
+        if self.finished_goal and goal.index <= self.finished_goal[0]:
+            return []
+        self.goal = goal
+        if current is None or goal.index != current.index or (goal.x, goal.z) != (current.x, current.z):
+            self.finished_goal = None
+            self.behaviour.start_goal(goal)
+            return [self._status()]
+        return []
+
+    def _on_comm_partners(self, msg: m.CommPartners) -> list[Out]:
+        self.partners = msg.ids
+        return []
+
+    def _on_comm_in(self, msg: m.InboundComm) -> list[Out]:
+        return []  # rover-to-rover messages arrive with the behaviour's own protocol (issue 4)
+
+    # ---- sensors ----
+
+    def _on_gyroscope(self, msg: m.Gyroscope) -> list[Out]:
+        self.pitch = (msg.pitch_deg, msg.stamp)
+        self.now = max(self.now, msg.stamp)
+        return []
+
+    def _on_perception(self, msg: m.Perception) -> list[Out]:
+        self.now = max(self.now, msg.stamp)
+        hits = tuple(Hit(a, d, k) for a, d, k in zip(msg.angles_deg, msg.distances_m, msg.kinds, strict=True))
+        if self.in_flight is not None:
+            return self._watch(hits)
+        ready = (self.pose is not None and self.goal is not None and self.finished_goal is None
+                 and self.state not in ("done", "stuck")
+                 and msg.stamp >= self.settled_at and self.pitch[1] >= self.settled_at)
+        if not ready:
+            return []
+        view = View(msg.stamp, self.pose, self.goal, hits, self.pitch[0])
+        return self._act(self.behaviour.decide(view))
+
+    def _watch(self, hits: tuple[Hit, ...]) -> list[Out]:
+        flight = self.in_flight
+        if flight.cancel_sent or not isinstance(flight.decision, MoveTo):
+            return []
+        view = View(self.now, flight.start, self.goal, hits, self.pitch[0])
+        if self.behaviour.should_cancel(view):
+            flight.cancel_sent = True
+            return [(self.keys.rover(self.id, ks.CANCEL_ACTION), m.CancelAction())]
+        return []
+
+    def _act(self, decision) -> list[Out]:
+        if isinstance(decision, Hold):
+            return []
+        if isinstance(decision, Finish):
+            return self._finish(decision.outcome)
+        self.in_flight = InFlight(decision, self.pose)
+        if isinstance(decision, MoveTo):
+            return [(self.keys.rover(self.id, ks.MOVE_ACTION), m.MoveAction(x=decision.x, z=decision.z))]
+        return [(self.keys.rover(self.id, ks.ROTATE_ACTION), m.RotateAction(degrees=decision.degrees))]
+
+    def _finish(self, outcome: str) -> list[Out]:
+        goal = self.goal
+        self.finished_goal = (goal.index, outcome)
+        if outcome == "stuck":
+            self.behaviour.state = "stuck"
+        elif goal.final:
+            self.behaviour.state = "done"
+        else:
+            self.behaviour.state = "waiting"
+        return [*self._report_goal(), self._status()]
+
+    def _report_goal(self) -> list[Out]:
+        index, outcome = self.finished_goal
+        self._last_report = self.now
+        payload = radio.pack(radio.GoalReport(goal_index=index, outcome=outcome))
+        return [(self.keys.rover(self.id, ks.COMM_OUT), m.OutboundComm(targets=[ks.LANDER_ID], payload=payload))]
+
+    def _status(self) -> Out:
+        self._last_status = self.now
+        index = self.goal.index if self.goal else -1
+        return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(stamp=self.now, state=self.state, goal_index=index)
+
+    # ---- navigation feedback ----
+
+    def _on_navigation_status(self, msg: m.NavigationStatus) -> list[Out]:
+        self.now = max(self.now, msg.stamp)
+        flight = self.in_flight
+        if flight is None or msg.outcome == "running":
+            return []
+        if msg.outcome == "completed":
+            decision = flight.decision
+            if isinstance(decision, MoveTo):
+                self.pose = flight.start.after_move(decision.x, decision.z)
+                self.behaviour.moved(math.hypot(decision.x, decision.z))
+            else:
+                self.pose = flight.start.after_rotate(decision.degrees)
+            self._settle(msg.stamp)
+        else:
+            flight.awaiting_cancel_result = True
+        return []
+
+    def _on_cancel_result(self, msg: m.CancelResult) -> list[Out]:
+        flight = self.in_flight
+        if flight is None:
+            return []
+        self.pose = flight.start.after_partial(msg.x, msg.z, msg.angle_deg)
+        self.behaviour.moved(math.hypot(msg.x, msg.z))
+        self.behaviour.cancelled(self.now)
+        self._settle(self.now)
+        return []
+
+    def _on_action_rejected(self, msg: m.ActionRejected) -> list[Out]:
+        flight = self.in_flight
+        if flight is None or msg.action not in ("move", "rotate"):
+            return []
+        if isinstance(flight.decision, MoveTo):
+            self.behaviour.rejected(math.degrees(math.atan2(flight.decision.x, flight.decision.z)))
+        log.info("rover %d: %s rejected (%s): %s", self.id, msg.action, msg.reason, msg.detail)
+        self._settle(self.now)
+        return []
+
+    def _settle(self, stamp: float) -> None:
+        """The action is over; decide again only on sensor data taken after this moment."""
+        self.in_flight = None
+        self.settled_at = stamp

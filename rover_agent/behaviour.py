@@ -1,0 +1,202 @@
+"""Rover behaviour: a pure state machine from what the rover senses to the next action.
+
+It follows report section 6: head for the goal, scan the perception hits for a free direction
+(trying directions nearest the goal first, right before left as the report turns right), walk to the
+edge of what is known to be free, and rotate 60 degrees when everything in view is blocked. For a
+crater goal it climbs the rim with the gyroscope and stops on the crest only after having climbed and
+walked at least the perception radius since first seeing crater terrain (the report's 7.2.2 fix for
+stopping on a local optimum). A waypoint counts as reached once it is well within view (6.6).
+
+No I/O here: the runtime feeds a ``View`` and sends what ``decide`` returns, so this is tested with
+scripted sensor data and no router.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from rover_agent.dead_reckoning import Pose
+from schemas.frames import bearing_deg, wrap_deg
+from schemas.params import RoverParams
+
+SOLID_KINDS = frozenset({"rover", "obstacle", "lander", "terrain"})
+OBSTACLE_MARGIN = 0.6
+"""Metres kept between the rover's body and a perceived obstacle; rays are sparse, so stay a bit wide."""
+CLIMB_PITCH = 2.0
+"""Degrees of nose-up pitch that count as having started up the crater rim."""
+CREST_PITCH = 0.5
+"""At or below this pitch, after climbing, the rover stands on the crest."""
+MAX_BLOCKED_ROTATIONS = 12
+
+
+@dataclass(frozen=True)
+class Hit:
+    angle_deg: float
+    distance_m: float
+    kind: str
+
+
+@dataclass(frozen=True)
+class Goal:
+    index: int
+    total: int
+    kind: str
+    x: float  # lander frame
+    z: float
+
+    @property
+    def final(self) -> bool:
+        return self.index >= self.total - 1
+
+
+@dataclass(frozen=True)
+class View:
+    time: float
+    pose: Pose
+    goal: Goal
+    hits: tuple[Hit, ...]
+    pitch_deg: float
+
+
+@dataclass(frozen=True)
+class MoveTo:
+    x: float
+    z: float
+
+
+@dataclass(frozen=True)
+class Rotate:
+    degrees: float
+
+
+@dataclass(frozen=True)
+class Hold:
+    until: float
+
+
+@dataclass(frozen=True)
+class Finish:
+    outcome: str  # "reached" | "stuck"
+
+
+Decision = MoveTo | Rotate | Hold | Finish
+
+
+@dataclass
+class DefaultBehaviour:
+    """The report's single- and multi-rover behaviour with crater climbing."""
+
+    rover_id: int
+    params: RoverParams
+    state: str = "waiting"
+    _crater_seen_at: float | None = None  # odometer reading when crater terrain was first seen
+    _odometer: float = 0.0
+    _max_pitch: float = -90.0
+    _blocked_rotations: int = 0
+    _rejected: list[float] = field(default_factory=list)
+    _hold_until: float = 0.0
+
+    name = "default"
+
+    # ---- events from the runtime ----
+
+    def start_goal(self, goal: Goal) -> None:
+        self.state = "migration"
+        self._crater_seen_at = None
+        self._max_pitch = -90.0
+        self._blocked_rotations = 0
+        self._rejected.clear()
+
+    def moved(self, distance: float) -> None:
+        self._odometer += distance
+        self._blocked_rotations = 0
+        self._rejected.clear()
+
+    def rejected(self, relative_angle: float) -> None:
+        """The world refused a move in this direction: do not try it again from here."""
+        self._rejected.append(relative_angle)
+
+    def cancelled(self, now: float) -> None:
+        """A move was cancelled because another rover came close: give way for a moment."""
+        wait = self.params.behaviour.max_wait_time * (1 + self.rover_id % 3)
+        self._hold_until = now + wait
+
+    # ---- decisions ----
+
+    def should_cancel(self, view: View) -> bool:
+        """During a move: another rover close ahead means stop (report 6.2.2)."""
+        danger = self.params.behaviour.collision_danger_dist
+        return any(h.kind == "rover" and h.distance_m < danger and abs(h.angle_deg) < 45 for h in view.hits)
+
+    def decide(self, view: View) -> Decision:
+        if view.time < self._hold_until:
+            return Hold(self._hold_until)
+        goal, pose = view.goal, view.pose
+        distance = math.hypot(goal.x - pose.x, goal.z - pose.z)
+        if goal.kind == "waypoint" and distance <= 0.8 * self.params.perception.perception_radius:
+            return Finish("reached")
+        if goal.kind == "crater":
+            finish = self._climb(view)
+            if finish:
+                return finish
+        step = self.params.behaviour.min_move_size if self.state == "climbing" else None
+        return self._head_for(view, distance, step)
+
+    def _climb(self, view: View) -> Finish | None:
+        if self._crater_seen_at is None and any(h.kind == "crater_terrain" for h in view.hits):
+            self._crater_seen_at = self._odometer
+            self.state = "climbing"
+        if self._crater_seen_at is None:
+            return None
+        self._max_pitch = max(self._max_pitch, view.pitch_deg)
+        walked = self._odometer - self._crater_seen_at
+        climbed = self._max_pitch >= CLIMB_PITCH
+        if climbed and walked >= self.params.perception.perception_radius and view.pitch_deg <= CREST_PITCH:
+            return Finish("reached")
+        return None
+
+    def _head_for(self, view: View, distance: float, step: float | None) -> Decision:
+        p = self.params
+        pose, goal = view.pose, view.goal
+        to_goal = wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading)
+        window = min(p.perception.field_of_view_degrees / 2 - 5, p.behaviour.scanner_field_of_view / 2)
+        if abs(to_goal) > window:
+            return Rotate(round(to_goal, 3))
+        want = min(0.9 * p.perception.perception_radius, step or math.inf,
+                   distance if goal.kind == "waypoint" else math.inf)
+        for angle in self._candidates(to_goal, window):
+            free = self._free_distance(angle, view.hits)
+            if free >= min(want, p.behaviour.min_move_size):
+                length = min(free, want)
+                rad = math.radians(angle)
+                return MoveTo(round(length * math.sin(rad), 4), round(length * math.cos(rad), 4))
+        self._blocked_rotations += 1
+        if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
+            return Finish("stuck")
+        self._rejected.clear()
+        return Rotate(p.behaviour.rotate_action)
+
+    def _candidates(self, to_goal: float, window: float) -> list[float]:
+        """Directions to try, nearest the goal first, right before left."""
+        scan = self.params.behaviour.scan_angle
+        out = [to_goal]
+        for k in range(1, int(2 * window / scan) + 2):
+            out += [to_goal + k * scan, to_goal - k * scan]
+        return [a for a in out if abs(a) <= window
+                and all(abs(a - r) > scan / 2 for r in self._rejected)]
+
+    def _free_distance(self, angle: float, hits: tuple[Hit, ...]) -> float:
+        """How far the rover's body can go along ``angle`` before coming too close to a perceived thing."""
+        b = self.params.behaviour
+        free = 0.9 * self.params.perception.perception_radius
+        for h in hits:
+            if h.kind not in SOLID_KINDS:
+                continue
+            clearance = b.rover_radius + (b.rover_radius + b.extra_distance_between_rovers if h.kind == "rover"
+                                          else OBSTACLE_MARGIN)
+            delta = math.radians(h.angle_deg - angle)
+            along, across = h.distance_m * math.cos(delta), abs(h.distance_m * math.sin(delta))
+            if across < clearance and along > -clearance:
+                free = min(free, along - math.sqrt(clearance * clearance - across * across))
+        return max(free, 0.0)

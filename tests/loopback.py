@@ -1,0 +1,47 @@
+"""Run a whole mission in one process, with no router: the world, lander and rover agents wired
+through their pure ``handle`` functions, every message still encoded and decoded with the codec.
+
+Used by tests of mission logic; the cross-process path is tested separately over a real router.
+"""
+
+from __future__ import annotations
+
+from lander_agent.mission import MissionPlan
+from lander_agent.runtime import Lander
+from rover_agent.agent import RoverAgent
+from schemas import codec
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.scenario import Scenario
+from world_service.sim import World
+
+
+def run_mission(scenario: Scenario, max_sim_time: float) -> World:
+    keys = ks.Keyspace("loopback")
+    world = World(scenario, keys)
+    lander = Lander(MissionPlan(scenario), keys)
+    agents = {rid: RoverAgent(rid, keys, scenario.rover_params) for rid in world.bodies}
+    pending: list[tuple[str, m.Message]] = []
+    while world.sim_time < max_sim_time and not world.complete:
+        for key, message in world.step():
+            pending += _deliver(key, codec.encode(message), world, lander, agents, keys)
+        while pending:
+            key, message = pending.pop(0)
+            pending += _deliver(key, codec.encode(message), world, lander, agents, keys)
+    return world
+
+
+def _deliver(key, payload, world, lander, agents, keys):
+    if key == keys.clock:
+        out = lander.handle(key, payload)
+        for agent in agents.values():
+            out += agent.on_clock(codec.decode(m.Clock, payload))
+        return out
+    if key.startswith(keys.lander("")):
+        return lander.handle(key, payload) if key != keys.lander(ks.COMM_OUT) else world.receive(key, payload)
+    if key.startswith(f"{keys.prefix}/rover/"):
+        rid, topic = keys.parse_rover_key(key)
+        if topic in World.INPUT_TOPICS:
+            return world.receive(key, payload)
+        return agents[rid].handle(topic, payload)
+    return []

@@ -1,0 +1,3 @@
+from deploy.process import main_for
+
+main_for("world", "world_service.app")

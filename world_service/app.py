@@ -1,0 +1,50 @@
+"""Command line of the world service: ``lunarsim world SCENARIO`` and ``python -m world_service SCENARIO``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from deploy import process
+from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path, help="scenario YAML")
+    parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
+    parser.add_argument("--seed", type=int, help="override the scenario's seed")
+    parser.add_argument("--rovers", type=int, metavar="N", help="spawn N rovers in the scenario's formation")
+    parser.add_argument("--time-scale", type=float, default=1.0, metavar="K",
+                        help="simulated seconds per wall second (default 1; 0 = as fast as possible)")
+    parser.add_argument("--max-sim-time", type=float, metavar="S", help="end the mission after S simulated seconds")
+    parser.add_argument("--start-timeout", type=float, default=30.0, metavar="S",
+                        help="seconds to wait for the lander and every rover agent before starting anyway")
+    parser.add_argument("--no-lander", action="store_true", help="do not wait for a lander agent")
+    parser.add_argument("--exit-when-done", action="store_true",
+                        help="exit after the mission instead of serving the final statistics")
+    parser.add_argument("--report", type=Path, metavar="FILE", help="also write the final report.json here")
+    add_zenoh_arguments(parser)
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    from deploy.bus import Bus
+    from schemas.keyspace import Keyspace
+    from schemas.scenario import load_scenario
+    from world_service import service
+    from world_service.sim import World
+
+    if args.time_scale < 0:
+        raise process.UsageError(f"--time-scale must be 0 or more, got {args.time_scale}")
+    scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers)
+    world = World(scenario, Keyspace(args.world))
+    settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander)
+    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="world")
+    with Bus(session) as bus, process.stop_on_signals() as stop:
+        service.declare_io(bus, world.keys)
+        report = service.run(world, bus, settings, stop)
+        if args.report:
+            args.report.write_text(json.dumps(report.model_dump(), indent=2) + "\n")
+        if not args.exit_when_done:
+            service.linger(world, bus, report, stop)
+    return 0

@@ -1,0 +1,320 @@
+"""The simulated world, one tick at a time, with no I/O: samples in, (key, message) pairs out.
+
+The service (``world_service.service``) owns Zenoh and the clock; this class owns ground truth.
+Keeping them apart lets the whole world be tested, and later stepped in lockstep, without a router.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import Counter
+
+import numpy as np
+
+from schemas import codec
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.scenario import Scenario
+from world_service import navigation as nav
+from world_service import statistics as stats
+from world_service.radio import CommGraph, build_graph
+from world_service.scene import Scene, in_view
+from world_service.terrain import Heightmap
+
+log = logging.getLogger("lunarsim.world")
+
+Out = tuple[str, m.Message]
+FINISHED_STATES = ("done", "stuck")
+
+
+class World:
+    def __init__(self, scenario: Scenario, keyspace: ks.Keyspace) -> None:
+        self.scenario = scenario
+        self.keys = keyspace
+        self.params = scenario.rover_params
+        self.rng = np.random.default_rng(scenario.seed)
+        p = self.params
+        rates = (p.perception.publish_frequency, p.perception.gyroscope_frequency, p.navigation.publish_frequency)
+        self.dt = 1.0 / max(rates)
+        self.perception_period = self._period(p.perception.publish_frequency)
+        self.gyroscope_period = self._period(p.perception.gyroscope_frequency)
+        self.status_period = self._period(p.navigation.publish_frequency)
+        self.partners_period = self._period(p.communication.partners_frequency)
+        self.tick = 0
+        self.terrain = Heightmap.from_scenario(scenario, self.rng)
+        self.scene = Scene.from_scenario(scenario)
+        self.bodies = {i + 1: nav.RoverBody(i + 1, r.x, r.z, r.heading_deg % 360.0)
+                       for i, r in enumerate(scenario.rovers)}
+        self.status = {rid: m.RoverStatus(stamp=0.0, state="waiting") for rid in self.bodies}
+        self.alive = dict.fromkeys(self.bodies, True)
+        self.rover_collisions = 0
+        self.obstacle_collisions = 0
+        self.rejected: Counter[str] = Counter()
+        self.radio_dropped = 0
+        self.completed_at: float | None = None
+        self.graph = self._build_graph()
+
+    def _period(self, rate_hz: float) -> int:
+        return max(1, round(1.0 / (rate_hz * self.dt)))
+
+    @property
+    def sim_time(self) -> float:
+        return self.tick * self.dt
+
+    # ---- input ----
+
+    def receive(self, key: str, payload: bytes) -> list[Out]:
+        """Handle one sample from an agent; a bad one is logged, counted and answered with nothing."""
+        try:
+            if key == self.keys.lander(ks.COMM_OUT):
+                return self._radio(ks.LANDER_ID, codec.decode(m.OutboundComm, payload), from_lander=True)
+            rover_id, topic = self.keys.parse_rover_key(key)
+            if rover_id not in self.bodies:
+                raise ValueError(f"no rover {rover_id} in scenario {self.scenario.name!r} "
+                                 f"(ids 1..{len(self.bodies)})")
+            handler = self._handlers.get(topic)
+            if handler is None:
+                raise ValueError(f"topic {topic!r} is not an input of the world")
+            return handler(self, rover_id, codec.decode(m.TOPIC_MODELS[topic], payload))
+        except (codec.DecodeError, ValueError) as exc:
+            self.rejected[key] += 1
+            log.warning("rejected sample on %s: %s", key, exc)
+            return []
+
+    def _on_move(self, rid: int, msg: m.MoveAction) -> list[Out]:
+        body = self.bodies[rid]
+        reason = self._move_problem(body, msg)
+        if reason:
+            return [self._reject(rid, "move", *reason)]
+        body.start_move(msg.x, msg.z)
+        return [self._nav_status(body, "move")]
+
+    def _move_problem(self, body: nav.RoverBody, msg: m.MoveAction) -> tuple[str, str] | None:
+        p = self.params
+        if body.busy:
+            return "action_in_progress", "a move or rotate is still running"
+        if not in_view(msg.x, msg.z, p.perception.field_of_view_degrees):
+            return "out_of_view", f"({msg.x:.2f}, {msg.z:.2f}) is outside the field of view"
+        limit = p.perception.perception_radius * (1 + p.navigation.move_action_tolerance_factor)
+        if math.hypot(msg.x, msg.z) > limit:
+            return "out_of_range", f"{math.hypot(msg.x, msg.z):.2f} m is beyond the {limit:.2f} m perception range"
+        gx, gz = nav.to_world(body.x, body.z, body.heading, msg.x, msg.z)
+        radius = p.behaviour.rover_radius
+        clearance = radius if p.navigation.strict_line_of_sight else 0.0
+        ox, oz = self._other_positions(body.id)
+        if self.scene.line_blocked(body.x, body.z, gx, gz, clearance, ox, oz, radius):
+            return "blocked", "the line to the goal is not clear"
+        return None
+
+    def _on_rotate(self, rid: int, msg: m.RotateAction) -> list[Out]:
+        body = self.bodies[rid]
+        if body.busy:
+            return [self._reject(rid, "rotate", "action_in_progress", "a move or rotate is still running")]
+        body.start_rotate(msg.degrees)
+        return [self._nav_status(body, "rotate")]
+
+    def _on_cancel(self, rid: int, msg: m.CancelAction) -> list[Out]:
+        body = self.bodies[rid]
+        if not body.busy:
+            return [self._reject(rid, "cancel", "no_action", "nothing to cancel")]
+        body.cancel()
+        return []
+
+    def _on_speed(self, rid: int, msg: m.SpeedAction) -> list[Out]:
+        self.bodies[rid].speed_level = msg.level
+        return []
+
+    def _on_comm_out(self, rid: int, msg: m.OutboundComm) -> list[Out]:
+        return self._radio(rid, msg, from_lander=False)
+
+    def _on_status(self, rid: int, msg: m.RoverStatus) -> list[Out]:
+        self.status[rid] = msg
+        return []
+
+    _handlers = {
+        ks.MOVE_ACTION: _on_move,
+        ks.ROTATE_ACTION: _on_rotate,
+        ks.CANCEL_ACTION: _on_cancel,
+        ks.SPEED_ACTION: _on_speed,
+        ks.COMM_OUT: _on_comm_out,
+        ks.STATUS: _on_status,
+    }
+    INPUT_TOPICS = tuple(_handlers)
+
+    def set_alive(self, rover_id: int, alive: bool) -> None:
+        """Watchdog: a rover whose agent is gone stops where it is."""
+        if rover_id in self.bodies:
+            self.alive[rover_id] = alive
+            if not alive:
+                self.bodies[rover_id].cancel()
+
+    # ---- radio ----
+
+    def _radio(self, sender: int, msg: m.OutboundComm, from_lander: bool) -> list[Out]:
+        if msg.channel != "comm_in" and not from_lander:
+            raise ValueError(f"only the lander may transmit on channel {msg.channel!r}")
+        model = m.RADIO_CHANNEL_MODELS.get(msg.channel)
+        inner = codec.decode(model, msg.payload) if model else None
+        out: list[Out] = []
+        for target in msg.targets:
+            if target != ks.LANDER_ID and target not in self.bodies:
+                self.rejected[f"radio target {target}"] += 1
+                continue
+            if not self.graph.connected(sender, target):
+                self.radio_dropped += 1
+                continue
+            out.append(self._deliver(sender, target, msg, inner))
+        return out
+
+    def _deliver(self, sender: int, target: int, msg: m.OutboundComm, inner: m.Message | None) -> Out:
+        if inner is not None:
+            return self.keys.rover(target, msg.channel), inner
+        key = self.keys.lander(ks.COMM_IN) if target == ks.LANDER_ID else self.keys.rover(target, ks.COMM_IN)
+        return key, m.InboundComm(sender=sender, payload=msg.payload)
+
+    def _build_graph(self) -> CommGraph:
+        ids = np.array([ks.LANDER_ID, *self.bodies], int)
+        x = np.array([self.scenario.lander.x] + [b.x for b in self.bodies.values()])
+        z = np.array([self.scenario.lander.z] + [b.z for b in self.bodies.values()])
+        c = self.params.communication
+        return build_graph(ids, x, z, c.comm_range, c.lander_comm_range)
+
+    # ---- time ----
+
+    def step(self) -> list[Out]:
+        """Advance one tick and return everything the world publishes for it."""
+        self.tick += 1
+        out: list[Out] = []
+        for body in self.bodies.values():
+            out += self._move_body(body)
+        if self.tick % self.perception_period == 0:
+            self.graph = self._build_graph()
+        out += self._sensors()
+        self._check_complete()
+        out.append((self.keys.clock, m.Clock(tick=self.tick, sim_time=self.sim_time, time_scale=0.0)))
+        return out
+
+    def _move_body(self, body: nav.RoverBody) -> list[Out]:
+        before = (body.x, body.z, body.distance_covered)
+        ended = nav.step(body, self.dt, self.params.navigation)
+        if (body.x, body.z) != before[:2] and self._collides(body):
+            body.x, body.z, body.distance_covered = before
+            start = body.action.start if body.action is not None else None
+            body.action, body.velocity = None, 0.0
+            ended = nav.Ended("move", "collided", start)
+        return self._ended(body, ended) if ended else []
+
+    def _collides(self, body: nav.RoverBody) -> bool:
+        radius = self.params.behaviour.rover_radius
+        if self.scene.obstacle_contact(body.x, body.z, radius):
+            self.obstacle_collisions += 1
+            return True
+        ox, oz = self._other_positions(body.id)
+        if len(ox) and np.any(np.hypot(ox - body.x, oz - body.z) < 2 * radius):
+            self.rover_collisions += 1
+            return True
+        return False
+
+    def _ended(self, body: nav.RoverBody, ended: nav.Ended) -> list[Out]:
+        rid = body.id
+        status = m.NavigationStatus(stamp=self.sim_time, action=ended.action, remaining=0.0, outcome=ended.outcome)
+        out: list[Out] = [(self.keys.rover(rid, ks.NAVIGATION_STATUS), status)]
+        if ended.outcome != "completed" and ended.start is not None:
+            x, z, angle = body.relative_to_start(ended.start)
+            out.append((self.keys.rover(rid, ks.CANCEL_RESULT),
+                        m.CancelResult(x=x, z=z, angle_deg=angle, reason=ended.outcome)))
+        return out
+
+    def _sensors(self) -> list[Out]:
+        out: list[Out] = []
+        xs = np.array([b.x for b in self.bodies.values()])
+        zs = np.array([b.z for b in self.bodies.values()])
+        hs = np.array([b.heading for b in self.bodies.values()])
+        for index, body in enumerate(self.bodies.values()):
+            rid = body.id
+            if (self.tick + rid) % self.perception_period == 0:
+                out.append((self.keys.rover(rid, ks.PERCEPTION), self._perception(xs, zs, hs, index)))
+            if self.tick % self.gyroscope_period == 0:
+                pitch = float(self.terrain.pitch_deg(body.x, body.z, body.heading))
+                out.append((self.keys.rover(rid, ks.GYROSCOPE), m.Gyroscope(stamp=self.sim_time, pitch_deg=pitch)))
+            if body.busy and self.tick % self.status_period == 0:
+                out.append(self._nav_status(body, "move" if isinstance(body.action, nav.Move) else "rotate"))
+            if self.tick % self.partners_period == 0:
+                out.append((self.keys.rover(rid, ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(rid))))
+        if self.tick % self.partners_period == 0:
+            out.append((self.keys.lander(ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(ks.LANDER_ID))))
+        if self.tick % self.perception_period == 0:
+            out.append((self.keys.state, self.world_state()))
+        if self.tick % self._period(1.0) == 0:
+            out.append((self.keys.stats, m.WorldStats(stamp=self.sim_time, report=self.report())))
+        return out
+
+    def _perception(self, xs, zs, hs, index: int) -> m.Perception:
+        angles, dists, kinds = self.scene.scan(xs, zs, hs, index, self.params)
+        return m.Perception(stamp=self.sim_time, angles_deg=[round(float(a), 3) for a in angles],
+                            distances_m=[round(float(d), 3) for d in dists],
+                            kinds=[m.HIT_KINDS[k] for k in kinds])
+
+    def _nav_status(self, body: nav.RoverBody, action: str) -> Out:
+        status = m.NavigationStatus(stamp=self.sim_time, action=action, remaining=round(body.remaining(), 4))
+        return self.keys.rover(body.id, ks.NAVIGATION_STATUS), status
+
+    def _reject(self, rid: int, action: str, reason: str, detail: str) -> Out:
+        return self.keys.rover(rid, ks.ACTION_REJECTED), m.ActionRejected(action=action, reason=reason, detail=detail)
+
+    def _other_positions(self, rid: int) -> tuple[np.ndarray, np.ndarray]:
+        others = [b for b in self.bodies.values() if b.id != rid]
+        return np.array([b.x for b in others]), np.array([b.z for b in others])
+
+    # ---- ground truth and statistics ----
+
+    def _goal_of(self, rid: int):
+        index = min(max(self.status[rid].goal_index, 0), len(self.scenario.mission) - 1)
+        return self.scenario.mission[index]
+
+    def world_state(self) -> m.WorldState:
+        rovers = [
+            m.RoverTruth(id=b.id, x=round(b.x, 4), z=round(b.z, 4), heading_deg=round(b.heading, 3),
+                         action=self._action_name(b), state=self.status[b.id].state,
+                         goal_index=self.status[b.id].goal_index,
+                         distance_to_goal_m=round(stats.distance_to_goal(self.scenario, self._goal_of(b.id),
+                                                                         b.x, b.z), 3),
+                         distance_covered_m=round(b.distance_covered, 3), alive=self.alive[b.id])
+            for b in self.bodies.values()
+        ]
+        return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links())
+
+    @staticmethod
+    def _action_name(body: nav.RoverBody) -> str:
+        if isinstance(body.action, nav.Move):
+            return "cancel" if body.action.cancelling else "move"
+        return "rotate" if isinstance(body.action, nav.Rotate) else "idle"
+
+    def _reached_final(self, rid: int) -> bool:
+        status, final = self.status[rid], len(self.scenario.mission) - 1
+        body = self.bodies[rid]
+        return (status.state == "done" and status.goal_index == final
+                and stats.at_goal(self.scenario, self.scenario.mission[final], body.x, body.z))
+
+    def _check_complete(self) -> None:
+        finished = all(s.state in FINISHED_STATES for s in self.status.values())
+        if self.completed_at is None and finished and not any(b.busy for b in self.bodies.values()):
+            self.completed_at = self.sim_time
+
+    @property
+    def complete(self) -> bool:
+        return self.completed_at is not None
+
+    def report(self) -> m.MissionReport:
+        return stats.build_report(
+            self.scenario,
+            distances=[b.distance_covered for b in self.bodies.values()],
+            reached=sum(self._reached_final(rid) for rid in self.bodies),
+            stuck=sum(s.state == "stuck" for s in self.status.values()),
+            rover_collisions=self.rover_collisions,
+            obstacle_collisions=self.obstacle_collisions,
+            duration_s=self.completed_at if self.completed_at is not None else self.sim_time,
+            complete=self.complete,
+            rejected_messages=sum(self.rejected.values()),
+        )
