@@ -79,6 +79,7 @@ class Mission:
             finally:
                 self._shutdown()
         if report is None:
+            self.console.print("[yellow]stopped before the world reported any statistics: no report.json[/]")
             return code or 1
         report = report.model_copy(update={"wall_time_s": round(time.monotonic() - started, 3)})
         (self.out / "report.json").write_text(json.dumps(report.model_dump(), indent=2) + "\n")

@@ -197,6 +197,6 @@ class DefaultBehaviour:
                                           else OBSTACLE_MARGIN)
             delta = math.radians(h.angle_deg - angle)
             along, across = h.distance_m * math.cos(delta), abs(h.distance_m * math.sin(delta))
-            if across < clearance and along > -clearance:
+            if across < clearance and along > 0:
                 free = min(free, along - math.sqrt(clearance * clearance - across * across))
         return max(free, 0.0)

@@ -5,6 +5,7 @@ An invalid file raises ``ScenarioError`` with one line naming the file, the fiel
 
 from __future__ import annotations
 
+import difflib
 import math
 from pathlib import Path
 from typing import Literal
@@ -165,10 +166,19 @@ def _dump(value: object) -> object:
 
 
 def _format_error(source: str, exc: ValidationError) -> str:
-    first = exc.errors()[0]
+    """One line: an unknown field first (a typo is the likeliest mistake), with the field it probably meant."""
+    errors = exc.errors()
+    extras = [e for e in errors if e["type"] == "extra_forbidden"]
+    first = extras[0] if extras else errors[0]
     where = ".".join(str(p) for p in first["loc"]) or "<root>"
-    more = f" (and {exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
-    return f"{source}: {where}: {first['msg']}{more}"
+    message = first["msg"]
+    if extras:
+        parent, name = first["loc"][:-1], str(first["loc"][-1])
+        missing = [str(e["loc"][-1]) for e in errors if e["type"] == "missing" and e["loc"][:-1] == parent]
+        guess = difflib.get_close_matches(name, missing, n=1)
+        message = f"unknown field{f' (did you mean {guess[0]!r}?)' if guess else ''}"
+    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    return f"{source}: {where}: {message}{more}"
 
 
 def parse_scenario(data: object, source: str = "<scenario>") -> Scenario:

@@ -1,0 +1,440 @@
+"""Control-loop latency over Zenoh: a Perception published by the world -> the rover's MoveAction received back.
+
+Starts a real Zenoh router and one real rover agent as separate processes, and plays the world in this
+process: it calibrates the rover, gives it a waypoint 100 m ahead, then runs ``--loops`` control loops
+(after a few uncounted warm-up loops). Each loop publishes a Perception with no hits, times until the
+MoveAction arrives, then answers as the world would (NavigationStatus "completed", a fresh Gyroscope) so
+the rover is idle and ready to decide on the next Perception. The rover walks 9 m per move with the default
+parameters, so the world moves the waypoint on (a new MissionDirection) before the rover can reach it.
+
+A second figure runs the same loop against ``RoverAgent.handle`` in this process with no Zenoh at all
+(decode + decide + encode of the reply), to show how much of the round trip is transport.
+
+    python benchmarks/control_loop_latency.py [--loops 1000] [--port P] [--json FILE]
+
+Targets (issue): p50 under 1 ms and p99 under 5 ms on loopback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import math
+import platform
+import queue
+import socket
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import zenoh
+
+from deploy.children import Children, port_in_use, wait_for_port
+from deploy.zenoh_config import RouterUnreachable, build_config, open_session
+from rover_agent.agent import RoverAgent
+from rover_agent.dead_reckoning import Pose
+from schemas import codec
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.frames import bearing_deg
+from schemas.params import RoverParams
+
+WORLD = "bench"
+ROVER_ID = 1
+HOST = "127.0.0.1"
+TARGET_P50_MS = 1.0
+TARGET_P99_MS = 5.0
+LOOP_DT_S = 0.2
+"""Simulated seconds per loop: Perception at t, action over at t + LOOP_DT_S / 2, next Perception at t + LOOP_DT_S."""
+GOAL_AHEAD_M = 100.0
+RETARGET_BELOW_M = 50.0
+"""When the rover's dead-reckoned distance to the waypoint drops below this, the world moves it GOAL_AHEAD_M on."""
+GOALS_TOTAL = 1_000_000
+"""Large enough that no goal is ever the final one (the agent would stop deciding)."""
+STARTUP_DEADLINE_S = 20.0
+
+
+class BenchmarkError(RuntimeError):
+    """Something the benchmark cannot measure through; the message says what and where to look."""
+
+
+# ---- the world's side of the conversation, shared by both measurements ----
+
+
+class ScriptedWorld:
+    """Produces what the world (and the lander's radio) would send, and follows the rover's dead reckoning."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+        self.pose = Pose(0.0, 0.0, 0.0)  # the Calibration below: at the lander, facing +z
+        self.goal_index = 0
+        self.goal = (0.0, GOAL_AHEAD_M)
+
+    def setup(self) -> list[tuple[str, m.Message]]:
+        return [(ks.CALIBRATION, m.Calibration(x=self.pose.x, z=self.pose.z, heading_deg=self.pose.heading)),
+                (ks.MISSION_DIRECTION, self._mission_direction()),
+                (ks.GYROSCOPE, m.Gyroscope(stamp=self.t, pitch_deg=0.0))]
+
+    def perception(self) -> m.Perception:
+        self.t += LOOP_DT_S / 2
+        return m.Perception(stamp=self.t, angles_deg=[], distances_m=[], kinds=[])
+
+    def action_done(self, action: m.MoveAction) -> list[tuple[str, m.Message]]:
+        """The move is over: what the world sends so the agent settles and will decide on the next Perception."""
+        self.pose = self.pose.after_move(action.x, action.z)
+        self.t += LOOP_DT_S / 2
+        out: list[tuple[str, m.Message]] = []
+        if math.hypot(self.goal[0] - self.pose.x, self.goal[1] - self.pose.z) < RETARGET_BELOW_M:
+            h = math.radians(self.pose.heading)
+            self.goal = (self.pose.x + GOAL_AHEAD_M * math.sin(h), self.pose.z + GOAL_AHEAD_M * math.cos(h))
+            self.goal_index += 1
+            out.append((ks.MISSION_DIRECTION, self._mission_direction()))
+        # settled_at becomes this stamp; the agent decides only on a gyroscope and a perception at or after it
+        out.append((ks.NAVIGATION_STATUS, m.NavigationStatus(stamp=self.t, action="move", remaining=0.0,
+                                                             outcome="completed")))
+        out.append((ks.GYROSCOPE, m.Gyroscope(stamp=self.t, pitch_deg=0.0)))
+        return out
+
+    def _mission_direction(self) -> m.MissionDirection:
+        gx, gz = self.goal
+        return m.MissionDirection(goal_index=self.goal_index, goals_total=GOALS_TOTAL, kind="waypoint",
+                                  bearing_deg=bearing_deg(gx, gz), distance_m=math.hypot(gx, gz))
+
+
+# ---- statistics ----
+
+
+@dataclass(frozen=True)
+class Summary:
+    loops: int
+    p50_ms: float
+    p90_ms: float
+    p99_ms: float
+    max_ms: float
+    mean_ms: float
+
+    @classmethod
+    def of(cls, samples_ns: list[int]) -> Summary:
+        s = sorted(samples_ns)
+        return cls(len(s), _ms(_percentile(s, 50)), _ms(_percentile(s, 90)), _ms(_percentile(s, 99)),
+                   _ms(s[-1]), _ms(sum(s) / len(s)))
+
+
+def _percentile(sorted_ns: list[int], p: float) -> int:
+    """Nearest-rank percentile: the smallest sample with at least p % of the samples at or below it."""
+    rank = max(1, math.ceil(p / 100 * len(sorted_ns)))
+    return sorted_ns[rank - 1]
+
+
+def _ms(ns: float) -> float:
+    return ns / 1e6
+
+
+# ---- over Zenoh: router and rover as processes ----
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind((HOST, 0))
+        return s.getsockname()[1]
+
+
+class RoverLink:
+    """The benchmark's Zenoh session, playing the world for rover ROVER_ID."""
+
+    def __init__(self, session: zenoh.Session, keys: ks.Keyspace) -> None:
+        self.session = session
+        self.keys = keys
+        self.actions: queue.SimpleQueue[tuple[int, bytes]] = queue.SimpleQueue()
+        self.statuses: queue.SimpleQueue[bytes] = queue.SimpleQueue()
+        self.alive = threading.Event()
+        self._declared: list = []
+        self._publishers: dict[str, zenoh.Publisher] = {}
+        rover = keys.rover
+        self._declared.append(session.declare_subscriber(rover(ROVER_ID, ks.MOVE_ACTION), self._on_action))
+        for other in (ks.ROTATE_ACTION, ks.CANCEL_ACTION):  # the benchmark never expects these: report them
+            self._declared.append(session.declare_subscriber(rover(ROVER_ID, other), self._on_action))
+        self._declared.append(session.declare_subscriber(rover(ROVER_ID, ks.STATUS),
+                                                         lambda s: self.statuses.put(s.payload.to_bytes())))
+        self._declared.append(session.liveliness().declare_subscriber(keys.alive_rover(ROVER_ID), self._on_alive,
+                                                                      history=True))
+
+    def _on_action(self, sample: zenoh.Sample) -> None:
+        # only enqueue: the clock is read where the world's loop takes the sample, in the main thread
+        topic = str(sample.key_expr).rsplit("/", 1)[-1]
+        self.actions.put((topic, sample.payload.to_bytes()))
+
+    def _on_alive(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            self.alive.set()
+
+    def put(self, topic: str, payload: bytes) -> None:
+        publisher = self._publishers.get(topic)
+        if publisher is None:
+            publisher = self._publishers[topic] = self.session.declare_publisher(self.keys.rover(ROVER_ID, topic))
+        publisher.put(payload)
+
+    def publish(self, topic: str, message: m.Message) -> None:
+        self.put(topic, codec.encode(message))
+
+    def close(self) -> None:
+        for entity in [*reversed(self._declared), *self._publishers.values()]:
+            with contextlib.suppress(zenoh.ZError):
+                entity.undeclare()
+        self._declared.clear()
+        self._publishers.clear()
+        self.session.close()
+
+
+def start_processes(children: Children, port: int) -> str:
+    endpoint = f"tcp/{HOST}:{port}"
+    router = children.start("router", "deploy.router", "--listen", endpoint)
+    if not wait_for_port(HOST, port, STARTUP_DEADLINE_S, router):
+        raise BenchmarkError(f"the Zenoh router did not open {endpoint} within {STARTUP_DEADLINE_S:g} s"
+                             + _tail(children, "router"))
+    children.start("rover", "rover_agent", "--id", str(ROVER_ID), "--world", WORLD, "--connect", endpoint)
+    return endpoint
+
+
+def _tail(children: Children, name: str) -> str:
+    tail = children.log_tail(name, 10)
+    code = children.procs[name].poll() if name in children.procs else None
+    state = f"exited with code {code}" if code is not None else "still running"
+    return f"\n--- {name} ({state}), last lines of its log:\n{tail or '(empty)'}"
+
+
+def wait_until_alive(link: RoverLink, children: Children) -> float:
+    start = time.monotonic()
+    deadline = start + STARTUP_DEADLINE_S
+    key = link.keys.alive_rover(ROVER_ID)
+    while not link.alive.wait(0.1):
+        if children.dead():
+            raise BenchmarkError(f"a child process exited before {key} appeared: {children.dead()}"
+                                 + _tail(children, "rover") + _tail(children, "router"))
+        if time.monotonic() >= deadline:
+            raise BenchmarkError(f"rover {ROVER_ID} did not show up: no liveliness token {key} within "
+                                 f"{STARTUP_DEADLINE_S:g} s" + _tail(children, "rover"))
+    return time.monotonic() - start
+
+
+def handshake(link: RoverLink, world: ScriptedWorld, children: Children) -> None:
+    """Send the setup until the rover answers the MissionDirection with a RoverStatus (it has them all)."""
+    deadline = time.monotonic() + STARTUP_DEADLINE_S
+    setup = world.setup()
+    while True:
+        for topic, message in setup:
+            link.publish(topic, message)
+        try:
+            while True:
+                status = codec.decode(m.RoverStatus, link.statuses.get(timeout=0.5))
+                if status.goal_index == world.goal_index and status.state == "migration":
+                    return
+        except queue.Empty:
+            pass
+        if time.monotonic() >= deadline or children.dead():
+            raise BenchmarkError(f"rover {ROVER_ID} never acknowledged its calibration and mission direction "
+                                 f"within {STARTUP_DEADLINE_S:g} s" + _tail(children, "rover"))
+
+
+@dataclass
+class ZenohRun:
+    samples_ns: list[int]
+    missed: int = 0
+    """Perceptions the rover never answered (see ``measure_zenoh``); each was followed by a fresh one."""
+
+
+def measure_zenoh(link: RoverLink, world: ScriptedWorld, loops: int, warmup: int, timeout_s: float,
+                  stall_s: float, gap_s: float, children: Children) -> ZenohRun:
+    """Time each Perception -> MoveAction round trip; after ``stall_s`` without an answer, send a fresh Perception.
+
+    The rover's ``Bus`` subscribes to each key separately and zenoh-python runs each subscriber's callback
+    on its own thread, so the rover may take a Perception before the world's NavigationStatus or Gyroscope
+    sent just before it. The agent then ignores that Perception (still in flight, or gyroscope too old) and
+    waits for the next one, as it would in a real run where the next comes one perception period later.
+    Here the world sends a fresh Perception (the late messages have arrived by then) and counts the miss;
+    the loop is timed from the Perception that was answered.
+    """
+    run = ZenohRun([])
+    perf = time.perf_counter_ns
+    for i in range(warmup + loops):
+        deadline = time.monotonic() + timeout_s
+        while True:
+            payload = codec.encode(world.perception())
+            start = perf()
+            link.put(ks.PERCEPTION, payload)
+            try:
+                topic, reply = link.actions.get(timeout=stall_s)
+                break
+            except queue.Empty:
+                pass
+            if time.monotonic() >= deadline or children.dead():
+                raise BenchmarkError(f"loop {i}: no MoveAction within {timeout_s:g} s of the first Perception"
+                                     + _tail(children, "rover")) from None
+            run.missed += 1
+        elapsed = perf() - start
+        if topic != ks.MOVE_ACTION:
+            raise BenchmarkError(f"loop {i}: the rover sent {topic} ({reply!r}) where a move_action was expected")
+        if i >= warmup:
+            run.samples_ns.append(elapsed)
+        for topic_out, message in world.action_done(codec.decode(m.MoveAction, reply)):
+            link.publish(topic_out, message)
+        if gap_s > 0:
+            time.sleep(gap_s)  # let the rover take those in before the next Perception, as between 5 Hz scans
+    return run
+
+
+# ---- in process: the agent alone ----
+
+
+def measure_in_process(loops: int, warmup: int) -> list[int]:
+    """The same loop through ``RoverAgent.handle``: decode the Perception, decide, encode the reply."""
+    world = ScriptedWorld()
+    agent = RoverAgent(ROVER_ID, ks.Keyspace(WORLD), RoverParams())
+    move_key = agent.keys.rover(ROVER_ID, ks.MOVE_ACTION)
+    for topic, message in world.setup():
+        agent.handle(topic, codec.encode(message))
+    samples: list[int] = []
+    perf = time.perf_counter_ns
+    for i in range(warmup + loops):
+        payload = codec.encode(world.perception())
+        start = perf()
+        out = agent.handle(ks.PERCEPTION, payload)
+        for _key, message in out:
+            codec.encode(message)  # what the runtime's publish does with each reply
+        elapsed = perf() - start
+        action = next((message for key, message in out if key == move_key), None)
+        if action is None:
+            raise BenchmarkError(f"in-process loop {i}: the agent answered {out!r} instead of a MoveAction")
+        if i >= warmup:
+            samples.append(elapsed)
+        for topic, message in world.action_done(action):
+            agent.handle(topic, codec.encode(message))
+    return samples
+
+
+# ---- report ----
+
+
+def verdict(value_ms: float, target_ms: float) -> str:
+    return "PASS" if value_ms < target_ms else "FAIL"
+
+
+def print_table(zenoh_summary: Summary, local: Summary, endpoint: str, missed: int,
+                args: argparse.Namespace) -> None:
+    rows = [("over Zenoh (world -> router -> rover -> router -> world)", zenoh_summary),
+            ("agent only, in process (decode + decide + encode)", local)]
+    print(f"\nControl-loop latency: Perception -> MoveAction, rover {ROVER_ID}, router {endpoint}, "
+          f"{args.warmup} warm-up loops not counted, {args.gap_ms:g} ms idle gap between loops")
+    print(f"{'':58}{'loops':>7}{'p50':>9}{'p90':>9}{'p99':>9}{'max':>9}{'mean':>9}   (ms)")
+    for label, s in rows:
+        print(f"{label:58}{s.loops:>7}{s.p50_ms:>9.3f}{s.p90_ms:>9.3f}{s.p99_ms:>9.3f}{s.max_ms:>9.3f}"
+              f"{s.mean_ms:>9.3f}")
+    z = zenoh_summary
+    print(f"\nTarget p50 < {TARGET_P50_MS:g} ms: {z.p50_ms:.3f} ms  {verdict(z.p50_ms, TARGET_P50_MS)}")
+    print(f"Target p99 < {TARGET_P99_MS:g} ms: {z.p99_ms:.3f} ms  {verdict(z.p99_ms, TARGET_P99_MS)}")
+    print(f"Perceptions the rover ignored (took it before the previous NavigationStatus/Gyroscope; "
+          f"a fresh one was sent after {args.stall_ms:g} ms): {missed}")
+    if z.p50_ms > 0:
+        print(f"Agent share of the median round trip: {100 * local.p50_ms / z.p50_ms:.0f} %")
+
+
+def write_json(path: Path, zenoh_summary: Summary, local: Summary, args: argparse.Namespace, endpoint: str,
+               missed: int) -> None:
+    doc = {
+        "benchmark": "control_loop_latency",
+        "endpoint": endpoint,
+        "loops": args.loops,
+        "warmup": args.warmup,
+        "gap_ms": args.gap_ms,
+        "stall_ms": args.stall_ms,
+        "missed_perceptions": missed,
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "zenoh": vars(zenoh_summary),
+        "in_process": vars(local),
+        "targets": {
+            "p50_ms": TARGET_P50_MS, "p99_ms": TARGET_P99_MS,
+            "p50_pass": zenoh_summary.p50_ms < TARGET_P50_MS, "p99_pass": zenoh_summary.p99_ms < TARGET_P99_MS,
+        },
+    }
+    path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+
+
+# ---- command line ----
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--loops", type=int, default=1000, help="timed control loops (default 1000)")
+    parser.add_argument("--warmup", type=int, default=50, help="untimed loops first (default 50)")
+    parser.add_argument("--port", type=int, default=0, help="router TCP port on 127.0.0.1 (default: a free one)")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE as JSON")
+    parser.add_argument("--timeout", type=float, default=2.0, metavar="S",
+                        help="seconds to wait for each MoveAction before giving up (default 2)")
+    parser.add_argument("--stall-ms", type=float, default=100.0, metavar="MS",
+                        help="a Perception unanswered this long counts as missed and a fresh one is sent "
+                             "(default 100)")
+    parser.add_argument("--gap-ms", type=float, default=1.0, metavar="MS",
+                        help="pause after answering an action before the next Perception, so the rover is idle "
+                             "when it arrives as between 5 Hz scans (default 1; 0 sends back to back)")
+    args = parser.parse_args(argv)
+    if args.loops < 1 or args.warmup < 0:
+        parser.error("--loops must be 1 or more and --warmup 0 or more")
+    if args.gap_ms < 0 or args.stall_ms <= 0 or args.timeout <= 0:
+        parser.error("--gap-ms must be 0 or more, --stall-ms and --timeout more than 0")
+    if not 0 <= args.port <= 65535:
+        parser.error("--port must be between 0 and 65535")
+    return args
+
+
+def run(args: argparse.Namespace) -> int:
+    port = args.port or free_port()
+    if port_in_use(HOST, port):
+        raise BenchmarkError(f"port {port} on {HOST} is already in use; pick another --port")
+    keys = ks.Keyspace(WORLD)
+    with tempfile.TemporaryDirectory(prefix="lunarsim-bench-") as logs:
+        children = Children(Path(logs))
+        link: RoverLink | None = None
+        try:
+            endpoint = start_processes(children, port)
+            session = open_session(build_config(connect=[endpoint]), endpoint, 10.0, who="benchmark")
+            link = RoverLink(session, keys)
+            print(f"router on {endpoint}; waiting for rover {ROVER_ID} ...", file=sys.stderr, flush=True)
+            took = wait_until_alive(link, children)
+            world = ScriptedWorld()
+            handshake(link, world, children)
+            print(f"rover {ROVER_ID} alive after {took:.2f} s; running {args.warmup} warm-up + {args.loops} loops",
+                  file=sys.stderr, flush=True)
+            over_zenoh = measure_zenoh(link, world, args.loops, args.warmup, args.timeout, args.stall_ms / 1000,
+                                       args.gap_ms / 1000, children)
+        finally:
+            if link is not None:
+                link.close()
+            children.stop(grace_s=5.0)
+    local = measure_in_process(args.loops, args.warmup)
+    z, loc = Summary.of(over_zenoh.samples_ns), Summary.of(local)
+    print_table(z, loc, endpoint, over_zenoh.missed, args)
+    if args.json:
+        write_json(args.json, z, loc, args, endpoint, over_zenoh.missed)
+        print(f"figures written to {args.json}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        return run(args)
+    except (BenchmarkError, RouterUnreachable) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Scenario files shipped with LunarSim (the report's four scenarios and more)."""

@@ -1,0 +1,102 @@
+"""End to end: ``lunarsim run`` starts real processes over a real router on loopback."""
+
+from __future__ import annotations
+
+import json
+import signal
+import sys
+import subprocess
+
+import pytest
+import yaml
+import zenoh
+
+from deploy.zenoh_config import build_config
+from procs import SCENARIOS, free_port, lunarsim, processes_mentioning, wait_for
+from schemas import codec
+from schemas import messages as m
+from schemas.keyspace import Keyspace
+
+pytestmark = pytest.mark.e2e
+
+
+def test_five_rovers_reach_the_crater_with_no_collisions(tmp_path):
+    port = free_port()
+    out = tmp_path / "run"
+    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--out", str(out), "--port", str(port),
+                    "--time-scale", "5", "--max-sim-time", "300", "--quiet")
+    try:
+        stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, f"exit {proc.returncode}\n{stdout}\n{stderr}"
+    report = json.loads((out / "report.json").read_text())
+    assert report["rovers_total"] == 5
+    assert report["rovers_reached_final_goal"] == 5, report
+    assert report["rover_collisions"] == 0 and report["obstacle_collisions"] == 0, report
+    assert report["rovers_stuck"] == 0 and report["complete"] is True
+    assert 0 < report["mission_duration_s"] < 300 and report["wall_time_s"] > 0
+    assert report["average_path_efficiency"] > 0.5
+    assert "Mission report" in stdout
+    for name in ("router", "world", "lander", *(f"rover{i}" for i in range(1, 6))):
+        assert (out / "logs" / f"{name}.log").exists()
+    assert processes_mentioning(f"127.0.0.1:{port}") == []
+
+
+def test_a_typo_in_the_scenario_exits_2_naming_the_field(tmp_path):
+    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
+    data["craters"][0]["radius_mm"] = data["craters"][0].pop("radius_m")
+    bad = tmp_path / "typo.yaml"
+    bad.write_text(yaml.safe_dump(data))
+    proc = lunarsim("run", str(bad), "--max-sim-time", "5", "--port", str(free_port()), "--out", str(tmp_path / "o"))
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 2
+    assert "craters.0.radius_mm: unknown field (did you mean 'radius_m'?)" in stderr
+    assert len(stderr.strip().splitlines()) == 1
+
+
+def test_ctrl_c_stops_every_process_and_keeps_a_report(tmp_path):
+    port = free_port()
+    out = tmp_path / "run"
+    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--out", str(out), "--port", str(port),
+                    "--quiet")
+    try:
+        wait_for(lambda: len(processes_mentioning(f"127.0.0.1:{port}")) >= 8, 60, "all 8 child processes")
+        stats = []
+        with zenoh.open(build_config(connect=[f"tcp/127.0.0.1:{port}"])) as session:
+            sub = session.declare_subscriber(Keyspace().stats, lambda s: stats.append(
+                codec.decode(m.WorldStats, s.payload.to_bytes())))
+            wait_for(lambda: any(x.stamp >= 2.0 for x in stats), 60, "the mission to be under way")
+            sub.undeclare()
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, stderr
+    wait_for(lambda: processes_mentioning(f"127.0.0.1:{port}") == [], 15, "no orphan processes")
+    report = json.loads((out / "report.json").read_text())
+    assert report["complete"] is False and report["rovers_total"] == 5
+
+
+def test_port_in_use_is_reported_plainly(tmp_path):
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--port", str(port),
+                        "--out", str(tmp_path / "o"))
+        _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 2
+    assert f"port {port} is already in use" in stderr
+
+
+def test_no_router_is_said_plainly_within_seconds():
+    port = free_port()
+    proc = subprocess.run(
+        [sys.executable, "-m", "rover_agent", "--id", "1", "--connect", f"tcp/127.0.0.1:{port}", "--router-timeout", "2"],
+        capture_output=True, text=True, timeout=30, cwd=SCENARIOS.parent)
+    assert proc.returncode == 3
+    assert f"waiting for a Zenoh router at tcp/127.0.0.1:{port}" in proc.stderr
+    assert "no Zenoh router reachable" in proc.stderr

@@ -1,0 +1,69 @@
+"""Each process also runs alone: router, world, lander and rovers started one by one, over a real router.
+
+The world must survive malformed samples and unknown rover ids, and say so in its statistics.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import zenoh
+
+from deploy.zenoh_config import build_config
+from procs import SCENARIOS, free_port, module, stop, wait_for
+from schemas import codec
+from schemas import messages as m
+from schemas.keyspace import Keyspace
+
+pytestmark = pytest.mark.e2e
+
+
+@pytest.fixture
+def router():
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    proc = module("deploy.router", "--listen", endpoint)
+    from deploy.children import wait_for_port
+
+    assert wait_for_port("127.0.0.1", port, 15, proc), proc.stdout.read() if proc.poll() is not None else "timeout"
+    yield endpoint
+    stop(proc)
+
+
+def test_processes_started_one_by_one_complete_a_two_rover_mission(router, tmp_path):
+    world_name = "standalone"
+    keys = Keyspace(world_name)
+    common = ["--world", world_name, "--connect", router]
+    scenario = tmp_path / "two.yaml"
+    (SCENARIOS / "crater_observation.yaml").read_text()
+    import yaml
+
+    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
+    data["rovers"] = data["rovers"][:2]
+    scenario.write_text(yaml.safe_dump(data))
+    report_file = tmp_path / "report.json"
+    world = module("world_service", str(scenario), *common, "--time-scale", "5", "--exit-when-done",
+                   "--report", str(report_file), "--max-sim-time", "300")
+    lander = module("lander_agent", str(scenario), *common)
+    rovers = [module("rover_agent", "--id", str(i), "--params", str(scenario), *common) for i in (1, 2)]
+    conf = build_config(connect=[router])
+    try:
+        with zenoh.open(conf) as session:
+            finals = []
+            sub = session.declare_subscriber(keys.stats, lambda s: finals.append(
+                codec.decode(m.WorldStats, s.payload.to_bytes())))
+            wait_for(lambda: any(not f.final for f in finals), 60, "live statistics from the world")
+            session.put(keys.rover(1, "move_action"), b"\x93not a move")
+            session.put(keys.rover(99, "move_action"), codec.encode(m.MoveAction(x=0, z=1)))
+            session.put(keys.lander("comm_out"), b"garbage")
+            wait_for(lambda: world.poll() is not None, 240, "the world to finish the mission")
+            sub.undeclare()
+        assert world.returncode == 0, world.stdout.read()
+        report = json.loads(report_file.read_text())
+        assert report["rovers_reached_final_goal"] == 2 and report["complete"] is True
+        assert report["rejected_messages"] >= 3
+        log = world.stdout.read()
+        assert "no rover 99" in log and "payload is not msgpack" in log
+    finally:
+        stop(world, lander, *rovers)
