@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import json
 import signal
-import sys
 import subprocess
+import sys
 
 import pytest
 import yaml
 import zenoh
+from procs import SCENARIOS, free_port, lunarsim, processes_mentioning, wait_for
 
 from deploy.zenoh_config import build_config
-from procs import SCENARIOS, free_port, lunarsim, processes_mentioning, wait_for
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace
@@ -69,7 +69,7 @@ def test_ctrl_c_stops_every_process_and_keeps_a_report(tmp_path):
             wait_for(lambda: any(x.stamp >= 2.0 for x in stats), 60, "the mission to be under way")
             sub.undeclare()
         proc.send_signal(signal.SIGINT)
-        stdout, stderr = proc.communicate(timeout=60)
+        _, stderr = proc.communicate(timeout=60)
     finally:
         proc.kill()
     assert proc.returncode == 130, stderr
@@ -95,7 +95,8 @@ def test_port_in_use_is_reported_plainly(tmp_path):
 def test_no_router_is_said_plainly_within_seconds():
     port = free_port()
     proc = subprocess.run(
-        [sys.executable, "-m", "rover_agent", "--id", "1", "--connect", f"tcp/127.0.0.1:{port}", "--router-timeout", "2"],
+        [sys.executable, "-m", "rover_agent", "--id", "1", "--connect", f"tcp/127.0.0.1:{port}",
+         "--router-timeout", "2"],
         capture_output=True, text=True, timeout=30, cwd=SCENARIOS.parent)
     assert proc.returncode == 3
     assert f"waiting for a Zenoh router at tcp/127.0.0.1:{port}" in proc.stderr

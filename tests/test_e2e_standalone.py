@@ -9,9 +9,9 @@ import json
 
 import pytest
 import zenoh
+from procs import SCENARIOS, free_port, module, stop, wait_for
 
 from deploy.zenoh_config import build_config
-from procs import SCENARIOS, free_port, module, stop, wait_for
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace

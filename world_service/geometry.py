@@ -6,6 +6,8 @@ Headings follow the report: 0 = +z, 90 = +x, so a heading h points along (sin h,
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 INF = np.inf
@@ -79,7 +81,7 @@ def wall_edges(points: list[tuple[float, float]], thickness: float) -> np.ndarra
     """The outline of a thick polyline as segments (K, 4): each piece becomes a rectangle's four sides."""
     edges = []
     half = thickness / 2
-    for (x0, z0), (x1, z1) in zip(points[:-1], points[1:], strict=True):
+    for (x0, z0), (x1, z1) in itertools.pairwise(points):
         length = np.hypot(x1 - x0, z1 - z0)
         if length < 1e-9:
             continue

@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter
+from typing import ClassVar
 
 import numpy as np
 
@@ -132,7 +133,7 @@ class World:
         self.status[rid] = msg
         return []
 
-    _handlers = {
+    _handlers: ClassVar[dict] = {
         ks.MOVE_ACTION: _on_move,
         ks.ROTATE_ACTION: _on_rotate,
         ks.CANCEL_ACTION: _on_cancel,

@@ -1,0 +1,26 @@
+"""The code base stays ruff clean (the project's style contract), checked with every test run."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+
+from procs import REPO
+
+
+def test_ruff_reports_nothing():
+    ruff = shutil.which("ruff") or str(REPO / ".ci-venv" / "bin" / "ruff")
+    proc = subprocess.run([ruff, "check", "--output-format", "concise", "."], cwd=REPO, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_rover_agent_imports_stay_light():
+    """The flight-computer agent must not pull in NumPy or the world service (design doc)."""
+    code = ("import sys, rover_agent.app, rover_agent.runtime, rover_agent.agent; "
+            "heavy = [m for m in ('numpy', 'world_service', 'rich', 'yaml_world') if m in sys.modules]; "
+            "print(','.join(heavy))")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "", f"rover agent imports {proc.stdout.strip()}"
