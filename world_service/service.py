@@ -92,6 +92,7 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
         elif delay < -1.0:
             next_tick = time.monotonic()  # fell far behind: do not sprint to catch up
     report = world.report()
+    bus.publish(world.keys.state, world.world_state())
     bus.publish(world.keys.stats, m.WorldStats(stamp=world.sim_time, report=report, final=True))
     return report
 
