@@ -23,6 +23,7 @@ import json
 import math
 import platform
 import queue
+import signal
 import socket
 import sys
 import tempfile
@@ -149,7 +150,7 @@ class RoverLink:
     def __init__(self, session: zenoh.Session, keys: ks.Keyspace) -> None:
         self.session = session
         self.keys = keys
-        self.actions: queue.SimpleQueue[tuple[int, bytes]] = queue.SimpleQueue()
+        self.actions: queue.SimpleQueue[tuple[str, bytes]] = queue.SimpleQueue()
         self.statuses: queue.SimpleQueue[bytes] = queue.SimpleQueue()
         self.alive = threading.Event()
         self._declared: list = []
@@ -336,7 +337,7 @@ def print_table(zenoh_summary: Summary, local: Summary, endpoint: str, missed: i
     z = zenoh_summary
     print(f"\nTarget p50 < {TARGET_P50_MS:g} ms: {z.p50_ms:.3f} ms  {verdict(z.p50_ms, TARGET_P50_MS)}")
     print(f"Target p99 < {TARGET_P99_MS:g} ms: {z.p99_ms:.3f} ms  {verdict(z.p99_ms, TARGET_P99_MS)}")
-    print(f"Perceptions the rover ignored (took it before the previous NavigationStatus/Gyroscope; "
+    print(f"Perceptions the rover ignored (it took them before the previous NavigationStatus/Gyroscope; "
           f"a fresh one was sent after {args.stall_ms:g} ms): {missed}")
     if z.p50_ms > 0:
         print(f"Agent share of the median round trip: {100 * local.p50_ms / z.p50_ms:.0f} %")
@@ -378,9 +379,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--stall-ms", type=float, default=100.0, metavar="MS",
                         help="a Perception unanswered this long counts as missed and a fresh one is sent "
                              "(default 100)")
-    parser.add_argument("--gap-ms", type=float, default=1.0, metavar="MS",
+    parser.add_argument("--gap-ms", type=float, default=20.0, metavar="MS",
                         help="pause after answering an action before the next Perception, so the rover is idle "
-                             "when it arrives as between 5 Hz scans (default 1; 0 sends back to back)")
+                             "when it arrives, as between 5 Hz scans (default 20; longer gaps measure the same, "
+                             "shorter ones keep Zenoh's threads awake and measure less; 0 sends back to back)")
     args = parser.parse_args(argv)
     if args.loops < 1 or args.warmup < 0:
         parser.error("--loops must be 1 or more and --warmup 0 or more")
@@ -398,6 +400,7 @@ def run(args: argparse.Namespace) -> int:
     keys = ks.Keyspace(WORLD)
     with tempfile.TemporaryDirectory(prefix="lunarsim-bench-") as logs:
         children = Children(Path(logs))
+        session: zenoh.Session | None = None
         link: RoverLink | None = None
         try:
             endpoint = start_processes(children, port)
@@ -414,7 +417,9 @@ def run(args: argparse.Namespace) -> int:
         finally:
             if link is not None:
                 link.close()
-            children.stop(grace_s=5.0)
+            elif session is not None:
+                session.close()
+            children.stop(grace_s=5.0)  # SIGTERM, then SIGKILL after 5 s
     local = measure_in_process(args.loops, args.warmup)
     z, loc = Summary.of(over_zenoh.samples_ns), Summary.of(local)
     print_table(z, loc, endpoint, over_zenoh.missed, args)
@@ -424,8 +429,13 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    signal.signal(signal.SIGTERM, _interrupt)  # a terminated benchmark cleans up as on Ctrl-C
     try:
         return run(args)
     except (BenchmarkError, RouterUnreachable) as exc:

@@ -1,7 +1,10 @@
 """One process's view of Zenoh: cached publishers, and subscriptions that feed a single inbox.
 
 Callbacks only enqueue (no decoding, no Zenoh calls), as the zenoh-python examples advise; the
-process's own loop drains the inbox. Kept light: the rover agent uses it.
+process's own loop drains the inbox. They run directly on Zenoh's receiving thread
+(``Callback(indirect=False)``): by default each subscriber gets its own Python thread, and samples of
+different keys then reach the inbox out of order (a perception overtaking the navigation status sent
+before it), which costs the agent a perception period. Kept light: the rover agent uses it.
 """
 
 from __future__ import annotations
@@ -28,11 +31,13 @@ class Bus:
         self._declared: list = []
 
     def subscribe(self, key_expr: str) -> None:
-        self._declared.append(self.session.declare_subscriber(key_expr, self._on_sample))
+        handler = zenoh.handlers.Callback(self._on_sample, indirect=False)
+        self._declared.append(self.session.declare_subscriber(key_expr, handler))
 
     def watch_liveliness(self, key_expr: str) -> None:
         """Liveliness changes arrive in the inbox with ``alive`` set; tokens already there are reported too."""
-        sub = self.session.liveliness().declare_subscriber(key_expr, self._on_liveliness, history=True)
+        handler = zenoh.handlers.Callback(self._on_liveliness, indirect=False)
+        sub = self.session.liveliness().declare_subscriber(key_expr, handler, history=True)
         self._declared.append(sub)
 
     def declare_token(self, key: str) -> None:

@@ -27,7 +27,14 @@ CLIMB_PITCH = 2.0
 """Degrees of nose-up pitch that count as having started up the crater rim."""
 CREST_PITCH = 0.5
 """At or below this pitch, after climbing, the rover stands on the crest."""
+CREST_FACING = 30.0
+"""Degrees within which the rover must face the crater for its pitch to say anything about the crest."""
+WAYPOINT_IN_VIEW = 0.9
+"""A waypoint is reached once within this fraction of the perception radius (report 6.6: goal in view)."""
 MAX_BLOCKED_ROTATIONS = 12
+MAX_CREST_LOOKS = 3
+ROVER_GAP_CLIMBING = 0.5
+"""Metres kept between bodies on the rim, where rovers step 2 m at a time and those done stand still."""
 
 
 @dataclass(frozen=True)
@@ -94,6 +101,7 @@ class DefaultBehaviour:
     _odometer: float = 0.0
     _max_pitch: float = -90.0
     _blocked_rotations: int = 0
+    _crest_looks: int = 0
     _rejected: list[float] = field(default_factory=list)
     _hold_until: float = 0.0
 
@@ -106,12 +114,14 @@ class DefaultBehaviour:
         self._crater_seen_at = None
         self._max_pitch = -90.0
         self._blocked_rotations = 0
+        self._crest_looks = 0
         self._rejected.clear()
 
     def moved(self, distance: float) -> None:
         self._odometer += distance
-        self._blocked_rotations = 0
-        self._rejected.clear()
+        if distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
+            self._blocked_rotations = 0
+            self._rejected.clear()
 
     def rejected(self, relative_angle: float) -> None:
         """The world refused a move in this direction: do not try it again from here."""
@@ -121,12 +131,16 @@ class DefaultBehaviour:
         """A move was cancelled because another rover came close: give way for a moment."""
         wait = self.params.behaviour.max_wait_time * (1 + self.rover_id % 3)
         self._hold_until = now + wait
+        self._blocked_rotations += 1
 
     # ---- decisions ----
 
     def should_cancel(self, view: View) -> bool:
         """During a move: another rover close ahead means stop (report 6.2.2)."""
-        danger = self.params.behaviour.collision_danger_dist
+        b = self.params.behaviour
+        danger = b.collision_danger_dist
+        if self.state == "climbing":  # 2 m steps on a rim where finished rovers stand still
+            danger = min(danger, 2 * b.rover_radius + ROVER_GAP_CLIMBING)
         return any(h.kind == "rover" and h.distance_m < danger and abs(h.angle_deg) < 45 for h in view.hits)
 
     def decide(self, view: View) -> Decision:
@@ -134,7 +148,7 @@ class DefaultBehaviour:
             return Hold(self._hold_until)
         goal, pose = view.goal, view.pose
         distance = math.hypot(goal.x - pose.x, goal.z - pose.z)
-        if goal.kind == "waypoint" and distance <= 0.8 * self.params.perception.perception_radius:
+        if goal.kind == "waypoint" and distance <= WAYPOINT_IN_VIEW * self.params.perception.perception_radius:
             return Finish("reached")
         if goal.kind == "crater":
             finish = self._climb(view)
@@ -143,18 +157,28 @@ class DefaultBehaviour:
         step = self.params.behaviour.min_move_size if self.state == "climbing" else None
         return self._head_for(view, distance, step)
 
-    def _climb(self, view: View) -> Finish | None:
+    def _climb(self, view: View) -> Finish | Rotate | None:
         if self._crater_seen_at is None and any(h.kind == "crater_terrain" for h in view.hits):
             self._crater_seen_at = self._odometer
             self.state = "climbing"
         if self._crater_seen_at is None:
             return None
-        self._max_pitch = max(self._max_pitch, view.pitch_deg)
+        pose, goal = view.pose, view.goal
+        to_crater = wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading)
+        facing = abs(to_crater) <= CREST_FACING
+        if facing:
+            self._max_pitch = max(self._max_pitch, view.pitch_deg)
         walked = self._odometer - self._crater_seen_at
-        climbed = self._max_pitch >= CLIMB_PITCH
-        if climbed and walked >= self.params.perception.perception_radius and view.pitch_deg <= CREST_PITCH:
+        if not (self._max_pitch >= CLIMB_PITCH and walked >= self.params.perception.perception_radius):
+            return None
+        if view.pitch_deg > CREST_PITCH:
+            return None
+        if facing or self._crest_looks >= MAX_CREST_LOOKS:
             return Finish("reached")
-        return None
+        # Pitch tells the crest only when facing the crater; across or away from it, turn and look again
+        # (a few times: on a crowded rim other rovers may keep turning it aside).
+        self._crest_looks += 1
+        return Rotate(round(to_crater, 3))
 
     def _head_for(self, view: View, distance: float, step: float | None) -> Decision:
         p = self.params
@@ -190,11 +214,11 @@ class DefaultBehaviour:
         """How far the rover's body can go along ``angle`` before coming too close to a perceived thing."""
         b = self.params.behaviour
         free = 0.9 * self.params.perception.perception_radius
+        rover_gap = ROVER_GAP_CLIMBING if self.state == "climbing" else b.extra_distance_between_rovers
         for h in hits:
             if h.kind not in SOLID_KINDS:
                 continue
-            clearance = b.rover_radius + (b.rover_radius + b.extra_distance_between_rovers if h.kind == "rover"
-                                          else OBSTACLE_MARGIN)
+            clearance = b.rover_radius + (b.rover_radius + rover_gap if h.kind == "rover" else OBSTACLE_MARGIN)
             delta = math.radians(h.angle_deg - angle)
             along, across = h.distance_m * math.cos(delta), abs(h.distance_m * math.sin(delta))
             if across < clearance and along > 0:

@@ -33,7 +33,7 @@ def decode(model: type[M], payload: bytes | bytearray | memoryview) -> M:
     if not (isinstance(envelope, list) and len(envelope) == 2 and isinstance(envelope[1], dict)):
         raise DecodeError(f"{name}: expected [schema_version, {{fields}}], got {type(envelope).__name__}")
     version, fields = envelope
-    if version != SCHEMA_VERSION:
+    if type(version) is not int or version != SCHEMA_VERSION:
         raise DecodeError(f"{name}: schema version {version!r} is not supported (this build speaks {SCHEMA_VERSION})")
     try:
         return model.model_validate(fields)

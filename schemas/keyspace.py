@@ -45,6 +45,10 @@ def check_world_name(world: str) -> str:
     return world
 
 
+def _is_id(text: str) -> bool:
+    return text.isascii() and text.isdigit()
+
+
 @dataclass(frozen=True)
 class Keyspace:
     """Key expressions of one simulated (or real) world."""
@@ -106,7 +110,7 @@ class Keyspace:
         if not key.startswith(head):
             raise ValueError(f"key {key!r} is not a rover key of world {self.world!r}")
         parts = key[len(head):].split("/")
-        if len(parts) != 2 or not parts[0].isdigit():
+        if len(parts) != 2 or not _is_id(parts[0]):
             raise ValueError(f"key {key!r} does not name a rover id and topic")
         return int(parts[0]), parts[1]
 
@@ -114,6 +118,6 @@ class Keyspace:
         """Rover id from a liveliness key."""
         head = f"{self.prefix}/alive/rover/"
         tail = key[len(head):] if key.startswith(head) else ""
-        if not tail.isdigit():
+        if not _is_id(tail):
             raise ValueError(f"key {key!r} is not a rover liveliness key of world {self.world!r}")
         return int(tail)

@@ -21,7 +21,7 @@ GoalKind = Literal["crater", "waypoint"]
 class Message(BaseModel):
     """Base of every payload: strict about unknown fields so garbage is caught, not half-read."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 # ---- perception, navigation, gyroscope (report 10.1-10.3) ----

@@ -28,7 +28,7 @@ def _xz(obj: dict, what: str) -> tuple[float, float]:
     try:
         pos = obj["position"]
         return float(pos["x"]), float(pos["z"])
-    except (KeyError, TypeError, ValueError):
+    except (KeyError, TypeError, ValueError, AttributeError):
         raise ScenarioError(f"profile: {what}: missing or malformed position") from None
 
 
@@ -49,6 +49,8 @@ def profile_to_scenario(profile: dict, name: str, seed: int = 0) -> Scenario:
         goals = sorted(profile["missionDataObjects"], key=lambda g: int(g.get("index", 0)))
     except KeyError as exc:
         raise ScenarioError(f"profile: missing {exc.args[0]!r}") from None
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise ScenarioError(f"profile: malformed value: {exc}") from None
     mission = []
     for i, g in enumerate(goals):
         x, z = _xz(g, f"missionDataObjects.{i}")

@@ -156,7 +156,7 @@ class Scenario(Spec):
                 raise ScenarioError(f"--rovers must be at least 1, got {rovers}")
             spawn = self.spawn or SpawnParams()
             update["rovers"] = [RoverSpawn(x=x, z=z, heading_deg=h) for x, z, h in spawn.formation(rovers)]
-        return self.model_validate({**self.model_dump(), **{k: _dump(v) for k, v in update.items()}})
+        return parse_scenario({**self.model_dump(), **{k: _dump(v) for k, v in update.items()}}, self.name)
 
 
 def _dump(value: object) -> object:

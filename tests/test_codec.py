@@ -123,8 +123,6 @@ def test_wrong_schema_version_is_rejected(model, version):
     _assert_rejected(model, payload, "schema version", repr(version))
 
 
-@pytest.mark.xfail(strict=True, reason="codec.decode compares the version with '!=', so msgpack true and 1.0 "
-                                       "pass as schema version 1 (True == 1 == 1.0 in Python)")
 @pytest.mark.parametrize("version", [True, 1.0])
 def test_schema_version_must_be_the_integer_1(version):
     payload = msgpack.packb([version, {"x": 1.0, "z": 2.0}], use_bin_type=True)

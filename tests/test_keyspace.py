@@ -84,9 +84,6 @@ def test_parse_alive_key_errors(key):
         Keyspace("w").parse_alive_key(key)
 
 
-@pytest.mark.xfail(strict=True, reason="parse_rover_key/parse_alive_key test ids with str.isdigit, which accepts "
-                                       "non-ASCII digits: 'lunar/w/rover/\u0661/move_action' (Arabic-Indic one) "
-                                       "is read as rover 1, aliasing a key no builder produces")
 @pytest.mark.parametrize("parse", ["parse_rover_key", "parse_alive_key"])
 def test_non_ascii_digits_are_not_rover_ids(parse):
     k = Keyspace("w")

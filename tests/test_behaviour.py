@@ -1,0 +1,365 @@
+"""The rover behaviour with scripted views, and the whole rover agent fed encoded samples (no router)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from rover_agent.agent import RoverAgent
+from rover_agent.behaviour import WAYPOINT_IN_VIEW, DefaultBehaviour, Finish, Goal, Hit, Hold, MoveTo, Rotate, View
+from rover_agent.dead_reckoning import Pose
+from schemas import codec, radio
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.params import RoverParams
+
+PARAMS = RoverParams()
+RADIUS = PARAMS.perception.perception_radius  # 10 m
+ORIGIN = Pose(0.0, 0.0, 0.0)
+
+
+def _behaviour(goal: Goal | None = None) -> DefaultBehaviour:
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(goal or _goal())
+    return b
+
+
+def _goal(x=0.0, z=50.0, kind="waypoint", index=0, total=1) -> Goal:
+    return Goal(index, total, kind, x, z)
+
+
+def _view(goal=None, pose=ORIGIN, hits=(), pitch=0.0, time=0.0) -> View:
+    return View(time, pose, goal or _goal(), tuple(hits), pitch)
+
+
+def _angle(move: MoveTo) -> float:
+    return math.degrees(math.atan2(move.x, move.z))
+
+
+# ---- migration ----
+
+
+def test_goal_straight_ahead_in_open_ground_moves_ninety_percent_of_the_radius():
+    goal = _goal(0.0, 50.0)
+    assert _behaviour(goal).decide(_view(goal)) == MoveTo(0.0, 0.9 * RADIUS)
+
+
+@pytest.mark.parametrize(("pose", "goal"), [
+    (Pose(0.0, 0.0, 90.0), (60.0, 0.0)),
+    (Pose(-510.0, 100.0, 180.0), (-510.0, 20.0)),
+    (Pose(5.0, 5.0, 45.0), (45.0, 45.0)),
+])
+def test_goal_ahead_in_any_frame_moves_straight_ahead(pose, goal):
+    g = _goal(*goal)
+    move = _behaviour(g).decide(_view(g, pose=pose))
+    assert isinstance(move, MoveTo)
+    assert move.x == pytest.approx(0.0, abs=1e-3) and move.z == pytest.approx(0.9 * RADIUS)
+
+
+def test_goal_ahead_and_to_the_right_within_the_window_moves_towards_it():
+    goal = _goal(50.0, 50.0)  # 45 deg right
+    move = _behaviour(goal).decide(_view(goal))
+    assert isinstance(move, MoveTo)
+    assert _angle(move) == pytest.approx(45.0, abs=0.01)
+    assert math.hypot(move.x, move.z) == pytest.approx(9.0, abs=1e-3)
+
+
+@pytest.mark.parametrize(("goal", "degrees"), [
+    ((0.0, -50.0), -180.0),  # straight behind: wrap_deg gives [-180, 180)
+    ((-30.0, -30.0), -135.0),  # behind, left
+    ((30.0, -30.0), 135.0),  # behind, right
+    ((50.0, 0.0), 90.0),  # right, outside the +-80 deg scanner window
+    ((-50.0, 5.0), -84.289),
+])
+def test_goal_outside_the_window_rotates_towards_it(goal, degrees):
+    g = _goal(*goal)
+    decision = _behaviour(g).decide(_view(g))
+    assert isinstance(decision, Rotate)
+    assert decision.degrees == pytest.approx(degrees, abs=1e-3)
+
+
+def test_near_waypoint_is_walked_to_not_past():
+    z = round(WAYPOINT_IN_VIEW * PARAMS.perception.perception_radius + 0.05, 4)  # just outside "in view"
+    goal = _goal(0.0, z)
+    assert _behaviour(goal).decide(_view(goal)) == MoveTo(0.0, z)
+
+
+@pytest.mark.parametrize("fraction", [0.0, 0.4, 0.79, 0.9])
+def test_waypoint_in_view_is_reached(fraction):
+    goal = _goal(0.0, fraction * PARAMS.perception.perception_radius)
+    assert _behaviour(goal).decide(_view(goal)) == Finish("reached")
+
+
+def test_crater_goal_is_not_reached_by_distance_alone():
+    goal = _goal(0.0, 1.0, kind="crater")
+    assert not isinstance(_behaviour(goal).decide(_view(goal)), Finish)
+
+
+# ---- obstacles ----
+
+
+def test_rock_straight_ahead_deviates_right_first():
+    move = _behaviour().decide(_view(hits=[Hit(0.0, 3.0, "obstacle")]))
+    assert isinstance(move, MoveTo)
+    assert move.x > 0
+    # +-10 deg still pass within the rover's clearance of the hit; +20 is the first direction clear for 2 m
+    assert _angle(move) == pytest.approx(20.0, abs=1e-3)
+    assert math.hypot(move.x, move.z) >= PARAMS.behaviour.min_move_size
+
+
+def test_rock_ahead_with_the_right_blocked_deviates_left():
+    hits = [Hit(0.0, 3.0, "obstacle")] + [Hit(float(a), 2.5, "obstacle") for a in range(10, 90, 5)]
+    move = _behaviour().decide(_view(hits=hits))
+    assert isinstance(move, MoveTo)
+    assert move.x < 0
+    assert _angle(move) == pytest.approx(-20.0, abs=1e-3)
+
+
+def test_far_obstacle_shortens_the_move():
+    move = _behaviour().decide(_view(hits=[Hit(0.0, 6.0, "obstacle")]))
+    # the rover stops its body plus a margin short of the hit: 6 - (0.5 + 0.6)
+    assert move == MoveTo(0.0, pytest.approx(6.0 - 1.1))
+
+
+def test_crater_terrain_does_not_block():
+    hits = [Hit(float(a), 1.0, "crater_terrain") for a in range(-100, 101, 5)]
+    assert _behaviour().decide(_view(hits=hits)) == MoveTo(0.0, 9.0)
+
+
+def test_obstacles_everywhere_rotate_sixty_then_give_up_after_twelve():
+    hits = [Hit(float(a), 1.0, "obstacle") for a in range(-105, 106, 5)]
+    b = _behaviour()
+    for _ in range(12):
+        assert b.decide(_view(hits=hits)) == Rotate(60.0)
+    assert b.decide(_view(hits=hits)) == Finish("stuck")
+
+
+def test_a_move_resets_the_blocked_count():
+    hits = [Hit(float(a), 1.0, "obstacle") for a in range(-105, 106, 5)]
+    b = _behaviour()
+    for _ in range(12):
+        assert b.decide(_view(hits=hits)) == Rotate(60.0)
+    b.moved(2.0)
+    for _ in range(12):
+        assert b.decide(_view(hits=hits)) == Rotate(60.0)
+    assert b.decide(_view(hits=hits)) == Finish("stuck")
+
+
+def test_a_rejected_direction_is_not_tried_again():
+    b = _behaviour()
+    assert b.decide(_view()) == MoveTo(0.0, 9.0)
+    b.rejected(0.0)
+    move = b.decide(_view())
+    assert isinstance(move, MoveTo) and _angle(move) == pytest.approx(10.0, abs=1e-3)
+
+
+def test_after_a_cancel_the_rover_holds():
+    b = _behaviour()
+    b.cancelled(now=10.0)
+    wait = PARAMS.behaviour.max_wait_time * (1 + 1 % 3)
+    assert b.decide(_view(time=10.5)) == Hold(10.0 + wait)
+    assert isinstance(b.decide(_view(time=10.0 + wait)), MoveTo)
+
+
+def test_should_cancel_for_a_rover_close_ahead_only():
+    b = _behaviour()
+    assert b.should_cancel(_view(hits=[Hit(0.0, 2.0, "rover")]))
+    assert not b.should_cancel(_view(hits=[Hit(90.0, 2.0, "rover")]))
+    assert not b.should_cancel(_view(hits=[Hit(-90.0, 2.0, "rover")]))
+    assert not b.should_cancel(_view(hits=[Hit(0.0, 2.0, "obstacle")]))
+    assert not b.should_cancel(_view(hits=[Hit(0.0, 6.0, "rover")]))
+    assert not b.should_cancel(_view())
+
+
+# ---- crater climb ----
+
+CRATER_AHEAD = (Hit(0.0, 8.0, "crater_terrain"),)
+
+
+def _crater_view(pitch, hits=CRATER_AHEAD):
+    return _view(_goal(0.0, 60.0, kind="crater"), hits=hits, pitch=pitch)
+
+
+def test_crater_climb_finishes_on_the_crest_only_after_walking_the_perception_radius():
+    b = _behaviour(_goal(0.0, 60.0, kind="crater"))
+    first = b.decide(_crater_view(pitch=0.0))
+    assert b.state == "climbing"
+    assert first == MoveTo(0.0, PARAMS.behaviour.min_move_size)  # small steps while climbing
+    b.moved(2.0)
+    assert isinstance(b.decide(_crater_view(pitch=3.0, hits=())), MoveTo)  # up the rim
+    b.moved(2.0)
+    # flat again after only 4 m: a local optimum, not the crest (report 7.2.2)
+    assert not isinstance(b.decide(_crater_view(pitch=0.3, hits=())), Finish)
+    b.moved(5.9)
+    assert not isinstance(b.decide(_crater_view(pitch=0.3, hits=())), Finish)  # 9.9 m < 10 m
+    b.moved(0.1)
+    assert not isinstance(b.decide(_crater_view(pitch=1.0, hits=())), Finish)  # still climbing
+    assert b.decide(_crater_view(pitch=0.5, hits=())) == Finish("reached")
+
+
+def test_crater_climb_needs_a_real_climb():
+    b = _behaviour(_goal(0.0, 60.0, kind="crater"))
+    b.decide(_crater_view(pitch=0.0))
+    b.moved(20.0)
+    assert not isinstance(b.decide(_crater_view(pitch=1.9, hits=())), Finish)  # never above 2 deg
+    assert not isinstance(b.decide(_crater_view(pitch=0.0, hits=())), Finish)
+
+
+def test_distance_walked_before_seeing_the_crater_does_not_count():
+    b = _behaviour(_goal(0.0, 60.0, kind="crater"))
+    b.moved(50.0)
+    assert not isinstance(b.decide(_crater_view(pitch=3.0)), Finish)
+    b.moved(5.0)
+    assert not isinstance(b.decide(_crater_view(pitch=0.0, hits=())), Finish)
+    b.moved(5.0)
+    assert b.decide(_crater_view(pitch=0.0, hits=())) == Finish("reached")
+
+
+def test_a_new_goal_forgets_the_climb():
+    b = _behaviour(_goal(0.0, 60.0, kind="crater"))
+    b.decide(_crater_view(pitch=3.0))
+    b.moved(12.0)
+    b.start_goal(_goal(0.0, 60.0, kind="crater", index=1, total=2))
+    assert b.state == "migration"
+    assert not isinstance(b.decide(_crater_view(pitch=0.0, hits=())), Finish)
+
+
+# ---- the agent ----
+
+KEYS = ks.Keyspace("w")
+
+
+def _feed(agent, message):
+    topic = next(t for t, model in m.TOPIC_MODELS.items() if model is type(message))
+    return agent.handle(topic, codec.encode(message))
+
+
+def _ready_agent(x=0.0, z=20.0, heading=180.0, bearing=180.0, distance=100.0, kind="waypoint"):
+    """An agent told where it stands and where to go (the goal 100 m south of the lander by default)."""
+    agent = RoverAgent(1, KEYS, PARAMS)
+    assert _feed(agent, m.Calibration(x=x, z=z, heading_deg=heading)) == []
+    out = _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind=kind, bearing_deg=bearing,
+                                          distance_m=distance))
+    assert [key for key, _ in out] == [KEYS.rover(1, ks.STATUS)]
+    assert out[0][1].state == "migration" and out[0][1].goal_index == 0
+    return agent
+
+
+def test_agent_emits_a_move_action_after_calibration_direction_gyroscope_and_perception():
+    agent = _ready_agent()
+    assert agent.pose == Pose(0.0, 20.0, 180.0)
+    assert _feed(agent, m.Perception(stamp=0.05, angles_deg=[], distances_m=[], kinds=[])) == []  # no pitch yet
+    assert _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0)) == []
+    out = _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert len(out) == 1
+    key, move = out[0]
+    assert key == "lunar/w/rover/1/move_action"
+    assert isinstance(move, m.MoveAction)
+    assert move.x == pytest.approx(0.0, abs=1e-3) and move.z == pytest.approx(9.0)
+    # one action in flight: further perception does not start another
+    assert _feed(agent, m.Perception(stamp=0.4, angles_deg=[], distances_m=[], kinds=[])) == []
+
+
+def test_agent_does_nothing_without_calibration_or_goal():
+    agent = RoverAgent(1, KEYS, PARAMS)
+    _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
+    assert _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[])) == []
+    _feed(agent, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
+    assert _feed(agent, m.Perception(stamp=0.3, angles_deg=[], distances_m=[], kinds=[])) == []
+
+
+def _moving_agent():
+    agent = _ready_agent()
+    _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
+    (key, _), = _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert key == KEYS.rover(1, ks.MOVE_ACTION)
+    return agent
+
+
+def test_completed_move_updates_the_pose_by_dead_reckoning():
+    agent = _moving_agent()
+    out = _feed(agent, m.NavigationStatus(stamp=0.6, action="move", remaining=4.0))
+    assert out == [] and agent.pose == Pose(0.0, 20.0, 180.0)  # running: nothing changes yet
+    assert _feed(agent, m.NavigationStatus(stamp=3.0, action="move", remaining=0.0, outcome="completed")) == []
+    assert agent.in_flight is None
+    assert agent.pose.x == pytest.approx(0.0, abs=1e-6)
+    assert agent.pose.z == pytest.approx(11.0)
+    assert agent.pose.heading == pytest.approx(180.0, abs=1e-6)
+
+
+def test_agent_decides_again_only_on_data_taken_after_the_move():
+    agent = _moving_agent()
+    _feed(agent, m.NavigationStatus(stamp=3.0, action="move", remaining=0.0, outcome="completed"))
+    assert _feed(agent, m.Perception(stamp=2.9, angles_deg=[], distances_m=[], kinds=[])) == []  # stale scan
+    assert _feed(agent, m.Perception(stamp=3.1, angles_deg=[], distances_m=[], kinds=[])) == []  # stale pitch
+    _feed(agent, m.Gyroscope(stamp=3.05, pitch_deg=0.0))
+    out = _feed(agent, m.Perception(stamp=3.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert [key for key, _ in out] == [KEYS.rover(1, ks.MOVE_ACTION)]
+
+
+def test_completed_rotate_updates_the_heading():
+    agent = _ready_agent(bearing=0.0)  # goal north of the lander, behind a rover facing south
+    _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
+    (key, rotate), = _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert key == KEYS.rover(1, ks.ROTATE_ACTION) and abs(rotate.degrees) == pytest.approx(180.0)
+    _feed(agent, m.NavigationStatus(stamp=2.0, action="rotate", remaining=0.0, outcome="completed"))
+    assert ((agent.pose.heading + 180.0) % 360.0 - 180.0) == pytest.approx(0.0, abs=1e-6)
+    assert (agent.pose.x, agent.pose.z) == (0.0, 20.0)
+
+
+def test_rover_close_ahead_during_a_move_sends_one_cancel_and_the_result_sets_the_pose():
+    agent = _moving_agent()
+    rover_ahead = m.Perception(stamp=0.4, angles_deg=[0.0], distances_m=[2.0], kinds=["rover"])
+    assert _feed(agent, rover_ahead) == [(KEYS.rover(1, ks.CANCEL_ACTION), m.CancelAction())]
+    assert _feed(agent, rover_ahead) == []  # once
+    _feed(agent, m.NavigationStatus(stamp=0.6, action="move", remaining=0.0, outcome="cancelled"))
+    assert agent.pose == Pose(0.0, 20.0, 180.0)
+    _feed(agent, m.CancelResult(x=0.0, z=3.0, angle_deg=0.0))
+    assert agent.in_flight is None
+    assert agent.pose.x == pytest.approx(0.0, abs=1e-9) and agent.pose.z == pytest.approx(17.0)
+
+
+def test_rover_to_the_side_during_a_move_does_not_cancel():
+    agent = _moving_agent()
+    assert _feed(agent, m.Perception(stamp=0.4, angles_deg=[90.0], distances_m=[2.0], kinds=["rover"])) == []
+
+
+def test_rejected_move_settles_and_tries_another_direction():
+    agent = _moving_agent()
+    _feed(agent, m.ActionRejected(action="move", reason="blocked"))
+    assert agent.in_flight is None
+    _feed(agent, m.Gyroscope(stamp=0.3, pitch_deg=0.0))
+    (key, move), = _feed(agent, m.Perception(stamp=0.4, angles_deg=[], distances_m=[], kinds=[]))
+    assert key == KEYS.rover(1, ks.MOVE_ACTION)
+    assert math.degrees(math.atan2(move.x, move.z)) == pytest.approx(10.0, abs=1e-3)
+
+
+def test_reaching_the_final_waypoint_reports_to_the_lander():
+    agent = _ready_agent(z=5.0, bearing=0.0, distance=10.0, heading=0.0)  # goal 5 m ahead
+    _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
+    out = _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert [key for key, _ in out] == [KEYS.rover(1, ks.COMM_OUT), KEYS.rover(1, ks.STATUS)]
+    comm = out[0][1]
+    assert comm.targets == [ks.LANDER_ID] and comm.channel == "comm_in"
+    assert radio.unpack(comm.payload) == radio.GoalReport(goal_index=0, outcome="reached")
+    assert out[1][1].state == "done" and agent.state == "done"
+    assert _feed(agent, m.Perception(stamp=0.4, angles_deg=[], distances_m=[], kinds=[])) == []
+
+
+def test_garbage_payloads_are_counted_and_answered_with_nothing():
+    agent = _ready_agent()
+    assert agent.handle(ks.PERCEPTION, b"\x93garbage") == []
+    assert agent.handle(ks.GYROSCOPE, codec.encode(m.MoveAction(x=1.0, z=1.0))) == []
+    assert agent.handle("no_such_topic", b"") == []
+    assert agent.rejected == 3
+    assert agent.pose == Pose(0.0, 20.0, 180.0)
+
+
+def test_crater_crest_is_not_judged_while_facing_away_from_the_crater():
+    goal = _goal(0.0, 60.0, kind="crater")
+    b = _behaviour(goal)
+    b.decide(_crater_view(pitch=3.0))
+    b.moved(12.0)
+    facing_away = _view(goal, pose=Pose(0.0, 20.0, 180.0), pitch=-3.0)  # downhill on the outer slope, back to it
+    assert b.decide(facing_away) != Finish("reached")

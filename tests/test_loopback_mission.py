@@ -1,0 +1,61 @@
+"""Whole missions in one process, no router: the world, the lander and the rover agents through their pure handlers."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from loopback import run_mission
+
+from schemas.scenario import load_scenario
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+MAX_SIM_TIME = 300.0
+
+
+@pytest.fixture(scope="module")
+def crater_observation():
+    return load_scenario(SCENARIOS / "crater_observation.yaml")
+
+
+@pytest.fixture(scope="module")
+def five_rover_run(crater_observation):
+    return run_mission(crater_observation, MAX_SIM_TIME)
+
+
+@pytest.fixture(scope="module")
+def ten_rover_run(crater_observation):
+    return run_mission(crater_observation.with_overrides(rovers=10), MAX_SIM_TIME)
+
+
+def test_crater_observation_completes_with_every_rover_on_the_rim(five_rover_run):
+    report = five_rover_run.report()
+    assert report.complete, report
+    assert report.rovers_total == 5
+    assert report.rovers_reached_final_goal == 5, report
+    assert report.rover_collisions == 0 and report.obstacle_collisions == 0, report
+    assert report.rovers_stuck == 0, report
+    assert report.rejected_messages == 0, report
+    assert 0 < report.mission_duration_s < MAX_SIM_TIME
+    assert report.average_path_efficiency > 0.5
+    assert all(status.state == "done" for status in five_rover_run.status.values())
+
+
+def test_same_scenario_gives_identical_runs(crater_observation, five_rover_run):
+    again = run_mission(crater_observation, MAX_SIM_TIME)
+    assert again.report() == five_rover_run.report()
+    assert again.world_state() == five_rover_run.world_state()
+    assert again.tick == five_rover_run.tick
+
+
+def test_ten_rovers_complete_without_collisions(ten_rover_run):
+    report = ten_rover_run.report()
+    assert report.rovers_total == 10
+    assert report.complete, report
+    assert report.rover_collisions == 0 and report.obstacle_collisions == 0, report
+    assert report.rovers_stuck == 0, report
+    assert report.rovers_reached_final_goal >= 8, report
+
+
+def test_ten_rovers_all_reach_the_rim(ten_rover_run):
+    assert ten_rover_run.report().rovers_reached_final_goal == 10
