@@ -82,7 +82,9 @@ def test_goal_outside_the_window_rotates_towards_it(goal, degrees):
 def test_near_waypoint_is_walked_to_not_past():
     z = round(WAYPOINT_IN_VIEW * PARAMS.perception.perception_radius + 0.05, 4)  # just outside "in view"
     goal = _goal(0.0, z)
-    assert _behaviour(goal).decide(_view(goal)) == MoveTo(0.0, z)
+    decision = _behaviour(goal).decide(_view(goal))
+    assert isinstance(decision, MoveTo) and decision.x == 0.0
+    assert decision.z == min(z, 0.9 * PARAMS.perception.perception_radius)
 
 
 @pytest.mark.parametrize("fraction", [0.0, 0.4, 0.79, 0.9])
