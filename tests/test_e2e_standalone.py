@@ -9,7 +9,7 @@ import json
 
 import pytest
 import zenoh
-from procs import SCENARIOS, free_port, module, stop, wait_for
+from procs import REPO, SCENARIOS, free_port, lunarsim, module, stop, wait_for
 
 from deploy.zenoh_config import build_config
 from schemas import codec
@@ -67,3 +67,35 @@ def test_processes_started_one_by_one_complete_a_two_rover_mission(router, tmp_p
         assert "no rover 99" in log and "payload is not msgpack" in log
     finally:
         stop(world, lander, *rovers)
+
+
+def test_run_uses_a_running_router_with_connect(router, tmp_path):
+    out = tmp_path / "run"
+    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--connect", router, "--rovers", "2",
+                    "--world", "connected", "--time-scale", "5", "--max-sim-time", "300", "--out", str(out), "--quiet")
+    try:
+        stdout, stderr = proc.communicate(timeout=240)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, stdout + stderr
+    report = json.loads((out / "report.json").read_text())
+    assert report["rovers_total"] == 2 and report["rovers_reached_final_goal"] == 2
+    assert not (out / "logs" / "router.log").exists()
+
+
+def test_scenario_import_export_round_trip_from_the_command_line(tmp_path):
+    profile = REPO.parent / "shared" / "lunarsim-profiles" / "fig28_crater_and_return.json"
+    if not profile.exists():
+        pytest.skip(f"the report's profiles are not beside the repository ({profile})")
+    yaml_file, json_file = tmp_path / "s.yaml", tmp_path / "s.json"
+    for args in (("import", str(profile), "-o", str(yaml_file), "--name", "cr"),
+                 ("export", str(yaml_file), "-o", str(json_file)),
+                 ("check", str(yaml_file))):
+        proc = lunarsim("scenario", *args)
+        out, err = proc.communicate(timeout=60)
+        assert proc.returncode == 0, out + err
+    original, exported = json.loads(profile.read_text()), json.loads(json_file.read_text())
+    assert len(exported["roverDataObjects"]) == len(original["roverDataObjects"]) == 5
+    assert [g["index"] for g in exported["missionDataObjects"]] == [0, 1]
+    assert exported["craterDataObjects"][0]["radius"] == pytest.approx(original["craterDataObjects"][0]["radius"])
+    assert "ok: 'cr'" in out
