@@ -3,26 +3,16 @@
 from __future__ import annotations
 
 import pytest
-from procs import free_port, module, stop, wait_for
+from procs import wait_for
 
 from deploy.bus import Bus
-from deploy.children import wait_for_port
 from deploy.zenoh_config import build_config, open_session
 
 pytestmark = pytest.mark.e2e
 
 
-@pytest.fixture
-def endpoint():
-    port = free_port()
-    endpoint = f"tcp/127.0.0.1:{port}"
-    proc = module("deploy.router", "--listen", endpoint)
-    assert wait_for_port("127.0.0.1", port, 15, proc)
-    yield endpoint
-    stop(proc)
-
-
-def test_samples_of_different_keys_arrive_in_publication_order(endpoint):
+def test_samples_of_different_keys_arrive_in_publication_order(router):
+    endpoint = router
     conf = build_config(connect=[endpoint])
     with Bus(open_session(conf, endpoint)) as sender, Bus(open_session(conf, endpoint)) as receiver:
         keys = [f"lunar/order/rover/1/{topic}" for topic in ("navigation_status", "gyroscope", "perception")]

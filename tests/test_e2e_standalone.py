@@ -9,7 +9,7 @@ import json
 
 import pytest
 import zenoh
-from procs import REPO, SCENARIOS, free_port, lunarsim, module, stop, wait_for
+from procs import REPO, SCENARIOS, lunarsim, module, stop, wait_for
 
 from deploy.zenoh_config import build_config
 from schemas import codec
@@ -17,18 +17,6 @@ from schemas import messages as m
 from schemas.keyspace import Keyspace
 
 pytestmark = pytest.mark.e2e
-
-
-@pytest.fixture
-def router():
-    port = free_port()
-    endpoint = f"tcp/127.0.0.1:{port}"
-    proc = module("deploy.router", "--listen", endpoint)
-    from deploy.children import wait_for_port
-
-    assert wait_for_port("127.0.0.1", port, 15, proc), proc.stdout.read() if proc.poll() is not None else "timeout"
-    yield endpoint
-    stop(proc)
 
 
 def test_processes_started_one_by_one_complete_a_two_rover_mission(router, tmp_path):
