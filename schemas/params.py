@@ -59,6 +59,10 @@ class NavigationParams(Params):
     angular_speed: float = Field(120.0, gt=0, description="deg/s while turning towards a move goal")
     acceleration: float = Field(20.0, gt=0, description="m/s^2, linear")
     publish_frequency: float = Field(5.0, gt=0, description="navigation_status rate, Hz")
+    max_slope_deg: float = Field(25.0, gt=0, le=90, description="steepest traversable slope; steeper is 'terrain'")
+    slope_slowdown: float = Field(0.6, ge=0, lt=1, description="fraction of speed lost climbing at max_slope_deg")
+    slip_std: float = Field(0.0, ge=0, le=0.5, description="1-sigma slip as a fraction of each move's length")
+    heading_noise_std_deg: float = Field(0.0, ge=0, le=45, description="1-sigma heading error per move or rotate")
 
     def speed(self, level: int) -> float:
         return (self.speed_mode_one, self.speed_mode_two, self.speed_mode_three)[level - 1]
@@ -72,6 +76,7 @@ class PerceptionParams(Params):
     perception_granularity: int = Field(50, ge=2, le=4096)
     publish_frequency: float = Field(5.0, gt=0, description="perception rate, Hz")
     gyroscope_frequency: float = Field(20.0, gt=0, description="gyroscope rate, Hz")
+    gyroscope_noise_std_deg: float = Field(0.0, ge=0, le=10, description="1-sigma pitch noise")
 
 
 class CommunicationParams(Params):
@@ -82,6 +87,10 @@ class CommunicationParams(Params):
         1000.0, gt=0, description="lander radio range, m; set it to comm_range to make the daisy chain matter"
     )
     partners_frequency: float = Field(1.0, gt=0, description="comm_partners rate, Hz")
+    line_of_sight: bool = Field(True, description="links need line of sight over terrain and walls")
+    antenna_height_m: float = Field(0.3, ge=0, description="antenna height above ground, for line of sight")
+    latency_s: float = Field(0.0, ge=0, le=60, description="per-link delivery delay")
+    loss_probability: float = Field(0.0, ge=0, le=1, description="chance a transmission is lost on the way")
 
 
 class BehaviourParams(Params):
@@ -100,7 +109,18 @@ class BehaviourParams(Params):
     photo_step_deg: float = Field(30.0, gt=0, description="report 10.5.3: a photo every 30 degrees on the rim")
 
 
+class CameraParams(Params):
+    """The forward camera of report 10.5 (its resolution was configurable there too)."""
+
+    width: int = Field(320, ge=8, le=4096)
+    height: int = Field(240, ge=8, le=4096)
+    horizontal_fov_deg: float = Field(60.0, gt=0, lt=180)
+    mount_height_m: float = Field(0.3, gt=0, description="camera height above the ground")
+    max_range_m: float = Field(300.0, gt=0, description="farthest rendered distance")
+
+
 class RoverParams(Params):
+    camera: CameraParams = CameraParams()
     navigation: NavigationParams = NavigationParams()
     perception: PerceptionParams = PerceptionParams()
     communication: CommunicationParams = CommunicationParams()

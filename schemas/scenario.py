@@ -88,9 +88,27 @@ class Wall(Spec):
     thickness_m: float = Field(0.5, gt=0)
 
 
+class RockField(Spec):
+    """Seeded random rocks scattered in a disc: where they fall follows from the scenario's seed."""
+
+    x: float
+    z: float
+    radius_m: float = Field(gt=0, description="radius of the area the rocks fall in")
+    count: int = Field(ge=0, le=100_000)
+    min_radius_m: float = Field(0.3, gt=0)
+    max_radius_m: float = Field(1.2, gt=0)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> RockField:
+        if self.max_radius_m < self.min_radius_m:
+            raise ValueError("max_radius_m must be at least min_radius_m")
+        return self
+
+
 class Obstacles(Spec):
     rocks: list[Rock] = Field(default_factory=list)
     walls: list[Wall] = Field(default_factory=list)
+    rock_fields: list[RockField] = Field(default_factory=list)
 
 
 class Goal(Spec):
