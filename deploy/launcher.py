@@ -28,6 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rovers", type=int, metavar="N", help="spawn N rovers in the scenario's formation")
     parser.add_argument("--time-scale", type=float, default=1.0, metavar="K",
                         help="simulated seconds per wall second (default 1 = real time)")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="deterministic clock: a tick advances only when every agent has handled the last one")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port of the embedded router "
                         f"on 127.0.0.1 (default {DEFAULT_PORT})")
@@ -103,6 +105,8 @@ class Mission:
                       "--start-timeout", str(START_TIMEOUT_S)]
         if self.args.max_sim_time is not None:
             world_args += ["--max-sim-time", str(self.args.max_sim_time)]
+        if self.args.lockstep:
+            world_args.append("--lockstep")
         self.children.start("world", "world_service", *world_args)
         self.children.start("lander", "lander_agent", str(self.scenario_file), *common)
         for rover_id in range(1, len(self.scenario.rovers) + 1):
@@ -146,7 +150,7 @@ class Mission:
         return report, True
 
     def _wall_deadline(self) -> float | None:
-        if self.args.max_sim_time is None:
+        if self.args.max_sim_time is None or self.args.lockstep:
             return None
         return time.monotonic() + START_TIMEOUT_S + 60.0 + 2.0 * self.args.max_sim_time / self.args.time_scale
 

@@ -39,10 +39,13 @@ class Lander:
         return out
 
     def on_clock(self, clock: m.Clock) -> list[tuple[str, m.Message]]:
-        if not clock.running or clock.sim_time < self.next_send:
-            return []
-        self.next_send = clock.sim_time + SEND_PERIOD_S
-        return self.broadcast(clock.sim_time)
+        out = []
+        if clock.running and clock.sim_time >= self.next_send:
+            self.next_send = clock.sim_time + SEND_PERIOD_S
+            out = self.broadcast(clock.sim_time)
+        if clock.lockstep:
+            out.append((self.keys.lander(ks.ACK), m.Ack(tick=clock.tick)))
+        return out
 
     def on_comm_in(self, msg: m.InboundComm) -> list[tuple[str, m.Message]]:
         report = radio.unpack(msg.payload)

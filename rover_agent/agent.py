@@ -77,6 +77,8 @@ class RoverAgent:
             out += self._report_goal()
         if self.now - self._last_status >= STATUS_PERIOD_S:
             out.append(self._status())
+        if clock.lockstep:
+            out.append((self.keys.rover(self.id, ks.ACK), m.Ack(tick=clock.tick)))
         return out
 
     # ---- lander, via radio ----

@@ -176,6 +176,13 @@ class Clock(Message):
     sim_time: float
     time_scale: float
     running: bool = True
+    lockstep: bool = False
+
+
+class Ack(Message):
+    """Lockstep: everything up to and including this tick has been handled (and answered)."""
+
+    tick: int
 
 
 class RoverTruth(Message):
@@ -243,6 +250,7 @@ TOPIC_MODELS: dict[str, type[Message]] = {
     ks.PHOTO_ACTION: PhotoAction,
     ks.PHOTO: Photo,
     ks.STATUS: RoverStatus,
+    ks.ACK: Ack,
 }
 """Rover topic -> payload model: the one table that says which type travels on which key."""
 

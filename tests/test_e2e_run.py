@@ -101,3 +101,23 @@ def test_no_router_is_said_plainly_within_seconds():
     assert proc.returncode == 3
     assert f"waiting for a Zenoh router at tcp/127.0.0.1:{port}" in proc.stderr
     assert "no Zenoh router reachable" in proc.stderr
+
+
+def _lockstep_report(tmp_path, name: str) -> dict:
+    out = tmp_path / name
+    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--lockstep", "--seed", "7",
+                    "--port", str(free_port()), "--out", str(out), "--quiet")
+    try:
+        stdout, stderr = proc.communicate(timeout=240)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, stdout + stderr
+    report = json.loads((out / "report.json").read_text())
+    report.pop("wall_time_s")
+    return report
+
+
+def test_lockstep_runs_with_the_same_seed_give_the_same_report(tmp_path):
+    first, second = _lockstep_report(tmp_path, "a"), _lockstep_report(tmp_path, "b")
+    assert first == second
+    assert first["seed"] == 7 and first["complete"] is True and first["rovers_reached_final_goal"] == 5

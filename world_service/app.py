@@ -18,6 +18,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--time-scale", type=float, default=1.0, metavar="K",
                         help="simulated seconds per wall second (default 1; 0 = as fast as possible)")
     parser.add_argument("--max-sim-time", type=float, metavar="S", help="end the mission after S simulated seconds")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="advance a tick only when every live agent has acknowledged the last one "
+                             "(deterministic for a scenario and seed; as fast as the processes allow)")
     parser.add_argument("--start-timeout", type=float, default=30.0, metavar="S",
                         help="seconds to wait for the lander and every rover agent before starting anyway")
     parser.add_argument("--no-lander", action="store_true", help="do not wait for a lander agent")
@@ -38,7 +41,8 @@ def run_from_args(args: argparse.Namespace) -> int:
         raise process.UsageError(f"--time-scale must be 0 or more, got {args.time_scale}")
     scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers)
     world = World(scenario, Keyspace(args.world))
-    settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander)
+    settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
+                                     lockstep=args.lockstep)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="world")
     with Bus(session) as bus, process.stop_on_signals() as stop:
         service.declare_io(bus, world.keys)

@@ -1,8 +1,13 @@
 """The world service process: the simulation clock and Zenoh I/O around ``World``.
 
 Startup waits (up to ``start_timeout``) for the lander and every rover agent to announce themselves
-with a liveliness token, so no rover misses the start. Then it ticks in real time, scaled by
-``time_scale``; ``time_scale <= 0`` runs as fast as it can.
+with a liveliness token, so no rover misses the start. Then the clock runs in one of two ways:
+
+- real time, scaled by ``time_scale`` (``<= 0``: as fast as the world can step);
+- lockstep: after each tick the world waits until every live agent has acknowledged it (``Ack`` on
+  its own ``ack`` key, sent after it has handled the tick and published its answers). What arrived in
+  the meantime is handled in key order, so the run depends on the scenario and seed only, not on
+  machine load, and goes as fast as the processes allow.
 """
 
 from __future__ import annotations
@@ -10,9 +15,10 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from deploy.bus import Bus, Received
+from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from world_service.sim import World
@@ -26,81 +32,161 @@ class ClockSettings:
     max_sim_time: float | None = None
     start_timeout: float = 30.0
     wait_for_lander: bool = True
+    lockstep: bool = False
+    ack_timeout: float = 30.0
+
+
+@dataclass
+class Agents:
+    """Which agents are present (liveliness) and, in lockstep, which have acknowledged the current tick."""
+
+    keys: ks.Keyspace
+    present: set[str] = field(default_factory=set)
+    acked: set[str] = field(default_factory=set)
+
+    def ack_key_of(self, alive_key: str) -> str:
+        if alive_key == self.keys.alive_lander:
+            return self.keys.lander(ks.ACK)
+        return self.keys.rover(self.keys.parse_alive_key(alive_key), ks.ACK)
+
+    def waiting_for(self) -> set[str]:
+        return {self.ack_key_of(k) for k in self.present} - self.acked
 
 
 def declare_io(bus: Bus, keys: ks.Keyspace) -> None:
     for topic in World.INPUT_TOPICS:
         bus.subscribe(keys.rovers(topic))
     bus.subscribe(keys.lander(ks.COMM_OUT))
+    bus.subscribe(keys.rovers(ks.ACK))
+    bus.subscribe(keys.lander(ks.ACK))
     bus.watch_liveliness(keys.alive_rovers)
     bus.watch_liveliness(keys.alive_lander)
 
 
-def handle(world: World, bus: Bus, item: Received, present: set[str]) -> None:
-    """Route one inbox item: liveliness updates the watchdog, data goes to the world."""
+def note_liveliness(world: World, agents: Agents, item: Received) -> None:
+    (agents.present.add if item.alive else agents.present.discard)(item.key)
+    if item.key != world.keys.alive_lander:
+        try:
+            world.set_alive(world.keys.parse_alive_key(item.key), item.alive)
+        except ValueError as exc:
+            log.warning("ignored liveliness token: %s", exc)
+
+
+def handle(world: World, bus: Bus, item: Received, agents: Agents) -> None:
+    """Route one inbox item: liveliness updates the watchdog, acks the lockstep, data goes to the world."""
     if item.alive is not None:
-        (present.add if item.alive else present.discard)(item.key)
-        if item.key != world.keys.alive_lander:
-            try:
-                world.set_alive(world.keys.parse_alive_key(item.key), item.alive)
-            except ValueError as exc:
-                log.warning("ignored liveliness token: %s", exc)
-        return
-    for key, message in world.receive(item.key, item.payload):
-        bus.publish(key, message)
+        note_liveliness(world, agents, item)
+    elif item.key.endswith(f"/{ks.ACK}"):
+        _note_ack(world, agents, item)
+    else:
+        for key, message in world.receive(item.key, item.payload):
+            bus.publish(key, message)
 
 
-def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> set[str]:
+def _note_ack(world: World, agents: Agents, item: Received) -> None:
+    try:
+        if codec.decode(m.Ack, item.payload).tick == world.tick:
+            agents.acked.add(item.key)
+    except codec.DecodeError as exc:
+        log.warning("rejected ack on %s: %s", item.key, exc)
+
+
+def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> Agents:
     keys = world.keys
+    agents = Agents(keys)
     wanted = {keys.alive_rover(rid) for rid in world.bodies}
     if settings.wait_for_lander:
         wanted.add(keys.alive_lander)
-    present: set[str] = set()
     deadline = time.monotonic() + settings.start_timeout
     next_clock = 0.0
-    while not stop.is_set() and not wanted <= present and time.monotonic() < deadline:
+    while not stop.is_set() and not wanted <= agents.present and time.monotonic() < deadline:
         if time.monotonic() >= next_clock:
-            bus.publish(keys.clock, m.Clock(tick=0, sim_time=0.0, time_scale=settings.time_scale, running=False))
+            bus.publish(keys.clock, world.clock(running=False))
             next_clock = time.monotonic() + 0.5
         item = bus.receive(timeout=0.1)
         if item is not None:
-            handle(world, bus, item, present)
-    missing = sorted(wanted - present)
+            handle(world, bus, item, agents)
+    missing = sorted(wanted - agents.present)
     if missing:
         log.warning("starting without %d agent(s): %s", len(missing), ", ".join(missing))
-    return present
+    return agents
+
+
+def _step(world: World, bus: Bus) -> None:
+    for key, message in world.step():
+        bus.publish(key, message)
+
+
+def _finished(world: World, settings: ClockSettings) -> bool:
+    return world.complete or (settings.max_sim_time is not None and world.sim_time >= settings.max_sim_time)
 
 
 def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> m.MissionReport:
     """Run the mission until every rover is done or stuck, ``max_sim_time`` passes, or ``stop`` is set."""
-    present = wait_for_agents(world, bus, settings, stop)
-    period = world.dt / settings.time_scale if settings.time_scale > 0 else 0.0
-    next_tick = time.monotonic()
-    while not stop.is_set():
-        for item in bus.drain():
-            handle(world, bus, item, present)
-        for key, message in world.step():
-            if key == world.keys.clock:
-                message = message.model_copy(update={"time_scale": settings.time_scale})
-            bus.publish(key, message)
-        if world.complete or (settings.max_sim_time is not None and world.sim_time >= settings.max_sim_time):
-            break
-        next_tick += period
-        delay = next_tick - time.monotonic()
-        if delay > 0:
-            stop.wait(delay)
-        elif delay < -1.0:
-            next_tick = time.monotonic()  # fell far behind: do not sprint to catch up
+    world.time_scale, world.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
+    agents = wait_for_agents(world, bus, settings, stop)
+    (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents)
     report = world.report()
     bus.publish(world.keys.state, world.world_state())
     bus.publish(world.keys.stats, m.WorldStats(stamp=world.sim_time, report=report, final=True))
     return report
 
 
+def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents) -> None:
+    period = world.dt / settings.time_scale if settings.time_scale > 0 else 0.0
+    next_tick = time.monotonic()
+    while not stop.is_set():
+        for item in bus.drain():
+            handle(world, bus, item, agents)
+        _step(world, bus)
+        if _finished(world, settings):
+            return
+        next_tick += period
+        delay = next_tick - time.monotonic()
+        if delay > 0:
+            stop.wait(delay)
+        elif delay < -1.0:
+            next_tick = time.monotonic()  # fell far behind: do not sprint to catch up
+
+
+def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents) -> None:
+    while not stop.is_set():
+        agents.acked.clear()
+        _step(world, bus)
+        if _finished(world, settings):
+            return
+        data = _collect_until_acked(world, bus, settings, stop, agents)
+        for item in sorted(data, key=lambda r: r.key):  # stable: per-key order is kept
+            handle(world, bus, item, agents)
+
+
+def _collect_until_acked(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event,
+                         agents: Agents) -> list[Received]:
+    """Gather the agents' answers to this tick until every live agent has acknowledged it."""
+    data: list[Received] = []
+    deadline = time.monotonic() + settings.ack_timeout
+    while not stop.is_set() and agents.waiting_for():
+        item = bus.receive(timeout=0.5)
+        if item is None:
+            if time.monotonic() > deadline:
+                late = sorted(agents.waiting_for())
+                log.warning("tick %d: no ack after %g s from %s; going on without them", world.tick,
+                            settings.ack_timeout, ", ".join(late))
+                agents.acked.update(late)
+            continue
+        if item.alive is not None:
+            note_liveliness(world, agents, item)
+        elif item.key.endswith(f"/{ks.ACK}"):
+            _note_ack(world, agents, item)
+        else:
+            data.append(item)
+    return data
+
+
 def linger(world: World, bus: Bus, report: m.MissionReport, stop: threading.Event) -> None:
     """After the mission: keep answering with the final statistics until told to stop."""
     final = m.WorldStats(stamp=world.sim_time, report=report, final=True)
-    stopped = m.Clock(tick=world.tick, sim_time=world.sim_time, time_scale=0.0, running=False)
+    stopped = world.clock(running=False)
     while not stop.wait(1.0):
         bus.publish(world.keys.stats, final)
         bus.publish(world.keys.clock, stopped)

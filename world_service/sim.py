@@ -54,6 +54,8 @@ class World:
         self.rejected: Counter[str] = Counter()
         self.radio_dropped = 0
         self.completed_at: float | None = None
+        self.time_scale = 1.0  # what the clock announces; the service paces the ticks
+        self.lockstep = False
         self.graph = self._build_graph()
 
     def _period(self, rate_hz: float) -> int:
@@ -193,8 +195,12 @@ class World:
             self.graph = self._build_graph()
         out += self._sensors()
         self._check_complete()
-        out.append((self.keys.clock, m.Clock(tick=self.tick, sim_time=self.sim_time, time_scale=0.0)))
+        out.append((self.keys.clock, self.clock()))
         return out
+
+    def clock(self, running: bool = True) -> m.Clock:
+        return m.Clock(tick=self.tick, sim_time=self.sim_time, time_scale=self.time_scale, running=running,
+                       lockstep=self.lockstep)
 
     def _move_body(self, body: nav.RoverBody) -> list[Out]:
         before = (body.x, body.z, body.distance_covered)
