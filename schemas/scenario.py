@@ -29,11 +29,19 @@ class TerrainSpec(Spec):
     size_m: tuple[float, float] = Field(description="extent along x and z, m")
     resolution_m: float = Field(1.0, gt=0, le=100)
     roughness_m: float = Field(0.0, ge=0, description="amplitude of seeded random undulation, m")
+    tile_size_m: float = Field(256.0, gt=0, description="side of a square terrain tile (chunk), loaded on first use")
+    max_tiles_in_memory: int = Field(64, ge=1, description="tiles kept loaded at most (least recently used go)")
+    mesh: str | None = Field(None, description="OBJ/STL/PLY/GLB surface (y up) rasterised into the heights; "
+                                               "replaces the plain, so scenario craters are not carved into it")
+    mesh_scale: float | tuple[float, float, float] = Field(1.0, description="mesh vertex scale (x, y, z or one)")
+    mesh_offset: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="added to scaled vertices, m")
 
     @model_validator(mode="after")
     def _positive_size(self) -> TerrainSpec:
         if min(self.size_m) <= 0:
             raise ValueError("size_m must be positive along both axes")
+        if self.tile_size_m < self.resolution_m:
+            raise ValueError("tile_size_m must be at least resolution_m")
         return self
 
     def contains(self, x: float, z: float) -> bool:

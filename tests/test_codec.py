@@ -17,6 +17,7 @@ SAMPLES: dict[type, m.Message] = {
     m.RotateAction: m.RotateAction(degrees=-90.0),
     m.NavigationStatus: m.NavigationStatus(stamp=3.0, action="rotate", remaining=12.5, outcome="cancelled"),
     m.CancelAction: m.CancelAction(),
+    m.Ack: m.Ack(tick=42),
     m.CancelResult: m.CancelResult(x=0.25, z=3.5, angle_deg=-4.0, reason="collided"),
     m.SpeedAction: m.SpeedAction(level=2),
     m.ActionRejected: m.ActionRejected(action="move", reason="blocked", detail="rock"),
