@@ -15,6 +15,7 @@ from schemas.params import NavigationParams
 from schemas.scenario import Crater, TerrainSpec, parse_scenario
 from world_service import geometry as geo
 from world_service import navigation as nav
+from world_service.perception import Perceiver
 from world_service.radio import build_graph
 from world_service.scene import Scene
 from world_service.sim import World
@@ -140,8 +141,11 @@ def _scan(scenario, index=0):
     xs = np.array([r.x for r in scenario.rovers])
     zs = np.array([r.z for r in scenario.rovers])
     hs = np.array([r.heading_deg for r in scenario.rovers])
-    angles, dists, kinds = Scene.from_scenario(scenario).scan(xs, zs, hs, index, scenario.rover_params)
-    return list(zip(angles.tolist(), dists.tolist(), [m.HIT_KINDS[k] for k in kinds], strict=True))
+    terrain = Heightmap.from_scenario(scenario, np.random.default_rng(0))
+    perceiver = Perceiver(Scene.from_scenario(scenario), terrain, scenario.rover_params)
+    scan = perceiver.scan(xs, zs, hs, np.array([index]))[0]
+    return list(zip(scan.angles_deg.tolist(), scan.distances_m.tolist(), [m.HIT_KINDS[k] for k in scan.kinds],
+                    strict=True))
 
 
 def test_scan_of_empty_ground_sees_nothing():

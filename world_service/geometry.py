@@ -26,6 +26,11 @@ def wrap_deg(angle: np.ndarray | float) -> np.ndarray | float:
 def ray_circles(ox, oz, dx, dz, cx, cz, r) -> np.ndarray:
     """Distance along unit rays to where each enters each circle; inf if it misses or starts inside."""
     ox, oz, dx, dz = (np.asarray(a, float)[..., None] for a in (ox, oz, dx, dz))
+    return ray_circle(ox, oz, dx, dz, cx, cz, r)
+
+
+def ray_circle(ox, oz, dx, dz, cx, cz, r) -> np.ndarray:
+    """Elementwise ``ray_circles``: ray i against circle i, with ordinary NumPy broadcasting."""
     fx, fz = ox - cx, oz - cz
     b = fx * dx + fz * dz
     c = fx * fx + fz * fz - np.asarray(r, float) ** 2
@@ -38,6 +43,11 @@ def ray_circles(ox, oz, dx, dz, cx, cz, r) -> np.ndarray:
 def ray_segments(ox, oz, dx, dz, ax, az, bx, bz) -> np.ndarray:
     """Distance along unit rays to each segment a-b; inf where they do not cross."""
     ox, oz, dx, dz = (np.asarray(a, float)[..., None] for a in (ox, oz, dx, dz))
+    return ray_segment(ox, oz, dx, dz, ax, az, bx, bz)
+
+
+def ray_segment(ox, oz, dx, dz, ax, az, bx, bz) -> np.ndarray:
+    """Elementwise ``ray_segments``."""
     ex, ez = np.asarray(bx, float) - ax, np.asarray(bz, float) - az
     denom = dx * ez - dz * ex
     wx, wz = ax - ox, az - oz

@@ -1,7 +1,7 @@
-"""What stands on the ground: rocks, walls, the lander, crater rims, and the rovers themselves.
+"""What stands on the ground: rocks, walls, the lander and crater rims, as arrays built once per scenario.
 
-Perception (report 10.1), the move check (10.2) and collision detection all ask the same question,
-"what does this line or this disc meet?", so they share one set of arrays built once per scenario.
+Perception (``perception``), the move check and collision detection all ask "what does this line or this
+disc meet?", so they share these arrays. Rock fields are expanded here, from the scenario's seed.
 """
 
 from __future__ import annotations
@@ -12,12 +12,45 @@ from dataclasses import dataclass
 import numpy as np
 
 from schemas.messages import HIT_KINDS
-from schemas.params import RoverParams
-from schemas.scenario import Scenario
+from schemas.scenario import Rock, Scenario
 from world_service import geometry as geo
 
 KIND_CODE = {kind: i for i, kind in enumerate(HIT_KINDS)}
-ROVER, OBSTACLE, LANDER, CRATER = (KIND_CODE[k] for k in ("rover", "obstacle", "lander", "crater_terrain"))
+GRID_CELL_M = 10.0
+ROVER, OBSTACLE, TERRAIN, LANDER, CRATER = (KIND_CODE[k] for k in HIT_KINDS)
+
+
+class CircleGrid:
+    """Static circles bucketed on a square grid, so a rover's candidates are found by sorted look-up."""
+
+    def __init__(self, x: np.ndarray, z: np.ndarray, r: np.ndarray, cell: float) -> None:
+        self.cell = cell
+        self.x, self.z, self.r = x, z, r
+        keys = self._key(np.floor(x / cell), np.floor(z / cell))
+        self.order = np.argsort(keys, kind="stable")
+        self.keys = keys[self.order]
+
+    @staticmethod
+    def _key(cx: np.ndarray, cz: np.ndarray) -> np.ndarray:
+        return cx.astype(np.int64) * 2_000_003 + cz.astype(np.int64)
+
+    def pairs(self, px: np.ndarray, pz: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+        """(point index, circle index) for every circle within ``reach`` (+ its radius) of each point."""
+        if not len(self.keys):
+            return np.zeros(0, int), np.zeros(0, int)
+        span = math.ceil(reach / self.cell)
+        offsets = np.arange(-span, span + 1)
+        cx = np.floor(px / self.cell)[:, None, None] + offsets[None, :, None]
+        cz = np.floor(pz / self.cell)[:, None, None] + offsets[None, None, :]
+        keys = self._key(cx, cz).reshape(len(px), -1)
+        lo, hi = np.searchsorted(self.keys, keys, "left"), np.searchsorted(self.keys, keys, "right")
+        counts = (hi - lo).ravel()
+        point = np.repeat(np.repeat(np.arange(len(px)), keys.shape[1]), counts)
+        start = np.repeat(lo.ravel(), counts)
+        within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+        circle = self.order[start + within]
+        near = np.hypot(self.x[circle] - px[point], self.z[circle] - pz[point]) <= reach + self.r[circle]
+        return point[near], circle[near]
 
 
 @dataclass
@@ -31,9 +64,12 @@ class Scene:
     crater_z: np.ndarray
     crater_r: np.ndarray
 
+    def __post_init__(self) -> None:
+        self.grid = CircleGrid(self.circle_x, self.circle_z, self.circle_r, GRID_CELL_M)
+
     @classmethod
     def from_scenario(cls, scenario: Scenario) -> Scene:
-        rocks = scenario.obstacles.rocks
+        rocks = list(scenario.obstacles.rocks) + scatter_rock_fields(scenario)
         lander = scenario.lander
         cx = np.array([r.x for r in rocks] + [lander.x], float)
         cz = np.array([r.z for r in rocks] + [lander.z], float)
@@ -46,68 +82,16 @@ class Scene:
                    np.array([c.x for c in craters], float), np.array([c.z for c in craters], float),
                    np.array([c.outer_radius for c in craters], float))
 
-    # ---- perception ----
-
-    def scan(self, rover_x: np.ndarray, rover_z: np.ndarray, headings: np.ndarray, index: int,
-             params: RoverParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """One perception scan of rover ``index``: (angles_deg, distances_m, kind codes) of the rays that hit.
-
-        Rays fan over the field of view in the rover's plane; each reports the nearest thing it meets.
-        """
-        p = params.perception
-        radius = p.perception_radius
-        ox, oz = rover_x[index], rover_z[index]
-        rel = np.linspace(-p.field_of_view_degrees / 2, p.field_of_view_degrees / 2, p.perception_granularity)
-        dx, dz = geo.direction(headings[index] + rel)
-        others = np.arange(len(rover_x)) != index
-        near = np.hypot(rover_x - ox, rover_z - oz) <= radius + params.behaviour.rover_radius
-        rover_mask = others & near
-        best = np.full(rel.shape, np.inf)
-        kind = np.full(rel.shape, -1)
-        for t, k in self._solid_hits(ox, oz, dx, dz, radius, rover_x[rover_mask], rover_z[rover_mask],
-                                     params.behaviour.rover_radius):
-            closer = t < best
-            best = np.where(closer, t, best)
-            kind = np.where(closer, k, kind)
-        # Crater terrain is walkable ground, not a screen: it shows only on rays that meet nothing solid.
-        crater = self._crater_hits(ox, oz, dx, dz, radius)
-        use_crater = (best > radius) & (crater <= radius)
-        best = np.where(use_crater, crater, best)
-        kind = np.where(use_crater, CRATER, kind)
-        hit = best <= radius
-        return rel[hit], best[hit], kind[hit]
-
-    def _solid_hits(self, ox, oz, dx, dz, radius, rx, rz, rover_radius):
-        """(distance, kind) per ray for each family of solid shapes, culled to what is within reach."""
-        reach = radius + 1e-6
-        near = np.hypot(self.circle_x - ox, self.circle_z - oz) <= reach + self.circle_r
-        if near.any():
-            t = geo.ray_circles(ox, oz, dx, dz, self.circle_x[near], self.circle_z[near], self.circle_r[near])
-            j = np.argmin(t, axis=1)
-            yield t[np.arange(len(t)), j], self.circle_kind[near][j]
-        if len(rx):
-            t = geo.ray_circles(ox, oz, dx, dz, rx, rz, np.full(len(rx), rover_radius)).min(axis=1)
-            yield t, ROVER
-        if len(self.edges):
-            e = self.edges
-            t = geo.ray_segments(ox, oz, dx, dz, e[:, 0], e[:, 1], e[:, 2], e[:, 3]).min(axis=1)
-            yield t, OBSTACLE
-
-    def _crater_hits(self, ox, oz, dx, dz, radius) -> np.ndarray:
-        near = np.hypot(self.crater_x - ox, self.crater_z - oz) <= radius + self.crater_r
-        if not near.any():
-            return np.full(np.shape(dx), np.inf)
-        t = geo.ray_circles(ox, oz, dx, dz, self.crater_x[near], self.crater_z[near], self.crater_r[near])
-        return t.min(axis=1)
-
     # ---- move check and contacts ----
 
     def line_blocked(self, x0: float, z0: float, x1: float, z1: float, clearance: float,
                      other_x: np.ndarray, other_z: np.ndarray, rover_radius: float) -> bool:
         """Whether a disc of radius ``clearance`` swept from (x0, z0) to (x1, z1) meets anything solid."""
-        if len(self.circle_x):
-            d = geo.point_segment_distance(self.circle_x, self.circle_z, x0, z0, x1, z1)[:, 0]
-            if np.any(d < self.circle_r + clearance):
+        _, near = self.grid.pairs(np.array([(x0 + x1) / 2]), np.array([(z0 + z1) / 2]),
+                                  math.hypot(x1 - x0, z1 - z0) / 2 + clearance)
+        if len(near):
+            d = geo.point_segment_distance(self.circle_x[near], self.circle_z[near], x0, z0, x1, z1)[:, 0]
+            if np.any(d < self.circle_r[near] + clearance):
                 return True
         if len(other_x):
             d = geo.point_segment_distance(other_x, other_z, x0, z0, x1, z1)[:, 0]
@@ -122,12 +106,26 @@ class Scene:
 
     def obstacle_contact(self, x: float, z: float, rover_radius: float) -> bool:
         """Whether a rover standing at (x, z) touches a rock, the lander or a wall."""
-        if len(self.circle_x) and np.any(np.hypot(self.circle_x - x, self.circle_z - z) < self.circle_r + rover_radius):
+        _, near = self.grid.pairs(np.array([x]), np.array([z]), rover_radius)
+        if np.any(np.hypot(self.circle_x[near] - x, self.circle_z[near] - z) < self.circle_r[near] + rover_radius):
             return True
         if len(self.edges):
             e = self.edges
             return bool(np.any(geo.point_segment_distance(x, z, e[:, 0], e[:, 1], e[:, 2], e[:, 3]) < rover_radius))
         return False
+
+
+def scatter_rock_fields(scenario: Scenario) -> list[Rock]:
+    """The rocks of every rock field, placed uniformly in its disc by a generator seeded from the scenario."""
+    rng = np.random.default_rng([scenario.seed, 0x0C0C])  # own stream: rock fields do not shift other draws
+    rocks: list[Rock] = []
+    for field in scenario.obstacles.rock_fields:
+        r = field.radius_m * np.sqrt(rng.random(field.count))
+        a = rng.random(field.count) * 2 * np.pi
+        size = rng.uniform(field.min_radius_m, field.max_radius_m, field.count)
+        rocks += [Rock(x=float(field.x + ri * np.sin(ai)), z=float(field.z + ri * np.cos(ai)), radius_m=float(si))
+                  for ri, ai, si in zip(r, a, size, strict=True)]
+    return rocks
 
 
 def in_view(rel_x: float, rel_z: float, fov_deg: float) -> bool:

@@ -19,6 +19,7 @@ from schemas import messages as m
 from schemas.scenario import Scenario
 from world_service import navigation as nav
 from world_service import statistics as stats
+from world_service.perception import Perceiver
 from world_service.radio import CommGraph, build_graph
 from world_service.scene import Scene, in_view
 from world_service.terrain import Heightmap
@@ -45,6 +46,7 @@ class World:
         self.tick = 0
         self.terrain = Heightmap.from_scenario(scenario, self.rng)
         self.scene = Scene.from_scenario(scenario)
+        self.perceiver = Perceiver(self.scene, self.terrain, self.params)
         self.bodies = {i + 1: nav.RoverBody(i + 1, r.x, r.z, r.heading_deg % 360.0)
                        for i, r in enumerate(scenario.rovers)}
         self.status = {rid: m.RoverStatus(stamp=0.0, state="waiting") for rid in self.bodies}
@@ -234,22 +236,17 @@ class World:
         return out
 
     def _sensors(self) -> list[Out]:
-        out: list[Out] = []
-        xs = np.array([b.x for b in self.bodies.values()])
-        zs = np.array([b.z for b in self.bodies.values()])
-        hs = np.array([b.heading for b in self.bodies.values()])
-        for index, body in enumerate(self.bodies.values()):
-            rid = body.id
-            if (self.tick + rid) % self.perception_period == 0:
-                out.append((self.keys.rover(rid, ks.PERCEPTION), self._perception(xs, zs, hs, index)))
-            if self.tick % self.gyroscope_period == 0:
-                pitch = float(self.terrain.pitch_deg(body.x, body.z, body.heading))
-                out.append((self.keys.rover(rid, ks.GYROSCOPE), m.Gyroscope(stamp=self.sim_time, pitch_deg=pitch)))
+        bodies = list(self.bodies.values())
+        xs, zs, hs = (np.array([getattr(b, a) for b in bodies]) for a in ("x", "z", "heading"))
+        out = self._perceptions(bodies, xs, zs, hs)
+        if self.tick % self.gyroscope_period == 0:
+            out += self._gyroscopes(bodies, xs, zs, hs)
+        for body in bodies:
             if body.busy and self.tick % self.status_period == 0:
                 out.append(self._nav_status(body, "move" if isinstance(body.action, nav.Move) else "rotate"))
-            if self.tick % self.partners_period == 0:
-                out.append((self.keys.rover(rid, ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(rid))))
         if self.tick % self.partners_period == 0:
+            out += [(self.keys.rover(b.id, ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(b.id)))
+                    for b in bodies]
             out.append((self.keys.lander(ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(ks.LANDER_ID))))
         if self.tick % self.perception_period == 0:
             out.append((self.keys.state, self.world_state()))
@@ -257,11 +254,23 @@ class World:
             out.append((self.keys.stats, m.WorldStats(stamp=self.sim_time, report=self.report())))
         return out
 
-    def _perception(self, xs, zs, hs, index: int) -> m.Perception:
-        angles, dists, kinds = self.scene.scan(xs, zs, hs, index, self.params)
-        return m.Perception(stamp=self.sim_time, angles_deg=[round(float(a), 3) for a in angles],
-                            distances_m=[round(float(d), 3) for d in dists],
-                            kinds=[m.HIT_KINDS[k] for k in kinds])
+    def _perceptions(self, bodies, xs, zs, hs) -> list[Out]:
+        """Each rover scans once per perception period, the rovers staggered over the period's ticks."""
+        which = np.array([i for i, b in enumerate(bodies) if (self.tick + b.id) % self.perception_period == 0], int)
+        scans = self.perceiver.scan(xs, zs, hs, which)
+        return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
+                 m.Perception(stamp=self.sim_time, angles_deg=np.round(s.angles_deg, 3).tolist(),
+                              distances_m=np.round(s.distances_m, 3).tolist(),
+                              kinds=[m.HIT_KINDS[k] for k in s.kinds]))
+                for i, s in zip(which, scans, strict=True)]
+
+    def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:
+        pitch = self.terrain.pitch_deg(xs, zs, hs)
+        noise = self.params.perception.gyroscope_noise_std_deg
+        if noise > 0:
+            pitch = pitch + self.rng.normal(0.0, noise, len(pitch))
+        return [(self.keys.rover(b.id, ks.GYROSCOPE), m.Gyroscope(stamp=self.sim_time, pitch_deg=round(float(p), 4)))
+                for b, p in zip(bodies, pitch, strict=True)]
 
     def _nav_status(self, body: nav.RoverBody, action: str) -> Out:
         status = m.NavigationStatus(stamp=self.sim_time, action=action, remaining=round(body.remaining(), 4))

@@ -1,17 +1,44 @@
-"""Heightmap terrain on a regular grid: a flat (optionally rough) plain with crater bowls and raised rims.
+"""Heightmap terrain on a regular grid, split into square tiles that are generated on first use.
+
+The surface is a flat plain (or an imported mesh, see ``world_service.terrain_mesh``) plus a seeded
+undulation of ``roughness_m`` plus crater bowls with raised rims. Every layer is a pure function of
+(x, z) and the seed, so a tile can be generated on its own and still join its neighbours exactly: this is
+what lets a 50 km² terrain run while only the tiles near rovers are in memory (the report's 10.7.1 chunk
+activation). Tiles live in an LRU with a cap (``TerrainSpec.max_tiles_in_memory``); ``keep_near`` loads
+the tiles around the rovers and drops the far ones.
 
 The crater profile, with r = distance / radius: inside, a parabolic bowl rising to the crest
 (``rim_height`` at r = 1); outside, the rim falls off with a half cosine to the plain at 1 + rim_width.
 The crest is the highest point on any radial line, which is what the gyroscope-based climb seeks.
+
+Grid node (i, j) sits at (origin_x + i * resolution, origin_z + j * resolution); arrays are indexed
+[j, i] (row = z). Tile (tz, tx) holds nodes tx*T .. tx*T + T along x (T cells per tile, edge nodes shared
+with the neighbour) so bilinear sampling never needs a second tile. Heights and gradients are stored as
+float32; gradients are central differences computed with a one-node halo, so they match an untiled grid.
 """
 
 from __future__ import annotations
 
+import logging
+import math
+from collections import OrderedDict
+from collections.abc import Iterable
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
 from schemas.scenario import Crater, Scenario, TerrainSpec
+
+log = logging.getLogger("lunarsim.terrain")
+
+FULL_GRID_LIMIT = 25_000_000
+"""Most nodes ``heights``/``slope_x``/``slope_z`` will assemble into one array (100 MB of float32)."""
+
+FIELDS = ("heights", "slope_x", "slope_z")
+TileKey = tuple[int, int]
+"""(tz, tx): tile row along z, tile column along x."""
 
 
 def crater_profile(r: np.ndarray, crater: Crater) -> np.ndarray:
@@ -22,63 +49,320 @@ def crater_profile(r: np.ndarray, crater: Crater) -> np.ndarray:
     return np.where(r < 1.0, bowl, rim)
 
 
+class HeightSource(Protocol):
+    """A base surface under the procedural layers (an imported mesh, a raster): heights on a node block."""
+
+    def block(self, x0: float, z0: float, resolution: float, nx: int, nz: int) -> np.ndarray:
+        """Heights, shape (nz, nx), at nodes (x0 + i * resolution, z0 + j * resolution)."""
+        ...
+
+
+@dataclass(frozen=True)
+class Undulation:
+    """Gentle seeded ground roll: a few long-wavelength sinusoids, a pure function of (x, z)."""
+
+    k: np.ndarray
+    cos_a: np.ndarray
+    sin_a: np.ndarray
+    phase: np.ndarray
+    amplitude: float
+
+    @classmethod
+    def draw(cls, amplitude: float, rng: np.random.Generator, waves: int = 6) -> Undulation:
+        """Draw the waves in the same order the untiled generator did, so seeded worlds are unchanged."""
+        params = []
+        for _ in range(waves):
+            wavelength = rng.uniform(20.0, 120.0)
+            angle = rng.uniform(0, 2 * np.pi)
+            phase = rng.uniform(0, 2 * np.pi)
+            params.append((2 * np.pi / wavelength, np.cos(angle), np.sin(angle), phase))
+        k, c, s, p = (np.array(v) for v in zip(*params, strict=True))
+        return cls(k, c, s, p, amplitude)
+
+    def grid(self, xs: np.ndarray, zs: np.ndarray) -> np.ndarray:
+        """Values on the grid xs (columns) x zs (rows)."""
+        out = np.zeros((zs.size, xs.size))
+        for k, c, s, p in zip(self.k, self.cos_a, self.sin_a, self.phase, strict=True):
+            out += np.sin(k * (xs[None, :] * c + zs[:, None] * s) + p)
+        return out * (self.amplitude / self.k.size)
+
+
+@dataclass(frozen=True)
+class CraterSet:
+    """Craters as arrays, so finding the ones that reach a tile is one vectorised test."""
+
+    craters: tuple[Crater, ...]
+    x: np.ndarray
+    z: np.ndarray
+    reach: np.ndarray  # outer radius: where the rim meets the plain
+
+    @classmethod
+    def of(cls, craters: Iterable[Crater]) -> CraterSet:
+        cs = tuple(craters)
+        return cls(cs, np.array([c.x for c in cs]), np.array([c.z for c in cs]),
+                   np.array([c.radius_m * (1.0 + c.rim_width) for c in cs]))
+
+    def reaching(self, x0: float, x1: float, z0: float, z1: float) -> np.ndarray:
+        """Indices of craters whose rim reaches the rectangle [x0, x1] x [z0, z1]."""
+        dx = np.maximum(np.maximum(x0 - self.x, self.x - x1), 0.0)
+        dz = np.maximum(np.maximum(z0 - self.z, self.z - z1), 0.0)
+        return np.flatnonzero(np.hypot(dx, dz) < self.reach)
+
+    def add_to(self, out: np.ndarray, xs: np.ndarray, zs: np.ndarray) -> None:
+        """Add every crater reaching the block to ``out`` (rows zs, columns xs), only over its own footprint."""
+        for index in self.reaching(xs[0], xs[-1], zs[0], zs[-1]):
+            c, reach = self.craters[index], self.reach[index]
+            i0, i1 = np.searchsorted(xs, [c.x - reach, c.x + reach], side="left")
+            j0, j1 = np.searchsorted(zs, [c.z - reach, c.z + reach], side="left")
+            i1, j1 = min(i1 + 1, xs.size), min(j1 + 1, zs.size)
+            r = np.hypot(xs[None, i0:i1] - c.x, zs[j0:j1, None] - c.z) / c.radius_m
+            near = r < 1.0 + c.rim_width
+            out[j0:j1, i0:i1][near] += crater_profile(r[near], c)
+
+
 @dataclass
-class Heightmap:
-    origin_x: float
-    origin_z: float
-    resolution: float
-    heights: np.ndarray  # shape (nz, nx), row = z index
+class Tile:
+    """One loaded tile: float32 heights and gradients on nodes starting at global index (i0, j0)."""
+
+    key: TileKey
+    i0: int
+    j0: int
+    heights: np.ndarray
     slope_x: np.ndarray
     slope_z: np.ndarray
 
-    @classmethod
-    def build(cls, spec: TerrainSpec, craters: list[Crater], rng: np.random.Generator) -> Heightmap:
-        nx = int(np.ceil(spec.size_m[0] / spec.resolution_m)) + 1
-        nz = int(np.ceil(spec.size_m[1] / spec.resolution_m)) + 1
-        xs = spec.origin[0] + np.arange(nx) * spec.resolution_m
-        zs = spec.origin[1] + np.arange(nz) * spec.resolution_m
-        gx, gz = np.meshgrid(xs, zs)
-        heights = np.zeros((nz, nx))
-        if spec.roughness_m > 0:
-            heights += _undulation(gx, gz, spec.roughness_m, rng)
-        for crater in craters:
-            r = np.hypot(gx - crater.x, gz - crater.z) / crater.radius_m
-            near = r < 1.0 + crater.rim_width
-            heights[near] += crater_profile(r[near], crater)
-        slope_z, slope_x = np.gradient(heights, spec.resolution_m)
-        return cls(spec.origin[0], spec.origin[1], spec.resolution_m, heights, slope_x, slope_z)
+    @property
+    def nbytes(self) -> int:
+        return self.heights.nbytes + self.slope_x.nbytes + self.slope_z.nbytes
+
+
+class Heightmap:
+    """Tiled heightmap with lazy tile generation, vectorised bilinear sampling and an LRU of tiles."""
+
+    def __init__(self, spec: TerrainSpec, craters: Iterable[Crater] = (), undulation: Undulation | None = None,
+                 base: HeightSource | None = None) -> None:
+        self.spec = spec
+        self.origin_x, self.origin_z = float(spec.origin[0]), float(spec.origin[1])
+        self.resolution = float(spec.resolution_m)
+        self.nx = int(np.ceil(spec.size_m[0] / spec.resolution_m)) + 1
+        self.nz = int(np.ceil(spec.size_m[1] / spec.resolution_m)) + 1
+        self.tile_cells = max(1, round(spec.tile_size_m / spec.resolution_m))
+        self.tiles_x = math.ceil((self.nx - 1) / self.tile_cells)
+        self.tiles_z = math.ceil((self.nz - 1) / self.tile_cells)
+        self.max_tiles = spec.max_tiles_in_memory
+        self.craters = CraterSet.of(craters)
+        self.undulation = undulation
+        self.base = base
+        self._tiles: OrderedDict[TileKey, Tile] = OrderedDict()
+        self.tiles_generated = 0
+        self.tiles_evicted = 0
+
+    # ---- construction ----
 
     @classmethod
-    def from_scenario(cls, scenario: Scenario, rng: np.random.Generator) -> Heightmap:
-        return cls.build(scenario.terrain_spec(), scenario.craters, rng)
+    def build(cls, spec: TerrainSpec, craters: list[Crater], rng: np.random.Generator,
+              base_dir: str | Path | None = None) -> Heightmap:
+        """The scenario's terrain; nothing is generated until a tile is first sampled.
 
-    def _sample(self, grid: np.ndarray, x, z) -> np.ndarray:
-        """Bilinear sample, clamped at the edges."""
-        fx = np.clip((np.asarray(x, float) - self.origin_x) / self.resolution, 0, grid.shape[1] - 1.000001)
-        fz = np.clip((np.asarray(z, float) - self.origin_z) / self.resolution, 0, grid.shape[0] - 1.000001)
-        ix, iz = fx.astype(int), fz.astype(int)
+        The undulation draws from ``rng`` exactly as the untiled generator did (only when rough), so the
+        rest of a seeded world is unchanged. A mesh terrain replaces the plain and is not carved by craters:
+        its relief is the real one, and the scenario's craters still mark the mission goals.
+        """
+        undulation = Undulation.draw(spec.roughness_m, rng) if spec.roughness_m > 0 else None
+        if spec.mesh is None:
+            return cls(spec, craters, undulation)
+        from world_service.terrain_mesh import MeshSurface
+
+        path = Path(spec.mesh)
+        if base_dir is not None and not path.is_absolute():
+            path = Path(base_dir) / path
+        base = MeshSurface.load(path, spec.mesh_scale, spec.mesh_offset, bin_size_m=spec.tile_size_m)
+        return cls(spec, (), undulation, base)
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario, rng: np.random.Generator,
+                      base_dir: str | Path | None = None) -> Heightmap:
+        return cls.build(scenario.terrain_spec(), scenario.craters, rng, base_dir)
+
+    # ---- tiles ----
+
+    @property
+    def loaded_tiles(self) -> list[TileKey]:
+        """Keys of the tiles in memory, least recently used first."""
+        return list(self._tiles)
+
+    @property
+    def tile_bytes(self) -> int:
+        """Memory held by loaded tiles."""
+        return sum(t.nbytes for t in self._tiles.values())
+
+    def full_grid_bytes(self, dtype: np.dtype | type = np.float32) -> int:
+        """What heights plus both gradients would take held as whole grids (computed, never allocated)."""
+        return 3 * self.nx * self.nz * np.dtype(dtype).itemsize
+
+    def tile_bounds(self, key: TileKey) -> tuple[float, float, float, float]:
+        """(x0, z0, x1, z1) of a tile, m."""
+        (i0, i1), (j0, j1) = self._span(key[1], self.nx), self._span(key[0], self.nz)
+        res = self.resolution
+        return self.origin_x + i0 * res, self.origin_z + j0 * res, self.origin_x + i1 * res, self.origin_z + j1 * res
+
+    def _span(self, t: int, n: int) -> tuple[int, int]:
+        """First and last node index (inclusive) of tile column/row ``t`` along an axis of ``n`` nodes."""
+        return t * self.tile_cells, min((t + 1) * self.tile_cells, n - 1)
+
+    def tile(self, key: TileKey, cache: bool = True) -> Tile:
+        """The tile, generated if not loaded; ``cache=False`` leaves the LRU untouched (exports, surveys)."""
+        tile = self._tiles.get(key)
+        if tile is not None:
+            if cache:
+                self._tiles.move_to_end(key)
+            return tile
+        tile = self._generate(key)
+        if cache:
+            self._tiles[key] = tile
+            while len(self._tiles) > self.max_tiles:
+                self._tiles.popitem(last=False)
+                self.tiles_evicted += 1
+        return tile
+
+    def _generate(self, key: TileKey) -> Tile:
+        """Heights of the tile plus a one-node halo (clipped at the terrain edge), gradients, then crop."""
+        (i0, i1), (j0, j1) = self._span(key[1], self.nx), self._span(key[0], self.nz)
+        hi0, hi1 = max(i0 - 1, 0), min(i1 + 1, self.nx - 1)
+        hj0, hj1 = max(j0 - 1, 0), min(j1 + 1, self.nz - 1)
+        heights = self._block(hi0, hi1 + 1, hj0, hj1 + 1)
+        slope_z, slope_x = np.gradient(heights, self.resolution)
+        crop = np.s_[j0 - hj0:j1 - hj0 + 1, i0 - hi0:i1 - hi0 + 1]
+        self.tiles_generated += 1
+        return Tile(key, i0, j0, *(np.ascontiguousarray(a[crop], dtype=np.float32)
+                                   for a in (heights, slope_x, slope_z)))
+
+    def _block(self, i0: int, i1: int, j0: int, j1: int) -> np.ndarray:
+        """float64 heights of nodes [j0:j1, i0:i1], every layer evaluated from global coordinates."""
+        xs = self.origin_x + np.arange(i0, i1) * self.resolution
+        zs = self.origin_z + np.arange(j0, j1) * self.resolution
+        if self.base is not None:
+            out = np.asarray(self.base.block(xs[0], zs[0], self.resolution, xs.size, zs.size), dtype=float)
+        else:
+            out = np.zeros((zs.size, xs.size))
+        if self.undulation is not None:
+            out += self.undulation.grid(xs, zs)
+        if self.craters.craters:
+            self.craters.add_to(out, xs, zs)
+        return out
+
+    def keep_near(self, points_xz: np.ndarray, radius_m: float) -> set[TileKey]:
+        """Chunk activation: load every tile within ``radius_m`` of a point, drop every other tile.
+
+        If more tiles are near than the cap allows, the nearest ones are kept (and a warning logged).
+        Returns the keys of the tiles near the points.
+        """
+        keys, dist = self._tiles_near(np.asarray(points_xz, float).reshape(-1, 2), float(radius_m))
+        near = set(zip(keys[:, 0].tolist(), keys[:, 1].tolist(), strict=True))
+        for key in [k for k in self._tiles if k not in near]:
+            del self._tiles[key]
+            self.tiles_evicted += 1
+        if len(keys) > self.max_tiles:
+            log.warning("%d tiles lie within %.0f m of the points but only %d may be loaded; keeping the nearest",
+                        len(keys), radius_m, self.max_tiles)
+        for tz, tx in keys[np.argsort(dist, kind="stable")][:self.max_tiles].tolist():
+            self.tile((tz, tx))
+        return near
+
+    def _tiles_near(self, points: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """Distinct tiles whose rectangle lies within ``radius`` of a point, with each one's nearest distance."""
+        if points.size == 0:
+            return np.empty((0, 2), int), np.empty(0)
+        side = self.tile_cells * self.resolution
+        reach = int(np.ceil(radius / side)) + 1
+        offsets = np.arange(-reach, reach + 1)
+        ptx = np.floor((points[:, 0] - self.origin_x) / side).astype(int)
+        ptz = np.floor((points[:, 1] - self.origin_z) / side).astype(int)
+        tx = (ptx[:, None, None] + offsets[None, None, :]).repeat(offsets.size, axis=1)
+        tz = (ptz[:, None, None] + offsets[None, :, None]).repeat(offsets.size, axis=2)
+        px, pz = points[:, 0, None, None], points[:, 1, None, None]
+        x0, z0 = self.origin_x + tx * side, self.origin_z + tz * side
+        x1 = np.minimum(x0 + side, self.origin_x + (self.nx - 1) * self.resolution)
+        z1 = np.minimum(z0 + side, self.origin_z + (self.nz - 1) * self.resolution)
+        dist = np.hypot(np.maximum(np.maximum(x0 - px, px - x1), 0), np.maximum(np.maximum(z0 - pz, pz - z1), 0))
+        ok = (dist <= radius) & (tx >= 0) & (tx < self.tiles_x) & (tz >= 0) & (tz < self.tiles_z)
+        ids, dist = (tz * self.tiles_x + tx)[ok], dist[ok]
+        order = np.lexsort((dist, ids))
+        ids, first = np.unique(ids[order], return_index=True)
+        return np.stack([ids // self.tiles_x, ids % self.tiles_x], axis=1), dist[order][first]
+
+    # ---- sampling ----
+
+    def _sample(self, fields: tuple[str, ...], x, z, cache: bool = True) -> list[np.ndarray]:
+        """Bilinear samples of tile fields at points, clamped at the terrain edge, grouped by tile.
+
+        Points are sorted by tile once; the only Python loop is over the distinct tiles touched.
+        """
+        x, z = np.broadcast_arrays(np.asarray(x, float), np.asarray(z, float))
+        shape = x.shape
+        fx = np.clip((x.ravel() - self.origin_x) / self.resolution, 0, self.nx - 1)
+        fz = np.clip((z.ravel() - self.origin_z) / self.resolution, 0, self.nz - 1)
+        ix, iz = np.minimum(fx.astype(int), self.nx - 2), np.minimum(fz.astype(int), self.nz - 2)
         tx, tz = fx - ix, fz - iz
-        top = grid[iz, ix] * (1 - tx) + grid[iz, ix + 1] * tx
-        bottom = grid[iz + 1, ix] * (1 - tx) + grid[iz + 1, ix + 1] * tx
-        return top * (1 - tz) + bottom * tz
+        ids = (iz // self.tile_cells) * self.tiles_x + ix // self.tile_cells
+        out = [np.empty(ids.size) for _ in fields]
+        order = np.argsort(ids, kind="stable")
+        uniq, starts = np.unique(ids[order], return_index=True)
+        ends = np.append(starts[1:], ids.size)
+        for tile_id, s, e in zip(uniq.tolist(), starts.tolist(), ends.tolist(), strict=True):
+            sel = order[s:e]
+            tile = self.tile(divmod(tile_id, self.tiles_x), cache)
+            lx, lz, wx, wz = ix[sel] - tile.i0, iz[sel] - tile.j0, tx[sel], tz[sel]
+            for k, name in enumerate(fields):
+                g = getattr(tile, name)
+                top = g[lz, lx] * (1 - wx) + g[lz, lx + 1] * wx
+                bottom = g[lz + 1, lx] * (1 - wx) + g[lz + 1, lx + 1] * wx
+                out[k][sel] = top * (1 - wz) + bottom * wz
+        return [o.reshape(shape)[()] for o in out]  # a scalar in gives a scalar out
 
-    def height(self, x, z) -> np.ndarray:
-        return self._sample(self.heights, x, z)
+    def height(self, x, z, *, cache: bool = True) -> np.ndarray:
+        return self._sample(("heights",), x, z, cache)[0]
+
+    def gradient(self, x, z) -> tuple[np.ndarray, np.ndarray]:
+        """(dh/dx, dh/dz) at the points: the ground's rise per metre along +x and +z."""
+        gx, gz = self._sample(("slope_x", "slope_z"), x, z)
+        return gx, gz
+
+    def slope_deg(self, x, z) -> np.ndarray:
+        """Steepest slope angle at the points, whatever the heading (what ``max_slope_deg`` is judged on)."""
+        gx, gz = self.gradient(x, z)
+        return np.degrees(np.arctan(np.hypot(gx, gz)))
 
     def pitch_deg(self, x, z, heading_deg) -> np.ndarray:
         """Nose-up angle of a rover standing at (x, z) facing ``heading_deg``: the slope along its heading."""
-        h = np.radians(heading_deg)
-        along = self._sample(self.slope_x, x, z) * np.sin(h) + self._sample(self.slope_z, x, z) * np.cos(h)
-        return np.degrees(np.arctan(along))
+        x, z, heading = np.broadcast_arrays(np.asarray(x, float), np.asarray(z, float), np.asarray(heading_deg, float))
+        gx, gz = self.gradient(x, z)
+        h = np.radians(heading)
+        return np.degrees(np.arctan(gx * np.sin(h) + gz * np.cos(h)))
 
+    # ---- whole grids (small terrains only) ----
 
-def _undulation(gx: np.ndarray, gz: np.ndarray, amplitude: float, rng: np.random.Generator) -> np.ndarray:
-    """Gentle seeded ground roll: a few random long-wavelength sinusoids."""
-    out = np.zeros_like(gx)
-    for _ in range(6):
-        wavelength = rng.uniform(20.0, 120.0)
-        angle = rng.uniform(0, 2 * np.pi)
-        phase = rng.uniform(0, 2 * np.pi)
-        k = 2 * np.pi / wavelength
-        out += np.sin(k * (gx * np.cos(angle) + gz * np.sin(angle)) + phase)
-    return out * (amplitude / 6)
+    @property
+    def heights(self) -> np.ndarray:
+        """Whole height grid (nz, nx), float32; refused for terrains too large to hold at once."""
+        return self._assemble("heights")
+
+    @property
+    def slope_x(self) -> np.ndarray:
+        return self._assemble("slope_x")
+
+    @property
+    def slope_z(self) -> np.ndarray:
+        return self._assemble("slope_z")
+
+    def _assemble(self, name: str) -> np.ndarray:
+        if self.nx * self.nz > FULL_GRID_LIMIT:
+            raise MemoryError(f"terrain of {self.nx} x {self.nz} nodes is too large to assemble; sample it "
+                              f"(height, gradient) so only the tiles needed are loaded")
+        out = np.empty((self.nz, self.nx), np.float32)
+        for tz in range(self.tiles_z):
+            for tx in range(self.tiles_x):
+                tile = self.tile((tz, tx), cache=False)
+                g = getattr(tile, name)
+                out[tile.j0:tile.j0 + g.shape[0], tile.i0:tile.i0 + g.shape[1]] = g
+        return out

@@ -1,0 +1,266 @@
+"""Terrain meshes: import an OBJ/STL/PLY/GLB surface into the heightmap, export the heightmap as GLB.
+
+Import: the mesh (y up, x/z the ground plane, as Unity and NASA's lunar models) is loaded with trimesh and
+kept as triangles binned on a coarse grid. A terrain tile asks for the heights of its node block and only
+the triangles whose bins touch it are rasterised, vectorised over (triangle, node) pairs in bounded
+batches: each node takes the highest surface above it (overhangs and vertical faces resolve to the top),
+and nodes no triangle covers take the mesh's lowest height. Rasterising per tile keeps a large model's
+grid out of memory just as procedural tiles do.
+
+Export: ``export_glb`` samples the terrain on its own grid (downsampled by a step for big areas) and writes
+a y-up triangle mesh viewers can load; tiles it needs but has not loaded are generated without entering
+the LRU, so an export does not evict the rovers' working set.
+
+    python -m world_service.terrain_mesh SCENARIO.yaml OUT.glb [--step N] [--bounds X0 Z0 X1 Z1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+import trimesh
+
+from schemas.scenario import TerrainSpec
+from world_service.terrain import Heightmap
+
+BATCH_PAIRS = 2_000_000
+"""(triangle, node) pairs rasterised at once: bounds the temporary arrays to a few tens of MB."""
+EDGE_TOLERANCE = 1e-9
+"""Barycentric slack so nodes exactly on a shared edge are covered by both triangles."""
+
+
+def load_vertices_faces(path: str | Path, scale: float | Sequence[float] = 1.0,
+                        offset: Sequence[float] = (0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (scaled, then offset) and triangle faces of a mesh file; a multi-part scene is flattened."""
+    mesh = trimesh.load(str(path), force="mesh")
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise ValueError(f"{path}: no triangles to make a terrain from")
+    vertices = np.asarray(mesh.vertices, float) * np.broadcast_to(np.asarray(scale, float), 3)
+    return vertices + np.asarray(offset, float), np.asarray(mesh.faces, np.int64)
+
+
+def fit_spec(path: str | Path, resolution_m: float = 1.0, scale: float | Sequence[float] = 1.0,
+             offset: Sequence[float] = (0.0, 0.0, 0.0), **fields: object) -> TerrainSpec:
+    """A TerrainSpec covering the mesh's ground footprint (a whole number of cells, so every node is on it)."""
+    vertices, _ = load_vertices_faces(path, scale, offset)
+    lo, hi = vertices[:, [0, 2]].min(axis=0), vertices[:, [0, 2]].max(axis=0)
+    cells = np.maximum(np.floor((hi - lo) / resolution_m + 1e-9), 1)
+    return TerrainSpec(origin=(float(lo[0]), float(lo[1])), size_m=tuple(float(c * resolution_m) for c in cells),
+                       resolution_m=resolution_m, mesh=str(path), mesh_scale=scale, mesh_offset=tuple(offset),
+                       **fields)
+
+
+@dataclass(frozen=True)
+class _Triangles:
+    """Per-triangle data for barycentric rasterisation in the x/z plane."""
+
+    ax: np.ndarray
+    az: np.ndarray
+    ay: np.ndarray
+    e1x: np.ndarray  # B - A
+    e1z: np.ndarray
+    e2x: np.ndarray  # C - A
+    e2z: np.ndarray
+    dy1: np.ndarray  # By - Ay
+    dy2: np.ndarray  # Cy - Ay
+    inv_det: np.ndarray
+    lo: np.ndarray  # (n, 2) min x, z
+    hi: np.ndarray  # (n, 2) max x, z
+
+    @classmethod
+    def of(cls, vertices: np.ndarray, faces: np.ndarray) -> _Triangles:
+        """Triangles of the mesh, dropping those seen edge-on from above (vertical faces cover no node)."""
+        a, b, c = (vertices[faces[:, k]] for k in range(3))
+        e1, e2 = b - a, c - a
+        det = e1[:, 0] * e2[:, 2] - e2[:, 0] * e1[:, 2]
+        span = np.maximum(np.abs(e1[:, [0, 2]]).max(axis=1), np.abs(e2[:, [0, 2]]).max(axis=1))
+        keep = np.abs(det) > 1e-12 * np.maximum(span * span, 1e-300)
+        a, b, c, e1, e2, det = a[keep], b[keep], c[keep], e1[keep], e2[keep], det[keep]
+        xz = np.stack([a[:, [0, 2]], b[:, [0, 2]], c[:, [0, 2]]])
+        return cls(a[:, 0], a[:, 2], a[:, 1], e1[:, 0], e1[:, 2], e2[:, 0], e2[:, 2], e1[:, 1], e2[:, 1], 1.0 / det,
+                   xz.min(axis=0), xz.max(axis=0))
+
+    def __len__(self) -> int:
+        return self.ax.size
+
+
+class MeshSurface:
+    """A triangle surface answering height blocks for terrain tiles (``terrain.HeightSource``)."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, bin_size_m: float = 256.0) -> None:
+        self.triangles = _Triangles.of(np.asarray(vertices, float), np.asarray(faces, np.int64))
+        if len(self.triangles) == 0:
+            raise ValueError("the mesh has no triangles facing up or down")
+        self.fill_height = float(np.min(vertices[:, 1]))
+        self.bin_size = float(bin_size_m)
+        self.bin_origin = self.triangles.lo.min(axis=0)
+        self._bin_triangles()
+
+    @classmethod
+    def load(cls, path: str | Path, scale: float | Sequence[float] = 1.0, offset: Sequence[float] = (0.0, 0.0, 0.0),
+             bin_size_m: float = 256.0) -> MeshSurface:
+        return cls(*load_vertices_faces(path, scale, offset), bin_size_m=bin_size_m)
+
+    def _bin_range(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        first = np.floor((lo - self.bin_origin) / self.bin_size).astype(np.int64)
+        last = np.floor((hi - self.bin_origin) / self.bin_size).astype(np.int64)
+        return np.clip(first, 0, self.bins - 1), np.clip(last, 0, self.bins - 1)
+
+    def _bin_triangles(self) -> None:
+        """CSR index bin -> triangles whose bounding box touches it, so a tile rasterises only its own."""
+        t = self.triangles
+        self.bins = (np.floor((t.hi.max(axis=0) - self.bin_origin) / self.bin_size).astype(np.int64) + 1)
+        first, last = self._bin_range(t.lo, t.hi)
+        width = last - first + 1
+        tri, local = _expand(width[:, 0] * width[:, 1], 0, int((width[:, 0] * width[:, 1]).sum()))
+        bx = first[tri, 0] + local % width[tri, 0]
+        bz = first[tri, 1] + local // width[tri, 0]
+        ids = bz * self.bins[0] + bx
+        order = np.argsort(ids, kind="stable")
+        self._bin_tris = tri[order]
+        self._bin_start = np.searchsorted(ids[order], np.arange(self.bins[0] * self.bins[1] + 1))
+
+    def _candidates(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Triangles whose bounding box meets the rectangle lo..hi (x, z)."""
+        if np.any(hi < self.triangles.lo.min(axis=0)) or np.any(lo > self.triangles.hi.max(axis=0)):
+            return np.empty(0, np.int64)
+        first, last = self._bin_range(lo, hi)
+        rows = [self._bin_tris[self._bin_start[bz * self.bins[0] + first[0]]:
+                               self._bin_start[bz * self.bins[0] + last[0] + 1]]
+                for bz in range(first[1], last[1] + 1)]
+        cand = np.unique(np.concatenate(rows))
+        t = self.triangles
+        meets = np.all(t.lo[cand] <= hi, axis=1) & np.all(t.hi[cand] >= lo, axis=1)
+        return cand[meets]
+
+    def block(self, x0: float, z0: float, resolution: float, nx: int, nz: int) -> np.ndarray:
+        """Highest surface over each node of the block; uncovered nodes get the mesh's lowest height."""
+        out = np.full((nz, nx), -np.inf)
+        lo = np.array([x0, z0])
+        hi = lo + resolution * np.array([nx - 1, nz - 1])
+        cand = self._candidates(lo, hi)
+        if cand.size:
+            t = self.triangles
+            first = np.ceil((t.lo[cand] - lo) / resolution - 1e-9).astype(np.int64).clip(0, [nx - 1, nz - 1])
+            last = np.floor((t.hi[cand] - lo) / resolution + 1e-9).astype(np.int64).clip(-1, [nx - 1, nz - 1])
+            width = np.maximum(last - first + 1, 0)
+            counts = width[:, 0] * width[:, 1]
+            total = int(counts.sum())
+            for start in range(0, total, BATCH_PAIRS):
+                tri, local = _expand(counts, start, min(start + BATCH_PAIRS, total))
+                ix = first[tri, 0] + local % width[tri, 0]
+                iz = first[tri, 1] + local // width[tri, 0]
+                self._raster(out, cand[tri], ix, iz, x0 + ix * resolution, z0 + iz * resolution)
+        out[np.isneginf(out)] = self.fill_height
+        return out
+
+    def _raster(self, out: np.ndarray, tri: np.ndarray, ix: np.ndarray, iz: np.ndarray,
+                px: np.ndarray, pz: np.ndarray) -> None:
+        """Barycentric test and interpolated height for (triangle, node) pairs; keep the max per node."""
+        t = self.triangles
+        dx, dz = px - t.ax[tri], pz - t.az[tri]
+        u = (dx * t.e2z[tri] - t.e2x[tri] * dz) * t.inv_det[tri]
+        v = (t.e1x[tri] * dz - dx * t.e1z[tri]) * t.inv_det[tri]
+        inside = (u >= -EDGE_TOLERANCE) & (v >= -EDGE_TOLERANCE) & (u + v <= 1 + EDGE_TOLERANCE)
+        y = t.ay[tri] + u * t.dy1[tri] + v * t.dy2[tri]
+        np.maximum.at(out.reshape(-1), iz[inside] * out.shape[1] + ix[inside], y[inside])
+
+
+def _expand(counts: np.ndarray, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs start..stop of the flattened (item, k < counts[item]) enumeration, as (item, k) arrays."""
+    ends = np.cumsum(counts)
+    pair = np.arange(start, stop, dtype=np.int64)
+    item = np.searchsorted(ends, pair, side="right")
+    return item, pair - (ends[item] - counts[item])
+
+
+# ---- export ----
+
+
+Bounds = tuple[float, float, float, float]
+
+
+def export_glb(terrain: Heightmap, path_or_file: str | Path | IO[bytes], bounds: Bounds | str | None = None,
+               step: int | None = None, max_vertices: int = 1_000_000) -> trimesh.Trimesh:
+    """Write the terrain as a GLB triangle mesh (y up, x/z ground) and return the mesh.
+
+    ``bounds`` is (x0, z0, x1, z1), ``"loaded"`` for the loaded tiles, or None for the whole terrain.
+    ``step`` keeps every step-th grid node (the area's edge node is always kept); by default the smallest
+    step that stays within ``max_vertices``, so a 50 km² area exports as a viewer-sized mesh.
+    """
+    ii, jj = _export_nodes(terrain, bounds, step, max_vertices)
+    xs = terrain.origin_x + ii * terrain.resolution
+    zs = terrain.origin_z + jj * terrain.resolution
+    heights = terrain.height(xs[None, :], zs[:, None], cache=False)
+    gx, gz = np.meshgrid(xs, zs)
+    vertices = np.column_stack([gx.ravel(), heights.ravel(), gz.ravel()])
+    mesh = trimesh.Trimesh(vertices=vertices, faces=_grid_faces(zs.size, xs.size), process=False)
+    data = mesh.export(file_type="glb")
+    if isinstance(path_or_file, (str, Path)):
+        Path(path_or_file).write_bytes(data)
+    else:
+        path_or_file.write(data)
+    return mesh
+
+
+def _export_nodes(terrain: Heightmap, bounds: Bounds | str | None, step: int | None,
+                  max_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """Grid node indices along x and z covering the bounds, every ``step``-th plus the far edge."""
+    if bounds == "loaded":
+        if not terrain.loaded_tiles:
+            raise ValueError("no tiles are loaded to export")
+        boxes = np.array([terrain.tile_bounds(k) for k in terrain.loaded_tiles])
+        bounds = (*boxes[:, :2].min(axis=0), *boxes[:, 2:].max(axis=0))
+    elif bounds is None:
+        bounds = (terrain.origin_x, terrain.origin_z, math.inf, math.inf)
+    elif isinstance(bounds, str):
+        raise ValueError(f"bounds must be (x0, z0, x1, z1), 'loaded' or None, not {bounds!r}")
+    x0, z0, x1, z1 = bounds
+    i0, i1 = _node_range(x0, x1, terrain.origin_x, terrain.resolution, terrain.nx)
+    j0, j1 = _node_range(z0, z1, terrain.origin_z, terrain.resolution, terrain.nz)
+    if step is None:
+        step = max(1, math.ceil(math.sqrt((i1 - i0 + 1) * (j1 - j0 + 1) / max_vertices)))
+    if step < 1:
+        raise ValueError(f"step must be at least 1, got {step}")
+    return (np.unique(np.append(np.arange(i0, i1 + 1, step), i1)),
+            np.unique(np.append(np.arange(j0, j1 + 1, step), j1)))
+
+
+def _node_range(lo: float, hi: float, origin: float, resolution: float, n: int) -> tuple[int, int]:
+    """First and last node covering [lo, hi], clamped to the grid, at least two nodes apart by one."""
+    first = int(np.clip(math.floor((lo - origin) / resolution + 1e-9), 0, n - 2))
+    last = int(np.clip(math.ceil((min(hi, 1e300) - origin) / resolution - 1e-9), first + 1, n - 1))
+    return first, last
+
+
+def _grid_faces(rows: int, cols: int) -> np.ndarray:
+    """Two triangles per grid cell, wound so their normals point up (+y) for rows along +z, columns +x."""
+    a = (np.arange(rows - 1)[:, None] * cols + np.arange(cols - 1)[None, :]).ravel()
+    return np.concatenate([np.column_stack([a, a + cols, a + 1]), np.column_stack([a + 1, a + cols, a + cols + 1])])
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Export a scenario's terrain as GLB (a mesh path in the scenario is read relative to the file)."""
+    from schemas.scenario import load_scenario
+
+    parser = argparse.ArgumentParser(prog="python -m world_service.terrain_mesh", description=main.__doc__)
+    parser.add_argument("scenario", type=Path)
+    parser.add_argument("output", type=Path)
+    parser.add_argument("--step", type=int, default=None, help="keep every N-th grid node (default: fit 1M vertices)")
+    parser.add_argument("--bounds", type=float, nargs=4, metavar=("X0", "Z0", "X1", "Z1"), default=None)
+    args = parser.parse_args(argv)
+    scenario = load_scenario(args.scenario)
+    terrain = Heightmap.from_scenario(scenario, np.random.default_rng(scenario.seed), base_dir=args.scenario.parent)
+    mesh = export_glb(terrain, args.output, tuple(args.bounds) if args.bounds else None, args.step)
+    print(f"wrote {args.output}: {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
