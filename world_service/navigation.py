@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from schemas.frames import to_relative, to_world, wrap_deg
 from schemas.params import NavigationParams
 
@@ -21,6 +23,7 @@ class Move:
     start: tuple[float, float, float]  # x, z, heading at acceptance
     turning: bool = True
     cancelling: bool = False
+    final_turn: float = 0.0  # heading error added on arrival (noise)
 
 
 @dataclass
@@ -62,9 +65,9 @@ class RoverBody:
             return abs(self.action.remaining_deg)
         return 0.0
 
-    def start_move(self, rel_x: float, rel_z: float) -> None:
+    def start_move(self, rel_x: float, rel_z: float, final_turn: float = 0.0) -> None:
         gx, gz = to_world(self.x, self.z, self.heading, rel_x, rel_z)
-        self.action = Move(gx, gz, (self.x, self.z, self.heading))
+        self.action = Move(gx, gz, (self.x, self.z, self.heading), final_turn=final_turn)
 
     def start_rotate(self, degrees: float) -> None:
         self.action = Rotate(degrees, (self.x, self.z, self.heading))
@@ -80,13 +83,19 @@ class RoverBody:
         return rx, rz, wrap_deg(self.heading - sh)
 
 
-def step(body: RoverBody, dt: float, params: NavigationParams) -> Ended | None:
+def slope_factor(pitch_deg, params: NavigationParams):
+    """Share of the set speed a rover keeps climbing at ``pitch_deg`` (downhill and flat: all of it)."""
+    climb = np.clip(np.asarray(pitch_deg, float) / params.max_slope_deg, 0.0, 1.0)
+    return 1.0 - params.slope_slowdown * climb
+
+
+def step(body: RoverBody, dt: float, params: NavigationParams, speed_factor: float = 1.0) -> Ended | None:
     """Advance one rover by ``dt`` seconds; returns how its action ended, if it did."""
     action = body.action
     if isinstance(action, Rotate):
         return _step_rotate(body, action, dt, params)
     if isinstance(action, Move):
-        return _step_move(body, action, dt, params)
+        return _step_move(body, action, dt, params, speed_factor)
     return None
 
 
@@ -104,7 +113,7 @@ def _step_rotate(body: RoverBody, action: Rotate, dt: float, params: NavigationP
     return None
 
 
-def _step_move(body: RoverBody, move: Move, dt: float, params: NavigationParams) -> Ended | None:
+def _step_move(body: RoverBody, move: Move, dt: float, params: NavigationParams, speed_factor: float) -> Ended | None:
     dist = math.hypot(move.goal_x - body.x, move.goal_z - body.z)
     if move.turning:
         if move.cancelling:
@@ -123,7 +132,7 @@ def _step_move(body: RoverBody, move: Move, dt: float, params: NavigationParams)
             return _end_move(body, move, "cancelled")
     else:
         braking = math.sqrt(2 * accel * dist)
-        body.velocity = min(body.velocity + accel * dt, params.speed(body.speed_level), braking)
+        body.velocity = min(body.velocity + accel * dt, params.speed(body.speed_level) * speed_factor, braking)
     advance = body.velocity * dt if move.cancelling else min(body.velocity * dt, dist)
     if dist > 1e-9 and advance > 0:
         h = math.radians(body.heading)
@@ -132,6 +141,7 @@ def _step_move(body: RoverBody, move: Move, dt: float, params: NavigationParams)
         body.distance_covered += advance
     if not move.cancelling and (dist - advance) < 1e-6:
         body.x, body.z = move.goal_x, move.goal_z
+        body.heading = (body.heading + move.final_turn) % 360.0
         return _end_move(body, move, "completed")
     return None
 

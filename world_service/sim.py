@@ -56,6 +56,7 @@ class World:
         self.rejected: Counter[str] = Counter()
         self.radio_dropped = 0
         self.completed_at: float | None = None
+        self._speed_factor: dict[int, float] = {}
         self.time_scale = 1.0  # what the clock announces; the service paces the ticks
         self.lockstep = False
         self.graph = self._build_graph()
@@ -92,8 +93,18 @@ class World:
         reason = self._move_problem(body, msg)
         if reason:
             return [self._reject(rid, "move", *reason)]
-        body.start_move(msg.x, msg.z)
+        x, z, turn = self._with_slip(msg.x, msg.z)
+        body.start_move(x, z, turn)
         return [self._nav_status(body, "move")]
+
+    def _with_slip(self, x: float, z: float) -> tuple[float, float, float]:
+        """Where a move really ends: the ground slips by a share of the move's length (seeded noise)."""
+        nav_p = self.params.navigation
+        sigma = nav_p.slip_std * math.hypot(x, z)
+        turn = self.rng.normal(0.0, nav_p.heading_noise_std_deg) if nav_p.heading_noise_std_deg > 0 else 0.0
+        if sigma > 0:
+            x, z = x + self.rng.normal(0.0, sigma), z + self.rng.normal(0.0, sigma)
+        return x, z, turn
 
     def _move_problem(self, body: nav.RoverBody, msg: m.MoveAction) -> tuple[str, str] | None:
         p = self.params
@@ -110,13 +121,24 @@ class World:
         ox, oz = self._other_positions(body.id)
         if self.scene.line_blocked(body.x, body.z, gx, gz, clearance, ox, oz, radius):
             return "blocked", "the line to the goal is not clear"
+        if self._too_steep(body.x, body.z, gx, gz):
+            return "blocked", f"the ground on the way is steeper than {p.navigation.max_slope_deg:g} degrees"
         return None
+
+    def _too_steep(self, x0: float, z0: float, x1: float, z1: float) -> bool:
+        length = math.hypot(x1 - x0, z1 - z0)
+        if length < 1e-9:
+            return False
+        f = np.linspace(0.0, 1.0, max(2, math.ceil(length / 0.5) + 1))
+        pitch = self.terrain.pitch_deg(x0 + f * (x1 - x0), z0 + f * (z1 - z0), np.degrees(np.arctan2(x1 - x0, z1 - z0)))
+        return bool(np.any(pitch > self.params.navigation.max_slope_deg))
 
     def _on_rotate(self, rid: int, msg: m.RotateAction) -> list[Out]:
         body = self.bodies[rid]
         if body.busy:
             return [self._reject(rid, "rotate", "action_in_progress", "a move or rotate is still running")]
-        body.start_rotate(msg.degrees)
+        noise = self.params.navigation.heading_noise_std_deg
+        body.start_rotate(msg.degrees + (self.rng.normal(0.0, noise) if noise > 0 else 0.0))
         return [self._nav_status(body, "rotate")]
 
     def _on_cancel(self, rid: int, msg: m.CancelAction) -> list[Out]:
@@ -191,6 +213,11 @@ class World:
         """Advance one tick and return everything the world publishes for it."""
         self.tick += 1
         out: list[Out] = []
+        moving = [b for b in self.bodies.values() if isinstance(b.action, nav.Move)]
+        if moving:
+            pitch = self.terrain.pitch_deg(*(np.array([getattr(b, a) for b in moving]) for a in ("x", "z", "heading")))
+            self._speed_factor = dict(zip((b.id for b in moving), nav.slope_factor(pitch, self.params.navigation),
+                                          strict=True))
         for body in self.bodies.values():
             out += self._move_body(body)
         if self.tick % self.perception_period == 0:
@@ -206,7 +233,8 @@ class World:
 
     def _move_body(self, body: nav.RoverBody) -> list[Out]:
         before = (body.x, body.z, body.distance_covered)
-        ended = nav.step(body, self.dt, self.params.navigation)
+        factor = float(self._speed_factor.get(body.id, 1.0)) if isinstance(body.action, nav.Move) else 1.0
+        ended = nav.step(body, self.dt, self.params.navigation, factor)
         if (body.x, body.z) != before[:2] and self._collides(body):
             body.x, body.z, body.distance_covered = before
             start = body.action.start if body.action is not None else None
