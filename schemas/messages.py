@@ -204,6 +204,7 @@ class WorldState(Message):
     stamp: float
     rovers: list[RoverTruth]
     comm_links: list[tuple[int, int]] = Field(default_factory=list)
+    relays: list[int] = Field(default_factory=list, description="rovers relaying for others: the daisy chain")
 
 
 class MissionReport(Message):
@@ -224,6 +225,11 @@ class MissionReport(Message):
     wall_time_s: float = 0.0
     complete: bool = False
     rejected_messages: int = 0
+    lander_connection_losses: int = Field(0, description="times a rover lost its route to the lander (6.3.3)")
+    disconnected_time_s: float = Field(0.0, description="rover-seconds without a route to the lander")
+    max_rovers_in_daisy_chain: int = Field(0, description="most rovers relaying for others at one time")
+    radio_dropped: int = Field(0, description="transmissions whose target was out of reach")
+    radio_lost: int = Field(0, description="transmissions lost to the configured loss probability")
 
 
 class WorldStats(Message):

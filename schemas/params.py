@@ -88,7 +88,8 @@ class CommunicationParams(Params):
     )
     partners_frequency: float = Field(1.0, gt=0, description="comm_partners rate, Hz")
     line_of_sight: bool = Field(True, description="links need line of sight over terrain and walls")
-    antenna_height_m: float = Field(0.3, ge=0, description="antenna height above ground, for line of sight")
+    antenna_height_m: float = Field(0.3, ge=0, description="rover antenna height above ground, for line of sight")
+    lander_antenna_height_m: float = Field(3.0, ge=0, description="the lander's mast, for line of sight")
     latency_s: float = Field(0.0, ge=0, le=60, description="per-link delivery delay")
     loss_probability: float = Field(0.0, ge=0, le=1, description="chance a transmission is lost on the way")
 

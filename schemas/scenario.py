@@ -94,6 +94,7 @@ class Rock(Spec):
 class Wall(Spec):
     points: list[tuple[float, float]] = Field(min_length=2)
     thickness_m: float = Field(0.5, gt=0)
+    height_m: float = Field(1.0, gt=0, description="a radio line passing above the wall is not blocked")
 
 
 class RockField(Spec):

@@ -583,9 +583,6 @@ def test_non_finite_rotate_does_not_keep_the_rover_busy(degrees):
     assert not world.bodies[1].busy
 
 
-@pytest.mark.xfail(strict=True, reason="issue 3: the design (architecture.md, CommPartners docstring) links two "
-                                       "nodes only with range AND line of sight; build_graph checks range only, so "
-                                       "rovers on either side of a wall are still partners")
 def test_a_wall_between_two_rovers_cuts_their_radio_link():
     world = World(_scenario(rovers=[(0.0, 0.0, 0.0), (6.0, 0.0, 0.0)], walls=[[(3.0, -5.0), (3.0, 5.0)]]), KEYS)
     assert 2 not in world.graph.partners(1)

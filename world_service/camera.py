@@ -37,8 +37,8 @@ AMBIENT = 0.08  # earthshine and scattered light, so shadowed sides are not pure
 SUN_GAIN = 2.2  # a grazing sun lights flat ground at sin(15 deg) ~ 0.26; the gain brings that to mid grey
 EXPOSURE = 1.5  # tone curve 1 - exp(-exposure * radiance): sunlit faces saturate softly and keep their hue
 
-FIRST_STEP_M = 0.2  # the march starts this far out: nearer ground is below the image's lower edge anyway
-MIN_STEP_M = 0.2
+FIRST_STEP_M = 0.2  # the march starts this far out: a level camera's lowest rays meet the ground ~0.7 m out
+MIN_STEP_M = 0.2  # near the camera steps stay this long; linear refinement places the crossing within them
 STEP_GROWTH = 0.03  # each step is 3% of the distance so far: far away, a pixel covers more ground
 NORMAL_EPS_M = 0.25  # finite-difference half-width for terrain normals
 WALL_HEIGHT_M = 2.0

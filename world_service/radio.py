@@ -1,8 +1,9 @@
 """The radio model (report 10.4): who hears whom, and which transmissions arrive.
 
-Node 0 is the lander, nodes 1..N the rovers. Two nodes are linked when both lie within the range
-of the link (the lander's own range for its links, ``comm_range`` between rovers). Delivery is
-transitive (report 10.4.1): a message reaches every target in the sender's connected component.
+Node 0 is the lander, nodes 1..N the rovers. Two nodes are linked when both lie within the range of
+the link (the lander's own range for its links, ``comm_range`` between rovers) and, unless switched
+off, see each other: the straight line between their antennas clears the terrain and crosses no wall.
+Delivery is transitive (report 10.4.1): a message reaches every target in the sender's component.
 """
 
 from __future__ import annotations
@@ -10,6 +11,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from world_service import geometry as geo
+
+LOS_STEP_M = 2.0
+"""Spacing of the terrain samples along a link's line of sight."""
 
 
 @dataclass(frozen=True)
@@ -26,23 +32,85 @@ class CommGraph:
         ia, ib = self._index(a), self._index(b)
         return ia is not None and ib is not None and self.component[ia] == self.component[ib]
 
+    def connected_to_lander(self) -> np.ndarray:
+        """Bool per node: in the lander's component (the lander itself included)."""
+        return self.component == self.component[0]
+
     def links(self) -> list[tuple[int, int]]:
         i, j = np.nonzero(np.triu(self.adjacency))
         return [(int(self.ids[a]), int(self.ids[b])) for a, b in zip(i, j, strict=True)]
+
+    def relays(self) -> list[int]:
+        """Rovers that carry another rover's traffic on its shortest route to the lander: the daisy chain."""
+        n = len(self.ids)
+        parent = np.full(n, -1)
+        seen = np.zeros(n, bool)
+        seen[0] = True
+        frontier = np.array([0])
+        while len(frontier):
+            reached = self.adjacency[frontier]
+            nxt = []
+            for row, node in enumerate(frontier):
+                new = np.nonzero(reached[row] & ~seen)[0]
+                parent[new], seen[new] = node, True
+                nxt.extend(new.tolist())
+            frontier = np.array(nxt, int)
+        return sorted(int(self.ids[p]) for p in set(parent[parent > 0].tolist()))
 
     def _index(self, node_id: int) -> int | None:
         hits = np.nonzero(self.ids == node_id)[0]
         return int(hits[0]) if len(hits) else None
 
 
-def build_graph(ids: np.ndarray, x: np.ndarray, z: np.ndarray, comm_range: float, lander_range: float) -> CommGraph:
-    """Graph of nodes at (x, z); ``ids[0]`` must be the lander."""
+def build_graph(ids: np.ndarray, x: np.ndarray, z: np.ndarray, comm_range: float, lander_range: float,
+                sight=None) -> CommGraph:
+    """Graph of nodes at (x, z); ``ids[0]`` must be the lander. ``sight(i, j)`` filters pairs in range."""
     d = np.hypot(x[:, None] - x[None, :], z[:, None] - z[None, :])
     reach = np.full(d.shape, comm_range)
     reach[0, :] = reach[:, 0] = lander_range
     adjacency = d <= reach
     np.fill_diagonal(adjacency, False)
+    if sight is not None:
+        i, j = np.nonzero(np.triu(adjacency))
+        blocked = ~sight(i, j)
+        adjacency[i[blocked], j[blocked]] = adjacency[j[blocked], i[blocked]] = False
     return CommGraph(ids, adjacency, _components(adjacency))
+
+
+def line_of_sight(terrain, edges: np.ndarray, edge_height: np.ndarray, x: np.ndarray, z: np.ndarray,
+                  antenna: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Whether node i sees node j for each pair: the antenna-to-antenna line clears the terrain and the walls.
+
+    ``antenna`` is each node's antenna height above the ground (the lander's mast is taller than a rover's).
+    """
+    if not len(i):
+        return np.zeros(0, bool)
+    x0, z0, x1, z1 = x[i], z[i], x[j], z[j]
+    length = np.hypot(x1 - x0, z1 - z0)
+    steps = max(2, int(np.ceil(length.max() / LOS_STEP_M)) + 1)
+    f = np.linspace(0.0, 1.0, steps)[None, :]
+    px, pz = x0[:, None] + f * (x1 - x0)[:, None], z0[:, None] + f * (z1 - z0)[:, None]
+    ground = terrain.height(px.ravel(), pz.ravel()).reshape(px.shape)
+    top0, top1 = ground[:, :1] + antenna[i, None], ground[:, -1:] + antenna[j, None]
+    line = top0 * (1 - f) + top1 * f
+    clear = np.all(ground[:, 1:-1] <= line[:, 1:-1], axis=1)
+    if len(edges):
+        clear &= ~_under_a_wall(x0, z0, x1, z1, length, top0[:, 0], top1[:, 0], terrain, edges, edge_height)
+    return clear
+
+
+def _under_a_wall(x0, z0, x1, z1, length, top0, top1, terrain, edges, edge_height) -> np.ndarray:
+    """Pairs whose line crosses a wall below the wall's top."""
+    dx, dz = (x1 - x0) / np.maximum(length, 1e-9), (z1 - z0) / np.maximum(length, 1e-9)
+    t = geo.ray_segments(x0, z0, dx, dz, edges[:, 0], edges[:, 1], edges[:, 2], edges[:, 3])
+    crossing = t <= length[:, None]
+    if not crossing.any():
+        return np.zeros(len(x0), bool)
+    f = np.where(crossing, t, 0.0) / np.maximum(length, 1e-9)[:, None]
+    line = top0[:, None] * (1 - f) + top1[:, None] * f
+    wall_top = terrain.height(x0[:, None] + dx[:, None] * np.where(crossing, t, 0.0),
+                              z0[:, None] + dz[:, None] * np.where(crossing, t, 0.0)) + edge_height[None, :]
+    return np.any(crossing & (line < wall_top), axis=1)
 
 
 def _components(adjacency: np.ndarray) -> np.ndarray:

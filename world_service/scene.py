@@ -60,6 +60,7 @@ class Scene:
     circle_r: np.ndarray
     circle_kind: np.ndarray
     edges: np.ndarray  # wall outlines, (K, 4)
+    edge_height: np.ndarray  # height of the wall each edge belongs to, (K,)
     crater_x: np.ndarray  # crater terrain, perceived from outside, walkable
     crater_z: np.ndarray
     crater_r: np.ndarray
@@ -77,8 +78,10 @@ class Scene:
         kinds = np.array([OBSTACLE] * len(rocks) + [LANDER], int)
         walls = [geo.wall_edges(w.points, w.thickness_m) for w in scenario.obstacles.walls]
         edges = np.concatenate(walls) if walls else np.zeros((0, 4))
+        heights = np.concatenate([np.full(len(e), w.height_m) for e, w in zip(walls, scenario.obstacles.walls,
+                                                                              strict=True)]) if walls else np.zeros(0)
         craters = scenario.craters
-        return cls(cx, cz, cr, kinds, edges,
+        return cls(cx, cz, cr, kinds, edges, heights,
                    np.array([c.x for c in craters], float), np.array([c.z for c in craters], float),
                    np.array([c.outer_radius for c in craters], float))
 

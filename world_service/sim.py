@@ -20,7 +20,7 @@ from schemas.scenario import Scenario
 from world_service import navigation as nav
 from world_service import statistics as stats
 from world_service.perception import Perceiver
-from world_service.radio import CommGraph, build_graph
+from world_service.radio import CommGraph, build_graph, line_of_sight
 from world_service.scene import Scene, in_view
 from world_service.terrain import Heightmap
 
@@ -54,7 +54,8 @@ class World:
         self.rover_collisions = 0
         self.obstacle_collisions = 0
         self.rejected: Counter[str] = Counter()
-        self.radio_dropped = 0
+        self.links = stats.LinkStats()
+        self._in_flight_radio: list[tuple[int, Out]] = []  # (due tick, delivery) with latency
         self.completed_at: float | None = None
         self._speed_factor: dict[int, float] = {}
         self.time_scale = 1.0  # what the clock announces; the service paces the ticks
@@ -189,10 +190,23 @@ class World:
                 self.rejected[f"radio target {target}"] += 1
                 continue
             if not self.graph.connected(sender, target):
-                self.radio_dropped += 1
+                self.links.dropped += 1
                 continue
-            out.append(self._deliver(sender, target, msg, inner))
+            c = self.params.communication
+            if c.loss_probability > 0 and self.rng.random() < c.loss_probability:
+                self.links.lost += 1
+                continue
+            delivery = self._deliver(sender, target, msg, inner)
+            if c.latency_s > 0:
+                self._in_flight_radio.append((self.tick + max(1, round(c.latency_s / self.dt)), delivery))
+            else:
+                out.append(delivery)
         return out
+
+    def _due_radio(self) -> list[Out]:
+        due = [d for t, d in self._in_flight_radio if t <= self.tick]
+        self._in_flight_radio = [(t, d) for t, d in self._in_flight_radio if t > self.tick]
+        return due
 
     def _deliver(self, sender: int, target: int, msg: m.OutboundComm, inner: m.Message | None) -> Out:
         if inner is not None:
@@ -205,7 +219,19 @@ class World:
         x = np.array([self.scenario.lander.x] + [b.x for b in self.bodies.values()])
         z = np.array([self.scenario.lander.z] + [b.z for b in self.bodies.values()])
         c = self.params.communication
-        return build_graph(ids, x, z, c.comm_range, c.lander_comm_range)
+        sight = None
+        if c.line_of_sight:
+            antenna = np.full(len(ids), c.antenna_height_m)
+            antenna[0] = c.lander_antenna_height_m
+
+            def sight(i, j):
+                return line_of_sight(self.terrain, self.scene.edges, self.scene.edge_height, x, z, antenna, i, j)
+        return build_graph(ids, x, z, c.comm_range, c.lander_comm_range, sight)
+
+    def _track_links(self) -> None:
+        reach = self.graph.connected_to_lander()
+        connected = {int(rid): bool(ok) for rid, ok in zip(self.graph.ids[1:], reach[1:], strict=True)}
+        self.links.update(connected, len(self.graph.relays()), self.perception_period * self.dt)
 
     # ---- time ----
 
@@ -222,6 +248,8 @@ class World:
             out += self._move_body(body)
         if self.tick % self.perception_period == 0:
             self.graph = self._build_graph()
+            self._track_links()
+        out += self._due_radio()
         out += self._sensors()
         self._check_complete()
         out.append((self.keys.clock, self.clock()))
@@ -327,7 +355,8 @@ class World:
                          distance_covered_m=round(b.distance_covered, 3), alive=self.alive[b.id])
             for b in self.bodies.values()
         ]
-        return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links())
+        return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links(),
+                            relays=self.graph.relays())
 
     @staticmethod
     def _action_name(body: nav.RoverBody) -> str:
@@ -361,4 +390,5 @@ class World:
             duration_s=self.completed_at if self.completed_at is not None else self.sim_time,
             complete=self.complete,
             rejected_messages=sum(self.rejected.values()),
+            links=self.links,
         )

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 from schemas.messages import MissionReport
 from schemas.scenario import Goal, Scenario
@@ -72,6 +73,7 @@ def build_report(
     duration_s: float,
     complete: bool,
     rejected_messages: int = 0,
+    links: LinkStats | None = None,
 ) -> MissionReport:
     total = float(sum(distances))
     average = total / len(distances) if distances else 0.0
@@ -91,4 +93,28 @@ def build_report(
         mission_duration_s=round(duration_s, 4),
         complete=complete,
         rejected_messages=rejected_messages,
+        **(links.as_fields() if links else {}),
     )
+
+
+@dataclass
+class LinkStats:
+    """The literature study's fitness list (6.3.3) for communication, accumulated as the graph changes."""
+
+    connected: dict[int, bool] = field(default_factory=dict)
+    losses: int = 0
+    disconnected_s: float = 0.0
+    max_relays: int = 0
+    dropped: int = 0
+    lost: int = 0
+
+    def update(self, connected: dict[int, bool], relays: int, elapsed_s: float) -> None:
+        self.losses += sum(1 for rid, now in connected.items() if self.connected.get(rid, True) and not now)
+        self.disconnected_s += elapsed_s * sum(1 for now in connected.values() if not now)
+        self.max_relays = max(self.max_relays, relays)
+        self.connected = connected
+
+    def as_fields(self) -> dict:
+        return {"lander_connection_losses": self.losses, "disconnected_time_s": round(self.disconnected_s, 4),
+                "max_rovers_in_daisy_chain": self.max_relays, "radio_dropped": self.dropped,
+                "radio_lost": self.lost}
