@@ -102,7 +102,7 @@ class Mission:
             if not wait_for_port("127.0.0.1", self.args.port, 10.0, router):
                 raise RuntimeError(f"the router did not start: {self.children.log_tail('router')}")
         world_args = [str(self.scenario_file), *common, "--time-scale", str(self.args.time_scale),
-                      "--start-timeout", str(START_TIMEOUT_S)]
+                      "--start-timeout", str(START_TIMEOUT_S), "--photos", str(self.out / "photos")]
         if self.args.max_sim_time is not None:
             world_args += ["--max-sim-time", str(self.args.max_sim_time)]
         if self.args.lockstep:

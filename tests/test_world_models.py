@@ -586,3 +586,18 @@ def test_non_finite_rotate_does_not_keep_the_rover_busy(degrees):
 def test_a_wall_between_two_rovers_cuts_their_radio_link():
     world = World(_scenario(rovers=[(0.0, 0.0, 0.0), (6.0, 0.0, 0.0)], walls=[[(3.0, -5.0), (3.0, 5.0)]]), KEYS)
     assert 2 not in world.graph.partners(1)
+
+
+def test_photo_action_renders_what_the_rover_sees():
+    from world_service.camera import decode_png
+
+    world = World(_scenario(rocks=[(0.0, 6.0, 1.0)]), KEYS)
+    assert world.receive(KEYS.rover(1, ks.PHOTO_ACTION), codec.encode(m.PhotoAction(label="rim"))) == []
+    job = world.photo_jobs.pop()
+    assert (job.rover_id, job.label, job.stamp) == (1, "rim", 0.0)
+    image = decode_png(world.render(job).png)
+    params = world.params.camera
+    assert image.shape == (params.height, params.width, 3)
+    world.scene = Scene.from_scenario(_scenario())  # the same view without the rock
+    empty = decode_png(world.render(job).png)
+    assert np.abs(image.astype(int) - empty.astype(int)).sum() > 0

@@ -27,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--exit-when-done", action="store_true",
                         help="exit after the mission instead of serving the final statistics")
     parser.add_argument("--report", type=Path, metavar="FILE", help="also write the final report.json here")
+    parser.add_argument("--photos", type=Path, metavar="DIR", help="also save every rover photo (PNG) here")
     add_zenoh_arguments(parser)
 
 
@@ -42,7 +43,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers)
     world = World(scenario, Keyspace(args.world))
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
-                                     lockstep=args.lockstep)
+                                     lockstep=args.lockstep, photo_dir=args.photos)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="world")
     with Bus(session) as bus, process.stop_on_signals() as stop:
         service.declare_io(bus, world.keys)

@@ -13,9 +13,12 @@ with a liveliness token, so no rover misses the start. Then the clock runs in on
 from __future__ import annotations
 
 import logging
+import queue
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from deploy.bus import Bus, Received
 from schemas import codec
@@ -34,6 +37,46 @@ class ClockSettings:
     wait_for_lander: bool = True
     lockstep: bool = False
     ack_timeout: float = 30.0
+    photo_dir: Path | None = None
+
+
+class Photographer:
+    """Renders the world's photo jobs and publishes (and saves) the PNGs.
+
+    In lockstep a photo is rendered before the next tick, so runs stay reproducible; in real time a
+    worker thread renders it, so a 0.4 s render does not stall the clock.
+    """
+
+    def __init__(self, world: World, bus: Bus, settings: ClockSettings) -> None:
+        self.world, self.bus, self.settings = world, bus, settings
+        self.inline = settings.lockstep
+        self.pool = None if self.inline else ThreadPoolExecutor(max_workers=1, thread_name_prefix="camera")
+        self.done: queue.SimpleQueue = queue.SimpleQueue()
+        self.pending = 0
+
+    def take(self) -> None:
+        jobs, self.world.photo_jobs = self.world.photo_jobs, []
+        for job in jobs:
+            if self.inline:
+                self._publish(job, self.world.render(job))
+            else:
+                self.pending += 1
+                self.pool.submit(lambda j=job: self.done.put((j, self.world.render(j))))
+        while not self.done.empty():
+            self.pending -= 1
+            self._publish(*self.done.get())
+
+    def _publish(self, job, photo: m.Photo) -> None:
+        self.bus.publish(self.world.keys.rover(job.rover_id, ks.PHOTO), photo)
+        if self.settings.photo_dir is not None:
+            self.settings.photo_dir.mkdir(parents=True, exist_ok=True)
+            name = f"rover{job.rover_id}_t{job.stamp:09.2f}{'_' + job.label if job.label else ''}.png"
+            (self.settings.photo_dir / name).write_bytes(photo.png)
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True)
+            self.take()
 
 
 @dataclass
@@ -112,7 +155,8 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
     return agents
 
 
-def _step(world: World, bus: Bus) -> None:
+def _step(world: World, bus: Bus, photographer: Photographer) -> None:
+    photographer.take()
     for key, message in world.step():
         bus.publish(key, message)
 
@@ -125,20 +169,25 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
     """Run the mission until every rover is done or stuck, ``max_sim_time`` passes, or ``stop`` is set."""
     world.time_scale, world.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
     agents = wait_for_agents(world, bus, settings, stop)
-    (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents)
+    photographer = Photographer(world, bus, settings)
+    try:
+        (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
+    finally:
+        photographer.close()
     report = world.report()
     bus.publish(world.keys.state, world.world_state())
     bus.publish(world.keys.stats, m.WorldStats(stamp=world.sim_time, report=report, final=True))
     return report
 
 
-def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents) -> None:
+def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents,
+                  photographer: Photographer) -> None:
     period = world.dt / settings.time_scale if settings.time_scale > 0 else 0.0
     next_tick = time.monotonic()
     while not stop.is_set():
         for item in bus.drain():
             handle(world, bus, item, agents)
-        _step(world, bus)
+        _step(world, bus, photographer)
         if _finished(world, settings):
             return
         next_tick += period
@@ -149,10 +198,11 @@ def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threadi
             next_tick = time.monotonic()  # fell far behind: do not sprint to catch up
 
 
-def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents) -> None:
+def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents,
+                  photographer: Photographer) -> None:
     while not stop.is_set():
         agents.acked.clear()
-        _step(world, bus)
+        _step(world, bus, photographer)
         if _finished(world, settings):
             return
         data = _collect_until_acked(world, bus, settings, stop, agents)

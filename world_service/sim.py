@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -17,6 +18,7 @@ from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.scenario import Scenario
+from world_service import camera
 from world_service import navigation as nav
 from world_service import statistics as stats
 from world_service.perception import Perceiver
@@ -28,6 +30,22 @@ log = logging.getLogger("lunarsim.world")
 
 Out = tuple[str, m.Message]
 FINISHED_STATES = ("done", "stuck")
+PHOTO_TILT_DEG = 8.0
+"""Photos look slightly down, so a crater seen from its rim fills the frame."""
+
+
+@dataclass(frozen=True)
+class PhotoJob:
+    """What a photo shows, frozen at the moment it was asked for."""
+
+    rover_id: int
+    stamp: float
+    label: str
+    x: float
+    z: float
+    heading: float
+    others_x: np.ndarray
+    others_z: np.ndarray
 
 
 class World:
@@ -55,6 +73,7 @@ class World:
         self.obstacle_collisions = 0
         self.rejected: Counter[str] = Counter()
         self.links = stats.LinkStats()
+        self.photo_jobs: list[PhotoJob] = []
         self._in_flight_radio: list[tuple[int, Out]] = []  # (due tick, delivery) with latency
         self.completed_at: float | None = None
         self._speed_factor: dict[int, float] = {}
@@ -156,6 +175,20 @@ class World:
     def _on_comm_out(self, rid: int, msg: m.OutboundComm) -> list[Out]:
         return self._radio(rid, msg, from_lander=False)
 
+    def _on_photo_action(self, rid: int, msg: m.PhotoAction) -> list[Out]:
+        """Queue a photo of what the rover sees now; rendering is slow, so the service decides when."""
+        body = self.bodies[rid]
+        others = [b for b in self.bodies.values() if b.id != rid]
+        self.photo_jobs.append(PhotoJob(rid, self.sim_time, msg.label, body.x, body.z, body.heading,
+                                        np.array([b.x for b in others]), np.array([b.z for b in others])))
+        return []
+
+    def render(self, job: PhotoJob) -> m.Photo:
+        image = camera.render(self.terrain, self.scene, job.others_x, job.others_z,
+                              self.params.behaviour.rover_radius, job.x, job.z, job.heading, self.params.camera,
+                              tilt_deg=PHOTO_TILT_DEG)
+        return m.Photo(stamp=job.stamp, label=job.label, png=camera.encode_png(image))
+
     def _on_status(self, rid: int, msg: m.RoverStatus) -> list[Out]:
         self.status[rid] = msg
         return []
@@ -167,6 +200,7 @@ class World:
         ks.SPEED_ACTION: _on_speed,
         ks.COMM_OUT: _on_comm_out,
         ks.STATUS: _on_status,
+        ks.PHOTO_ACTION: _on_photo_action,
     }
     INPUT_TOPICS = tuple(_handlers)
 
