@@ -31,6 +31,9 @@ class TerrainSpec(Spec):
     roughness_m: float = Field(0.0, ge=0, description="amplitude of seeded random undulation, m")
     tile_size_m: float = Field(256.0, gt=0, description="side of a square terrain tile (chunk), loaded on first use")
     max_tiles_in_memory: int = Field(64, ge=1, description="tiles kept loaded at most (least recently used go)")
+    chunk_activation_range_m: float = Field(
+        500.0, gt=0, description="tiles within this distance of a rover stay loaded (report Table 6 "
+                                 "rover_chunk_activation_range; 1000 m there)")
     mesh: str | None = Field(None, description="OBJ/STL/PLY/GLB surface (y up) rasterised into the heights; "
                                                "replaces the plain, so scenario craters are not carved into it")
     mesh_scale: float | tuple[float, float, float] = Field(1.0, description="mesh vertex scale (x, y, z or one)")
@@ -229,7 +232,13 @@ def load_scenario(path: str | Path) -> Scenario:
         mark = getattr(exc, "problem_mark", None)
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         raise ScenarioError(f"{path}: not valid YAML{at}: {getattr(exc, 'problem', exc)}") from None
-    return parse_scenario(data, str(path))
+    scenario = parse_scenario(data, str(path))
+    terrain = scenario.terrain
+    if terrain is not None and terrain.mesh and not Path(terrain.mesh).is_absolute():
+        # Relative to the scenario file, so a copy of the scenario (a run folder) still finds the mesh.
+        mesh = str((path.parent / terrain.mesh).resolve())
+        scenario = scenario.model_copy(update={"terrain": terrain.model_copy(update={"mesh": mesh})})
+    return scenario
 
 
 def dump_scenario(scenario: Scenario) -> str:

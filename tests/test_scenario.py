@@ -415,3 +415,13 @@ def test_malformed_profile_values_are_scenario_errors(mutation):
 
 def test_spawn_params_formation_default_is_table_3():
     assert SpawnParams().formation(2) == [(-510.0, 100.0, 180.0), (-500.0, 100.0, 180.0)]
+
+
+def test_a_relative_mesh_path_is_resolved_against_the_scenario_file(tmp_path):
+    folder = tmp_path / "site"
+    folder.mkdir()
+    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
+    data["terrain"] = {"origin": [-700, -131], "size_m": [270, 291], "mesh": "ground.glb"}
+    (folder / "s.yaml").write_text(yaml.safe_dump(data))
+    scenario = load_scenario(folder / "s.yaml")
+    assert scenario.terrain.mesh == str((folder / "ground.glb").resolve())

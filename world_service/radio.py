@@ -15,7 +15,8 @@ import numpy as np
 from world_service import geometry as geo
 
 LOS_STEP_M = 2.0
-"""Spacing of the terrain samples along a link's line of sight."""
+"""Spacing of the terrain samples along a link's line of sight (at most LOS_MAX_SAMPLES per link)."""
+LOS_MAX_SAMPLES = 64
 
 
 @dataclass(frozen=True)
@@ -87,7 +88,7 @@ def line_of_sight(terrain, edges: np.ndarray, edge_height: np.ndarray, x: np.nda
         return np.zeros(0, bool)
     x0, z0, x1, z1 = x[i], z[i], x[j], z[j]
     length = np.hypot(x1 - x0, z1 - z0)
-    steps = max(2, int(np.ceil(length.max() / LOS_STEP_M)) + 1)
+    steps = min(LOS_MAX_SAMPLES, max(2, int(np.ceil(length.max() / LOS_STEP_M)) + 1))
     f = np.linspace(0.0, 1.0, steps)[None, :]
     px, pz = x0[:, None] + f * (x1 - x0)[:, None], z0[:, None] + f * (z1 - z0)[:, None]
     ground = terrain.height(px.ravel(), pz.ravel()).reshape(px.shape)

@@ -107,15 +107,17 @@ class Scene:
                 return True
         return False
 
-    def obstacle_contact(self, x: float, z: float, rover_radius: float) -> bool:
-        """Whether a rover standing at (x, z) touches a rock, the lander or a wall."""
-        _, near = self.grid.pairs(np.array([x]), np.array([z]), rover_radius)
-        if np.any(np.hypot(self.circle_x[near] - x, self.circle_z[near] - z) < self.circle_r[near] + rover_radius):
-            return True
+    def contacts(self, xs: np.ndarray, zs: np.ndarray, rover_radius: float) -> np.ndarray:
+        """Bool per rover at (xs, zs): touching a rock, the lander or a wall."""
+        point, circle = self.grid.pairs(xs, zs, rover_radius)
+        touch = np.hypot(self.circle_x[circle] - xs[point], self.circle_z[circle] - zs[point]) < (
+            self.circle_r[circle] + rover_radius)
+        out = np.zeros(len(xs), bool)
+        out[point[touch]] = True
         if len(self.edges):
             e = self.edges
-            return bool(np.any(geo.point_segment_distance(x, z, e[:, 0], e[:, 1], e[:, 2], e[:, 3]) < rover_radius))
-        return False
+            out |= np.any(geo.point_segment_distance(xs, zs, e[:, 0], e[:, 1], e[:, 2], e[:, 3]) < rover_radius, axis=1)
+        return out
 
 
 def scatter_rock_fields(scenario: Scenario) -> list[Rock]:

@@ -23,7 +23,7 @@ from world_service import navigation as nav
 from world_service import statistics as stats
 from world_service.perception import Perceiver
 from world_service.radio import CommGraph, build_graph, line_of_sight
-from world_service.scene import Scene, in_view
+from world_service.scene import CircleGrid, Scene, in_view
 from world_service.terrain import Heightmap
 
 log = logging.getLogger("lunarsim.world")
@@ -76,7 +76,7 @@ class World:
         self.photo_jobs: list[PhotoJob] = []
         self._in_flight_radio: list[tuple[int, Out]] = []  # (due tick, delivery) with latency
         self.completed_at: float | None = None
-        self._speed_factor: dict[int, float] = {}
+        self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.time_scale = 1.0  # what the clock announces; the service paces the ticks
         self.lockstep = False
         self.graph = self._build_graph()
@@ -184,7 +184,7 @@ class World:
         return []
 
     def render(self, job: PhotoJob) -> m.Photo:
-        image = camera.render(self.terrain, self.scene, job.others_x, job.others_z,
+        image = camera.render(self.terrain.uncached(), self.scene, job.others_x, job.others_z,
                               self.params.behaviour.rover_radius, job.x, job.z, job.heading, self.params.camera,
                               tilt_deg=PHOTO_TILT_DEG)
         return m.Photo(stamp=job.stamp, label=job.label, png=camera.encode_png(image))
@@ -262,10 +262,15 @@ class World:
                 return line_of_sight(self.terrain, self.scene.edges, self.scene.edge_height, x, z, antenna, i, j)
         return build_graph(ids, x, z, c.comm_range, c.lander_comm_range, sight)
 
+    def _activate_terrain(self) -> None:
+        """Chunk activation (report 10.7.1): keep terrain tiles near rovers loaded, let far ones go."""
+        points = np.array([(b.x, b.z) for b in self.bodies.values()])
+        self.terrain.keep_near(points, self.scenario.terrain_spec().chunk_activation_range_m)
+
     def _track_links(self) -> None:
         reach = self.graph.connected_to_lander()
         connected = {int(rid): bool(ok) for rid, ok in zip(self.graph.ids[1:], reach[1:], strict=True)}
-        self.links.update(connected, len(self.graph.relays()), self.perception_period * self.dt)
+        self.links.update(connected, len(self.graph.relays()), self.partners_period * self.dt)
 
     # ---- time ----
 
@@ -273,14 +278,9 @@ class World:
         """Advance one tick and return everything the world publishes for it."""
         self.tick += 1
         out: list[Out] = []
-        moving = [b for b in self.bodies.values() if isinstance(b.action, nav.Move)]
-        if moving:
-            pitch = self.terrain.pitch_deg(*(np.array([getattr(b, a) for b in moving]) for a in ("x", "z", "heading")))
-            self._speed_factor = dict(zip((b.id for b in moving), nav.slope_factor(pitch, self.params.navigation),
-                                          strict=True))
-        for body in self.bodies.values():
-            out += self._move_body(body)
-        if self.tick % self.perception_period == 0:
+        out += self._move_bodies()
+        if self.tick % self.partners_period == 0:
+            self._activate_terrain()
             self.graph = self._build_graph()
             self._track_links()
         out += self._due_radio()
@@ -293,27 +293,48 @@ class World:
         return m.Clock(tick=self.tick, sim_time=self.sim_time, time_scale=self.time_scale, running=running,
                        lockstep=self.lockstep)
 
-    def _move_body(self, body: nav.RoverBody) -> list[Out]:
-        before = (body.x, body.z, body.distance_covered)
-        factor = float(self._speed_factor.get(body.id, 1.0)) if isinstance(body.action, nav.Move) else 1.0
-        ended = nav.step(body, self.dt, self.params.navigation, factor)
-        if (body.x, body.z) != before[:2] and self._collides(body):
-            body.x, body.z, body.distance_covered = before
+    def _move_bodies(self) -> list[Out]:
+        """Step every busy rover, then stop short, as one batch, those that would touch something."""
+        active = [b for b in self.bodies.values() if b.busy]
+        if not active:
+            return []
+        factors = self._slope_factors([b for b in active if isinstance(b.action, nav.Move)])
+        before = {b.id: (b.x, b.z, b.distance_covered) for b in active}
+        ended = {b.id: nav.step(b, self.dt, self.params.navigation, factors.get(b.id, 1.0)) for b in active}
+        moved = [b for b in active if (b.x, b.z) != before[b.id][:2]]
+        for body in self._colliding(moved):
+            body.x, body.z, body.distance_covered = before[body.id]
             start = body.action.start if body.action is not None else None
             body.action, body.velocity = None, 0.0
-            ended = nav.Ended("move", "collided", start)
-        return self._ended(body, ended) if ended else []
+            ended[body.id] = nav.Ended("move", "collided", start)
+        self._positions = None
+        return [o for b in active if ended[b.id] for o in self._ended(b, ended[b.id])]
 
-    def _collides(self, body: nav.RoverBody) -> bool:
+    def _slope_factors(self, moving: list[nav.RoverBody]) -> dict[int, float]:
+        if not moving:
+            return {}
+        pitch = self.terrain.pitch_deg(*(np.array([getattr(b, a) for b in moving]) for a in ("x", "z", "heading")))
+        return dict(zip((b.id for b in moving), nav.slope_factor(pitch, self.params.navigation).tolist(),
+                        strict=True))
+
+    def _colliding(self, moved: list[nav.RoverBody]) -> list[nav.RoverBody]:
+        """Movers now touching a rock, wall, the lander or another rover; counts each contact once."""
+        if not moved:
+            return []
         radius = self.params.behaviour.rover_radius
-        if self.scene.obstacle_contact(body.x, body.z, radius):
-            self.obstacle_collisions += 1
-            return True
-        ox, oz = self._other_positions(body.id)
-        if len(ox) and np.any(np.hypot(ox - body.x, oz - body.z) < 2 * radius):
-            self.rover_collisions += 1
-            return True
-        return False
+        mx, mz = np.array([b.x for b in moved]), np.array([b.z for b in moved])
+        static = self.scene.contacts(mx, mz, radius)
+        self.obstacle_collisions += int(static.sum())
+        bodies = list(self.bodies.values())
+        xs, zs = np.array([b.x for b in bodies]), np.array([b.z for b in bodies])
+        index = {b.id: i for i, b in enumerate(bodies)}
+        mover, other = CircleGrid(xs, zs, np.full(len(xs), radius), 4 * radius).pairs(mx, mz, radius)
+        own = np.array([index[moved[i].id] for i in mover], int)
+        touching = (other != own) & (np.hypot(xs[other] - mx[mover], zs[other] - mz[mover]) < 2 * radius)
+        pairs = {tuple(sorted((int(own[k]), int(other[k])))) for k in np.nonzero(touching)[0]}
+        self.rover_collisions += len(pairs)
+        hit = {moved[i].id for i in np.nonzero(static)[0]} | {bodies[i].id for pair in pairs for i in pair}
+        return [b for b in moved if b.id in hit]
 
     def _ended(self, body: nav.RoverBody, ended: nav.Ended) -> list[Out]:
         rid = body.id
@@ -348,10 +369,11 @@ class World:
         """Each rover scans once per perception period, the rovers staggered over the period's ticks."""
         which = np.array([i for i, b in enumerate(bodies) if (self.tick + b.id) % self.perception_period == 0], int)
         scans = self.perceiver.scan(xs, zs, hs, which)
+        # Built from checked arrays at 5 Hz per rover: skip re-validation (receivers still validate).
         return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
-                 m.Perception(stamp=self.sim_time, angles_deg=np.round(s.angles_deg, 3).tolist(),
-                              distances_m=np.round(s.distances_m, 3).tolist(),
-                              kinds=[m.HIT_KINDS[k] for k in s.kinds]))
+                 m.Perception.model_construct(stamp=self.sim_time, angles_deg=np.round(s.angles_deg, 3).tolist(),
+                                              distances_m=np.round(s.distances_m, 3).tolist(),
+                                              kinds=[m.HIT_KINDS[k] for k in s.kinds]))
                 for i, s in zip(which, scans, strict=True)]
 
     def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:
@@ -359,8 +381,9 @@ class World:
         noise = self.params.perception.gyroscope_noise_std_deg
         if noise > 0:
             pitch = pitch + self.rng.normal(0.0, noise, len(pitch))
-        return [(self.keys.rover(b.id, ks.GYROSCOPE), m.Gyroscope(stamp=self.sim_time, pitch_deg=round(float(p), 4)))
-                for b, p in zip(bodies, pitch, strict=True)]
+        stamp = self.sim_time
+        return [(self.keys.rover(b.id, ks.GYROSCOPE), m.Gyroscope.model_construct(stamp=stamp, pitch_deg=p))
+                for b, p in zip(bodies, np.round(pitch, 4).tolist(), strict=True)]
 
     def _nav_status(self, body: nav.RoverBody, action: str) -> Out:
         status = m.NavigationStatus(stamp=self.sim_time, action=action, remaining=round(body.remaining(), 4))
@@ -370,8 +393,13 @@ class World:
         return self.keys.rover(rid, ks.ACTION_REJECTED), m.ActionRejected(action=action, reason=reason, detail=detail)
 
     def _other_positions(self, rid: int) -> tuple[np.ndarray, np.ndarray]:
-        others = [b for b in self.bodies.values() if b.id != rid]
-        return np.array([b.x for b in others]), np.array([b.z for b in others])
+        """Every other rover's position; the arrays are built once per tick, however many moves are checked."""
+        if self._positions is None:
+            self._positions = (np.array(list(self.bodies)), np.array([b.x for b in self.bodies.values()]),
+                               np.array([b.z for b in self.bodies.values()]))
+        ids, xs, zs = self._positions
+        others = ids != rid
+        return xs[others], zs[others]
 
     # ---- ground truth and statistics ----
 

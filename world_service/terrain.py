@@ -304,30 +304,34 @@ class Heightmap:
 
         Points are sorted by tile once; the only Python loop is over the distinct tiles touched.
         """
-        x, z = np.broadcast_arrays(np.asarray(x, float), np.asarray(z, float))
+        x, z = np.asarray(x, float), np.asarray(z, float)
+        if x.shape != z.shape:
+            x, z = np.broadcast_arrays(x, z)
         shape = x.shape
-        fx = np.clip((x.ravel() - self.origin_x) / self.resolution, 0, self.nx - 1)
-        fz = np.clip((z.ravel() - self.origin_z) / self.resolution, 0, self.nz - 1)
+        fx = np.minimum(np.maximum((x.ravel() - self.origin_x) / self.resolution, 0.0), self.nx - 1)
+        fz = np.minimum(np.maximum((z.ravel() - self.origin_z) / self.resolution, 0.0), self.nz - 1)
         ix, iz = np.minimum(fx.astype(int), self.nx - 2), np.minimum(fz.astype(int), self.nz - 2)
         tx, tz = fx - ix, fz - iz
         ids = (iz // self.tile_cells) * self.tiles_x + ix // self.tile_cells
         out = [np.empty(ids.size) for _ in fields]
-        order = np.argsort(ids, kind="stable")
-        uniq, starts = np.unique(ids[order], return_index=True)
-        ends = np.append(starts[1:], ids.size)
-        for tile_id, s, e in zip(uniq.tolist(), starts.tolist(), ends.tolist(), strict=True):
-            sel = order[s:e]
+        for tile_id, sel in _groups(ids):
             tile = self.tile(divmod(tile_id, self.tiles_x), cache)
-            lx, lz, wx, wz = ix[sel] - tile.i0, iz[sel] - tile.j0, tx[sel], tz[sel]
+            cols = tile.heights.shape[1]
+            corner = (iz[sel] - tile.j0) * cols + (ix[sel] - tile.i0)
+            wx, wz = tx[sel], tz[sel]
             for k, name in enumerate(fields):
-                g = getattr(tile, name)
-                top = g[lz, lx] * (1 - wx) + g[lz, lx + 1] * wx
-                bottom = g[lz + 1, lx] * (1 - wx) + g[lz + 1, lx + 1] * wx
+                g = getattr(tile, name).ravel()
+                top = g[corner] * (1 - wx) + g[corner + 1] * wx
+                bottom = g[corner + cols] * (1 - wx) + g[corner + cols + 1] * wx
                 out[k][sel] = top * (1 - wz) + bottom * wz
         return [o.reshape(shape)[()] for o in out]  # a scalar in gives a scalar out
 
     def height(self, x, z, *, cache: bool = True) -> np.ndarray:
         return self._sample(("heights",), x, z, cache)[0]
+
+    def uncached(self) -> UncachedView:
+        """A height-only view that never touches the tile cache: safe beside the world's own thread."""
+        return UncachedView(self)
 
     def gradient(self, x, z) -> tuple[np.ndarray, np.ndarray]:
         """(dh/dx, dh/dz) at the points: the ground's rise per metre along +x and +z."""
@@ -372,3 +376,26 @@ class Heightmap:
                 g = getattr(tile, name)
                 out[tile.j0:tile.j0 + g.shape[0], tile.i0:tile.i0 + g.shape[1]] = g
         return out
+
+
+class UncachedView:
+    """``height(x, z)`` of a Heightmap, sampled with ``cache=False`` (the camera renders off the world thread)."""
+
+    def __init__(self, terrain: Heightmap) -> None:
+        self._terrain = terrain
+
+    def height(self, x, z) -> np.ndarray:
+        return self._terrain.height(x, z, cache=False)
+
+
+def _groups(ids: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:
+    """(id, selection) per distinct id: one stable sort, or no sort at all when every point shares a tile."""
+    if ids.size == 0:
+        return []
+    lo, hi = int(ids.min()), int(ids.max())
+    if lo == hi:
+        return [(lo, slice(None))]
+    order = np.argsort(ids, kind="stable")
+    uniq, starts = np.unique(ids[order], return_index=True)
+    ends = np.append(starts[1:], ids.size)
+    return [(u, order[a:b]) for u, a, b in zip(uniq.tolist(), starts.tolist(), ends.tolist(), strict=True)]
