@@ -601,3 +601,24 @@ def test_photo_action_renders_what_the_rover_sees():
     world.scene = Scene.from_scenario(_scenario())  # the same view without the rock
     empty = decode_png(world.render(job).png)
     assert np.abs(image.astype(int) - empty.astype(int)).sum() > 0
+
+
+def test_the_slope_bound_is_never_below_the_real_slope():
+    spec = TerrainSpec(origin=(-60.0, -60.0), size_m=(120.0, 120.0), resolution_m=0.5, roughness_m=0.8)
+    craters = [Crater(x=0.0, z=0.0, radius_m=20.0), Crater(x=25.0, z=10.0, radius_m=8.0, depth_m=4.0)]
+    terrain = Heightmap.build(spec, craters, np.random.default_rng(5))
+    gx, gz = np.meshgrid(np.linspace(-59, 59, 300), np.linspace(-59, 59, 300))
+    assert terrain.slope_deg(gx, gz).max() <= terrain.max_slope_bound_deg() + 1e-6
+
+
+def test_ground_rising_too_steeply_is_perceived_as_terrain():
+    scenario = parse_scenario({
+        "name": "steep", "lander": {"x": 40.0, "z": 40.0},
+        "rovers": [{"x": 0.0, "z": 0.0, "heading_deg": 0.0}],
+        "craters": [{"x": 0.0, "z": 0.0, "radius_m": 20.0, "depth_m": 12.0}],
+        "mission": [{"x": 0.0, "z": 0.0, "kind": "crater"}],
+    })
+    hits = _scan(scenario)
+    ahead = [(d, k) for a, d, k in hits if abs(a) < 3]
+    # the bowl wall (2 depth r / R^2 per metre) passes tan(25 deg) near r = 7.8 m
+    assert ahead and ahead[0][1] == "terrain" and 6.5 <= ahead[0][0] <= 9.0

@@ -41,6 +41,7 @@ class Perceiver:
                                 cell=max(p.perception_radius, 5.0))
         self.lander = (scene.circle_x[~rocks], scene.circle_z[~rocks], scene.circle_r[~rocks])
         self.max_rise = math.tan(math.radians(params.navigation.max_slope_deg))
+        self.may_be_steep = terrain.max_slope_bound_deg() > params.navigation.max_slope_deg
 
     def scan(self, xs: np.ndarray, zs: np.ndarray, hs: np.ndarray, which: np.ndarray) -> list[Scan]:
         """Scans of the rovers ``which`` (indices into xs/zs/hs, which hold every rover)."""
@@ -71,14 +72,15 @@ class Perceiver:
             yield t, LANDER
         yield self._rovers(ox, oz, dx, dz, xs, zs, which, radius), ROVER
         yield self._walls(ox, oz, dx, dz, radius), OBSTACLE
-        yield self._steep_ground(ox, oz, dx, dz, radius), TERRAIN
+        if self.may_be_steep:
+            yield self._steep_ground(ox, oz, dx, dz, radius), TERRAIN
 
     def _rovers(self, ox, oz, dx, dz, xs, zs, which, radius):
         rr = self.params.behaviour.rover_radius
-        d = np.hypot(xs[None, :] - ox[:, None], zs[None, :] - oz[:, None])
-        near = d <= radius + rr
-        near[np.arange(len(which)), which] = False
-        point, other = np.nonzero(near)
+        grid = CircleGrid(xs, zs, np.full(len(xs), rr), cell=max(radius, 5.0))
+        point, other = grid.pairs(ox, oz, radius)
+        keep = other != which[point]
+        point, other = point[keep], other[keep]
         return _min_per_rover(dx.shape, point, _rays_circles(ox, oz, dx, dz, point, xs[other], zs[other],
                                                              np.full(len(other), rr)))
 

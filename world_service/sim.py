@@ -30,6 +30,7 @@ log = logging.getLogger("lunarsim.world")
 
 Out = tuple[str, m.Message]
 FINISHED_STATES = ("done", "stuck")
+KIND_NAMES = np.array(m.HIT_KINDS)
 PHOTO_TILT_DEG = 8.0
 """Photos look slightly down, so a crater seen from its rim fills the frame."""
 
@@ -373,7 +374,7 @@ class World:
         return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
                  m.Perception.model_construct(stamp=self.sim_time, angles_deg=np.round(s.angles_deg, 3).tolist(),
                                               distances_m=np.round(s.distances_m, 3).tolist(),
-                                              kinds=[m.HIT_KINDS[k] for k in s.kinds]))
+                                              kinds=KIND_NAMES[s.kinds].tolist()))
                 for i, s in zip(which, scans, strict=True)]
 
     def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:
@@ -408,8 +409,8 @@ class World:
         return self.scenario.mission[index]
 
     def world_state(self) -> m.WorldState:
-        rovers = [
-            m.RoverTruth(id=b.id, x=round(b.x, 4), z=round(b.z, 4), heading_deg=round(b.heading, 3),
+        rovers = [  # built by the world from its own state at 5 Hz: no re-validation
+            m.RoverTruth.model_construct(id=b.id, x=round(b.x, 4), z=round(b.z, 4), heading_deg=round(b.heading, 3),
                          action=self._action_name(b), state=self.status[b.id].state,
                          goal_index=self.status[b.id].goal_index,
                          distance_to_goal_m=round(stats.distance_to_goal(self.scenario, self._goal_of(b.id),

@@ -329,6 +329,22 @@ class Heightmap:
     def height(self, x, z, *, cache: bool = True) -> np.ndarray:
         return self._sample(("heights",), x, z, cache)[0]
 
+    def max_slope_bound_deg(self) -> float:
+        """An upper bound on the steepest slope anywhere, from the terrain's recipe (90 for a mesh).
+
+        Gradients of the layers add, so the bound sums each layer's steepest slope: each wave's
+        amplitude x wavenumber, and each crater's steeper of bowl wall (2 depth / R at the crest) and rim.
+        Perception uses it to skip looking for too-steep ground where there can be none.
+        """
+        if self.base is not None:
+            return 90.0
+        rise = 0.0
+        if self.undulation is not None:
+            rise += float(np.sum(self.undulation.k)) * self.undulation.amplitude / self.undulation.k.size
+        rise += max((max(2 * c.depth / c.radius_m, np.pi * c.rim_height / (2 * c.rim_width * c.radius_m))
+                     for c in self.craters.craters), default=0.0)
+        return float(np.degrees(np.arctan(rise)))
+
     def uncached(self) -> UncachedView:
         """A height-only view that never touches the tile cache: safe beside the world's own thread."""
         return UncachedView(self)
