@@ -103,9 +103,20 @@ def test_no_router_is_said_plainly_within_seconds():
     assert "no Zenoh router reachable" in proc.stderr
 
 
+def _noisy_scenario(tmp_path):
+    """crater_observation with every source of randomness switched on: slip, heading, gyroscope, radio loss."""
+    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
+    data["rover_params"] = {"navigation": {"slip_std": 0.03, "heading_noise_std_deg": 1.0},
+                            "perception": {"gyroscope_noise_std_deg": 0.2},
+                            "communication": {"loss_probability": 0.05}}
+    path = tmp_path / "noisy.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
 def _lockstep_report(tmp_path, name: str) -> dict:
     out = tmp_path / name
-    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--lockstep", "--seed", "7",
+    proc = lunarsim("run", str(_noisy_scenario(tmp_path)), "--lockstep", "--seed", "7",
                     "--port", str(free_port()), "--out", str(out), "--quiet")
     try:
         stdout, stderr = proc.communicate(timeout=240)
@@ -120,4 +131,4 @@ def _lockstep_report(tmp_path, name: str) -> dict:
 def test_lockstep_runs_with_the_same_seed_give_the_same_report(tmp_path):
     first, second = _lockstep_report(tmp_path, "a"), _lockstep_report(tmp_path, "b")
     assert first == second
-    assert first["seed"] == 7 and first["complete"] is True and first["rovers_reached_final_goal"] == 5
+    assert first["seed"] == 7 and first["complete"] is True and first["rovers_reached_final_goal"] >= 4

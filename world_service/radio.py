@@ -31,7 +31,7 @@ class CommGraph:
 
     def connected(self, a: int, b: int) -> bool:
         ia, ib = self._index(a), self._index(b)
-        return ia is not None and ib is not None and self.component[ia] == self.component[ib]
+        return ia is not None and ib is not None and bool(self.component[ia] == self.component[ib])
 
     def connected_to_lander(self) -> np.ndarray:
         """Bool per node: in the lander's component (the lander itself included)."""
