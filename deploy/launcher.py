@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import shutil
 import time
 from pathlib import Path
 
@@ -93,6 +94,8 @@ class Mission:
         from deploy.children import port_in_use, wait_for_port
 
         common = ["--world", self.args.world, "--connect", self.endpoint]
+        shutil.rmtree(self.out / "state", ignore_errors=True)  # a reused run folder must not resume old poses
+        (self.out / "state").mkdir()
         if not self.args.connect:
             if port_in_use("127.0.0.1", self.args.port):
                 raise process.UsageError(f"port {self.args.port} is already in use: pass --port to start the "
@@ -111,7 +114,8 @@ class Mission:
         self.children.start("lander", "lander_agent", str(self.scenario_file), *common)
         for rover_id in range(1, len(self.scenario.rovers) + 1):
             self.children.start(f"rover{rover_id}", "rover_agent", "--id", str(rover_id),
-                                "--params", str(self.scenario_file), *common)
+                                "--params", str(self.scenario_file), "--state",
+                                str(self.out / "state" / f"rover{rover_id}.json"), *common)
 
     def _monitor(self, stop) -> tuple:
         """Follow the world's statistics until the final report; returns (report, interrupted)."""

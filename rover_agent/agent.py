@@ -9,9 +9,10 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 from rover_agent.behaviour import DefaultBehaviour, Finish, Goal, Hit, Hold, MoveTo, Rotate, View
-from rover_agent.dead_reckoning import Pose
+from rover_agent.dead_reckoning import Pose, load_pose, save_pose
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -36,12 +37,15 @@ class InFlight:
 
 class RoverAgent:
     def __init__(self, rover_id: int, keys: ks.Keyspace, params: RoverParams,
-                 behaviour: DefaultBehaviour | None = None) -> None:
+                 behaviour: DefaultBehaviour | None = None, state_file: Path | None = None) -> None:
         self.id = rover_id
         self.keys = keys
         self.params = params
         self.behaviour = behaviour or DefaultBehaviour(rover_id, params)
-        self.pose: Pose | None = None
+        self.state_file = state_file
+        self.pose: Pose | None = load_pose(state_file) if state_file else None
+        if self.pose is not None:
+            log.info("rover %d: resumed at %s from %s", rover_id, self.pose, state_file)
         self.goal: Goal | None = None
         self.now = 0.0
         self.pitch = (0.0, -1.0)  # (degrees, stamp)
@@ -216,3 +220,5 @@ class RoverAgent:
         """The action is over; decide again only on sensor data taken after this moment."""
         self.in_flight = None
         self.settled_at = stamp
+        if self.state_file is not None and self.pose is not None:
+            save_pose(self.state_file, self.pose)

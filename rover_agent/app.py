@@ -15,6 +15,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--params", type=Path, metavar="FILE",
                         help="YAML of rover parameters (report tables 4-8); a scenario file works too")
+    parser.add_argument("--state", type=Path, metavar="FILE",
+                        help="keep the dead-reckoned pose here, so a restarted agent takes its rover again")
     add_zenoh_arguments(parser)
 
 
@@ -33,5 +35,5 @@ def run_from_args(args: argparse.Namespace) -> int:
                            who=f"rover {args.id}")
     with Bus(session) as bus, process.stop_on_signals() as stop:
         logging.getLogger("lunarsim.rover").info("rover %d connected", args.id)
-        runtime.run(RoverAgent(args.id, keys, params), bus, stop)
+        runtime.run(RoverAgent(args.id, keys, params, state_file=args.state), bus, stop)
     return 0

@@ -7,8 +7,11 @@ it, a completed rotate adds its angle, and a move that ended early lands where i
 
 from __future__ import annotations
 
+import json
 import math
-from dataclasses import dataclass
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
 from schemas.frames import bearing_deg, to_world
 
@@ -31,3 +34,19 @@ class Pose:
         """Where an action that started at this pose actually stopped (CancelResult)."""
         x, z = to_world(self.x, self.z, self.heading, rel_x, rel_z)
         return Pose(x, z, (self.heading + angle_deg) % 360.0)
+
+
+def save_pose(path: Path, pose: Pose) -> None:
+    """Keep the pose across a restart, as a flight computer keeps it in non-volatile memory (atomic write)."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(asdict(pose)))
+    os.replace(tmp, path)
+
+
+def load_pose(path: Path) -> Pose | None:
+    """The saved pose, or None when there is none or it cannot be read (then the lander's calibration is used)."""
+    try:
+        data = json.loads(path.read_text())
+        return Pose(float(data["x"]), float(data["z"]), float(data["heading"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None

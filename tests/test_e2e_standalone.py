@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 
 import pytest
+import yaml
 import zenoh
 from procs import REPO, SCENARIOS, lunarsim, module, stop, wait_for
 
@@ -87,3 +88,47 @@ def test_scenario_import_export_round_trip_from_the_command_line(tmp_path):
     assert [g["index"] for g in exported["missionDataObjects"]] == [0, 1]
     assert exported["craterDataObjects"][0]["radius"] == pytest.approx(original["craterDataObjects"][0]["radius"])
     assert "ok: 'cr'" in out
+
+
+def test_a_killed_agent_stops_its_rover_and_takes_it_again_when_restarted(router, tmp_path):
+    import signal
+
+    world_name = "watchdog"
+    keys = Keyspace(world_name)
+    common = ["--world", world_name, "--connect", router]
+    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
+    data["rovers"] = data["rovers"][:2]
+    scenario = tmp_path / "two.yaml"
+    scenario.write_text(yaml.safe_dump(data))
+    report_file = tmp_path / "report.json"
+    world = module("world_service", str(scenario), *common, "--time-scale", "4", "--exit-when-done",
+                   "--report", str(report_file), "--max-sim-time", "400")
+    lander = module("lander_agent", str(scenario), *common)
+
+    def rover(rid):
+        return module("rover_agent", "--id", str(rid), "--params", str(scenario), "--state",
+                      str(tmp_path / f"rover{rid}.json"), *common)
+
+    rovers = {1: rover(1), 2: rover(2)}
+    states: list[m.WorldState] = []
+    try:
+        with zenoh.open(build_config(connect=[router])) as session:
+            sub = session.declare_subscriber(keys.state, lambda s: states.append(
+                codec.decode(m.WorldState, s.payload.to_bytes())))
+            truth = lambda rid: states[-1].rovers[rid - 1]  # noqa: E731
+            wait_for(lambda: states and truth(1).distance_covered_m > 20, 90, "rover 1 under way")
+            rovers[1].send_signal(signal.SIGKILL)
+            rovers[1].wait(timeout=10)
+            wait_for(lambda: not truth(1).alive and truth(1).action == "idle", 20, "the world to stop rover 1")
+            stopped_at, other = truth(1).distance_covered_m, truth(2).distance_covered_m
+            wait_for(lambda: truth(2).distance_covered_m > other + 10, 60, "rover 2 to go on alone")
+            assert truth(1).distance_covered_m == stopped_at
+            rovers[1] = rover(1)
+            wait_for(lambda: truth(1).alive and truth(1).distance_covered_m > stopped_at + 5, 60,
+                     "the restarted agent to drive rover 1 again")
+            wait_for(lambda: world.poll() is not None, 240, "the mission to finish")
+            sub.undeclare()
+        report = json.loads(report_file.read_text())
+        assert report["complete"] is True and report["rovers_reached_final_goal"] == 2, report
+    finally:
+        stop(world, lander, *rovers.values())
