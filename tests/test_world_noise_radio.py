@@ -106,3 +106,18 @@ def test_a_rover_between_the_lander_and_another_is_a_relay():
                    communication={"lander_comm_range": 10.0})
     assert world.graph.relays() == [1]
     assert world.graph.connected(2, ks.LANDER_ID)
+
+
+def test_a_crater_rim_between_two_rovers_blocks_their_link():
+    def world(line_of_sight: bool) -> World:
+        return World(parse_scenario({
+            "name": "ridge", "lander": {"x": 200.0, "z": 200.0},
+            # rover 1 on the plain 10 m outside the crest, rover 2 down in the bowl near the centre
+            "rovers": [{"x": 0.0, "z": 48.0}, {"x": 0.0, "z": 5.0}],
+            "craters": [{"x": 0.0, "z": 0.0, "radius_m": 38.0}],
+            "mission": [{"x": 0.0, "z": 0.0, "kind": "crater"}],
+            "rover_params": {"communication": {"comm_range": 100.0, "line_of_sight": line_of_sight}},
+        }), KEYS)
+
+    assert 2 not in world(True).graph.partners(1)
+    assert 2 in world(False).graph.partners(1)
