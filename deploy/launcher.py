@@ -111,7 +111,8 @@ class Mission:
         if self.args.lockstep:
             world_args.append("--lockstep")
         self.children.start("world", "world_service", *world_args)
-        self.children.start("lander", "lander_agent", str(self.scenario_file), *common)
+        self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
+                            str(self.out / "lander_archive"), *common)
         for rover_id in range(1, len(self.scenario.rovers) + 1):
             self.children.start(f"rover{rover_id}", "rover_agent", "--id", str(rover_id),
                                 "--params", str(self.scenario_file), "--state",

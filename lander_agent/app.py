@@ -12,18 +12,19 @@ from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, help="scenario YAML: the lander takes its mission plan from it")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
+    parser.add_argument("--archive", type=Path, metavar="DIR", help="archive received photos here (PNG + index)")
     add_zenoh_arguments(parser)
 
 
 def run_from_args(args: argparse.Namespace) -> int:
     from deploy.bus import Bus
     from lander_agent.mission import MissionPlan
-    from lander_agent.runtime import Lander, run
+    from lander_agent.runtime import Lander, PhotoArchive, run
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario
 
     plan = MissionPlan(load_scenario(args.scenario))
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="lander")
     with Bus(session) as bus, process.stop_on_signals() as stop:
-        run(Lander(plan, Keyspace(args.world)), bus, stop)
+        run(Lander(plan, Keyspace(args.world), PhotoArchive(args.archive)), bus, stop)
     return 0

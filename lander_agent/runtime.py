@@ -3,9 +3,11 @@ its radio (rovers that were out of range catch up), and it answers goal reports 
 
 from __future__ import annotations
 
+import json
 import logging
 import threading
 from collections import defaultdict
+from pathlib import Path
 
 from deploy.bus import Bus
 from lander_agent.mission import MissionPlan
@@ -17,10 +19,33 @@ log = logging.getLogger("lunarsim.lander")
 SEND_PERIOD_S = 1.0
 
 
+class PhotoArchive:
+    """Crater photos the lander received: PNG files per rover plus ``index.jsonl``, one line per photo."""
+
+    def __init__(self, folder: Path | None) -> None:
+        self.folder = folder
+        self.received: set[tuple[int, str]] = set()
+
+    def store(self, rover_id: int, report: radio.PhotoReport) -> None:
+        if (rover_id, report.label) in self.received:
+            return  # a resend whose ack was lost: already archived
+        self.received.add((rover_id, report.label))
+        if self.folder is None:
+            return
+        path = self.folder / f"rover{rover_id}" / f"{report.label}.png"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(report.png)
+        entry = {"rover": rover_id, "goal_index": report.goal_index, "label": report.label,
+                 "stamp": report.stamp, "file": str(path.relative_to(self.folder))}
+        with open(self.folder / "index.jsonl", "a", encoding="utf-8") as index:
+            index.write(json.dumps(entry) + "\n")
+
+
 class Lander:
-    def __init__(self, plan: MissionPlan, keys: ks.Keyspace) -> None:
+    def __init__(self, plan: MissionPlan, keys: ks.Keyspace, archive: PhotoArchive | None = None) -> None:
         self.plan = plan
         self.keys = keys
+        self.archive = archive or PhotoArchive(None)
         self.partners: list[int] = []
         self.next_send = 0.0
         self.rejected = 0
@@ -49,6 +74,10 @@ class Lander:
 
     def on_comm_in(self, msg: m.InboundComm) -> list[tuple[str, m.Message]]:
         report = radio.unpack(msg.payload)
+        if isinstance(report, radio.PhotoReport):
+            self.archive.store(msg.sender, report)
+            ack = radio.pack(radio.PhotoAck(labels=[report.label]))
+            return [(self.keys.lander(ks.COMM_OUT), m.OutboundComm(targets=[msg.sender], payload=ack))]
         if isinstance(report, radio.GoalReport) and self.plan.on_report(msg.sender, report):
             log.info("rover %d: goal %d done, sending goal %d", msg.sender, report.goal_index,
                      self.plan.goal_of[msg.sender])

@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from rover_agent.behaviour import DefaultBehaviour, Finish, Goal, Hit, Hold, MoveTo, Rotate, View
+from rover_agent.behaviour import DefaultBehaviour, Finish, Goal, Hit, Hold, MoveTo, Rotate, TakePhoto, View
 from rover_agent.dead_reckoning import Pose, load_pose, save_pose
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -22,15 +22,20 @@ log = logging.getLogger("lunarsim.rover")
 
 Out = tuple[str, m.Message]
 SUBSCRIBED_TOPICS = (ks.PERCEPTION, ks.NAVIGATION_STATUS, ks.CANCEL_RESULT, ks.ACTION_REJECTED, ks.GYROSCOPE,
-                     ks.COMM_IN, ks.COMM_PARTNERS, ks.MISSION_DIRECTION, ks.CALIBRATION)
+                     ks.COMM_IN, ks.COMM_PARTNERS, ks.MISSION_DIRECTION, ks.CALIBRATION, ks.PHOTO)
 GOAL_REPORT_RETRY_S = 2.0
 STATUS_PERIOD_S = 1.0
+PHOTO_TIMEOUT_S = 10.0
+"""A photo not back by then is given up (a rover without a working camera must not wait for ever)."""
+PHOTO_RETRY_S = 5.0
+"""Photos not yet acknowledged by the lander are sent again this often (store and forward)."""
 
 
 @dataclass
 class InFlight:
-    decision: MoveTo | Rotate
+    decision: MoveTo | Rotate | TakePhoto
     start: Pose
+    sent_at: float = 0.0
     cancel_sent: bool = False
     awaiting_cancel_result: bool = False
 
@@ -56,6 +61,9 @@ class RoverAgent:
         self._last_status = -math.inf
         self.rejected = 0
         self.partners: list[int] = []
+        self.photo_outbox: dict[str, radio.PhotoReport] = {}
+        self._last_photo_send = -math.inf
+        self.craters_found: set[int] = set()
 
     @property
     def state(self) -> str:
@@ -81,6 +89,13 @@ class RoverAgent:
             out += self._report_goal()
         if self.now - self._last_status >= STATUS_PERIOD_S:
             out.append(self._status())
+        flight = self.in_flight
+        if flight and isinstance(flight.decision, TakePhoto) and self.now - flight.sent_at > PHOTO_TIMEOUT_S:
+            log.warning("rover %d: no photo %r after %g s; going on without it", self.id, flight.decision.label,
+                        PHOTO_TIMEOUT_S)
+            self._settle(self.now)
+        if self.photo_outbox and self.now - self._last_photo_send >= PHOTO_RETRY_S:
+            out += self._send_photos()
         if clock.lockstep:
             out.append((self.keys.rover(self.id, ks.ACK), m.Ack(tick=clock.tick)))
         return out
@@ -113,7 +128,31 @@ class RoverAgent:
         return []
 
     def _on_comm_in(self, msg: m.InboundComm) -> list[Out]:
-        return []  # rover-to-rover messages arrive with the behaviour's own protocol (issue 4)
+        message = radio.unpack(msg.payload)
+        if isinstance(message, radio.PhotoAck):
+            for label in message.labels:
+                self.photo_outbox.pop(label, None)
+        elif isinstance(message, radio.CraterFound):
+            self.craters_found.add(message.goal_index)
+        return []
+
+    def _on_photo(self, msg: m.Photo) -> list[Out]:
+        flight = self.in_flight
+        if flight is None or not isinstance(flight.decision, TakePhoto) or msg.label != flight.decision.label:
+            return []
+        index = self.goal.index if self.goal else -1
+        self.photo_outbox[msg.label] = radio.PhotoReport(goal_index=index, label=msg.label, stamp=msg.stamp,
+                                                         png=msg.png)
+        self._settle(msg.stamp)
+        return self._send_photos()
+
+    def _send_photos(self) -> list[Out]:
+        """Send every photo the lander has not acknowledged yet; those that do not arrive go again later."""
+        self._last_photo_send = self.now
+        return [self._radio([ks.LANDER_ID], report) for report in self.photo_outbox.values()]
+
+    def _radio(self, targets: list[int], message: m.Message) -> Out:
+        return self.keys.rover(self.id, ks.COMM_OUT), m.OutboundComm(targets=targets, payload=radio.pack(message))
 
     # ---- sensors ----
 
@@ -150,7 +189,9 @@ class RoverAgent:
             return []
         if isinstance(decision, Finish):
             return self._finish(decision.outcome)
-        self.in_flight = InFlight(decision, self.pose)
+        self.in_flight = InFlight(decision, self.pose, self.now)
+        if isinstance(decision, TakePhoto):
+            return [(self.keys.rover(self.id, ks.PHOTO_ACTION), m.PhotoAction(label=decision.label))]
         if isinstance(decision, MoveTo):
             return [(self.keys.rover(self.id, ks.MOVE_ACTION), m.MoveAction(x=decision.x, z=decision.z))]
         return [(self.keys.rover(self.id, ks.ROTATE_ACTION), m.RotateAction(degrees=decision.degrees))]
@@ -164,13 +205,16 @@ class RoverAgent:
             self.behaviour.state = "done"
         else:
             self.behaviour.state = "waiting"
-        return [*self._report_goal(), self._status()]
+        out = [*self._report_goal(), self._status()]
+        rovers_near = [p for p in self.partners if p != ks.LANDER_ID]
+        if outcome == "reached" and goal.kind == "crater" and rovers_near:
+            out.append(self._radio(rovers_near, radio.CraterFound(goal_index=goal.index)))
+        return out
 
     def _report_goal(self) -> list[Out]:
         index, outcome = self.finished_goal
         self._last_report = self.now
-        payload = radio.pack(radio.GoalReport(goal_index=index, outcome=outcome))
-        return [(self.keys.rover(self.id, ks.COMM_OUT), m.OutboundComm(targets=[ks.LANDER_ID], payload=payload))]
+        return [self._radio([ks.LANDER_ID], radio.GoalReport(goal_index=index, outcome=outcome))]
 
     def _status(self) -> Out:
         self._last_status = self.now

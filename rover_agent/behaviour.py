@@ -87,7 +87,12 @@ class Finish:
     outcome: str  # "reached" | "stuck"
 
 
-Decision = MoveTo | Rotate | Hold | Finish
+@dataclass(frozen=True)
+class TakePhoto:
+    label: str
+
+
+Decision = MoveTo | Rotate | Hold | TakePhoto | Finish
 
 
 @dataclass
@@ -104,6 +109,8 @@ class DefaultBehaviour:
     _crest_looks: int = 0
     _rejected: list[float] = field(default_factory=list)
     _hold_until: float = 0.0
+    _photos_taken: int = 0
+    _photo_due: bool = True
 
     name = "default"
 
@@ -111,6 +118,7 @@ class DefaultBehaviour:
 
     def start_goal(self, goal: Goal) -> None:
         self.state = "migration"
+        self._photos_taken, self._photo_due = 0, True
         self._crater_seen_at = None
         self._max_pitch = -90.0
         self._blocked_rotations = 0
@@ -146,16 +154,33 @@ class DefaultBehaviour:
     def decide(self, view: View) -> Decision:
         if view.time < self._hold_until:
             return Hold(self._hold_until)
+        if self.state == "observing":
+            return self._observe(view.goal)
         goal, pose = view.goal, view.pose
         distance = math.hypot(goal.x - pose.x, goal.z - pose.z)
         if goal.kind == "waypoint" and distance <= WAYPOINT_IN_VIEW * self.params.perception.perception_radius:
             return Finish("reached")
         if goal.kind == "crater":
-            finish = self._climb(view)
-            if finish:
-                return finish
+            decision = self._climb(view)
+            if decision == Finish("reached"):
+                self.state = "observing"
+                return self._observe(goal)
+            if decision:
+                return decision
         step = self.params.behaviour.min_move_size if self.state == "climbing" else None
         return self._head_for(view, distance, step)
+
+    def _observe(self, goal: Goal) -> Decision:
+        """On the rim: a photo, a turn of ``photo_step_deg``, a photo... once round (report 10.5.3)."""
+        step = self.params.behaviour.photo_step_deg
+        if self._photos_taken >= max(1, round(360.0 / step)):
+            return Finish("reached")
+        if self._photo_due:
+            self._photo_due = False
+            self._photos_taken += 1
+            return TakePhoto(f"goal{goal.index}_{(self._photos_taken - 1) * step:05.1f}deg")
+        self._photo_due = True
+        return Rotate(step)
 
     def _climb(self, view: View) -> Finish | Rotate | None:
         if self._crater_seen_at is None and any(h.kind == "crater_terrain" for h in view.hits):

@@ -113,8 +113,8 @@ class BehaviourParams(Params):
 class CameraParams(Params):
     """The forward camera of report 10.5 (its resolution was configurable there too)."""
 
-    width: int = Field(320, ge=8, le=4096)
-    height: int = Field(240, ge=8, le=4096)
+    width: int = Field(160, ge=8, le=4096)
+    height: int = Field(120, ge=8, le=4096)
     horizontal_fov_deg: float = Field(60.0, gt=0, lt=180)
     mount_height_m: float = Field(0.3, gt=0, description="camera height above the ground")
     max_range_m: float = Field(300.0, gt=0, description="farthest rendered distance")

@@ -21,7 +21,29 @@ class GoalReport(Message):
     outcome: Literal["reached", "stuck"]
 
 
-RADIO_TYPES: dict[str, type[Message]] = {"goal_report": GoalReport}
+class PhotoReport(Message):
+    """A crater photo on its way to the lander; the rover holds it until a PhotoAck comes back."""
+
+    goal_index: int
+    label: str
+    stamp: float
+    png: bytes
+
+
+class PhotoAck(Message):
+    """The lander archived these photos (by label): the rover may forget them."""
+
+    labels: list[str]
+
+
+class CraterFound(Message):
+    """Told to the rovers in range when a rover stands on the rim of the crater of a goal (report 6.4)."""
+
+    goal_index: int
+
+
+RADIO_TYPES: dict[str, type[Message]] = {"goal_report": GoalReport, "photo_report": PhotoReport,
+                                         "photo_ack": PhotoAck, "crater_found": CraterFound}
 _TAGS = {model: tag for tag, model in RADIO_TYPES.items()}
 
 

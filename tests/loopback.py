@@ -7,7 +7,7 @@ Used by tests of mission logic; the cross-process path is tested separately over
 from __future__ import annotations
 
 from lander_agent.mission import MissionPlan
-from lander_agent.runtime import Lander
+from lander_agent.runtime import Lander, PhotoArchive
 from rover_agent.agent import RoverAgent
 from schemas import codec
 from schemas import keyspace as ks
@@ -16,13 +16,15 @@ from schemas.scenario import Scenario
 from world_service.sim import World
 
 
-def run_mission(scenario: Scenario, max_sim_time: float) -> World:
+def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None) -> World:
     keys = ks.Keyspace("loopback")
     world = World(scenario, keys)
-    lander = Lander(MissionPlan(scenario), keys)
+    lander = Lander(MissionPlan(scenario), keys, archive)
     agents = {rid: RoverAgent(rid, keys, scenario.rover_params) for rid in world.bodies}
     pending: list[tuple[str, m.Message]] = []
     while world.sim_time < max_sim_time and not world.complete:
+        photos, world.photo_jobs = world.photo_jobs, []  # rendered before the next tick, as in lockstep
+        pending += [(keys.rover(job.rover_id, ks.PHOTO), world.render(job)) for job in photos]
         for key, message in world.step():
             pending += _deliver(key, codec.encode(message), world, lander, agents, keys)
         while pending:

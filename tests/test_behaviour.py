@@ -7,7 +7,18 @@ import math
 import pytest
 
 from rover_agent.agent import RoverAgent
-from rover_agent.behaviour import WAYPOINT_IN_VIEW, DefaultBehaviour, Finish, Goal, Hit, Hold, MoveTo, Rotate, View
+from rover_agent.behaviour import (
+    WAYPOINT_IN_VIEW,
+    DefaultBehaviour,
+    Finish,
+    Goal,
+    Hit,
+    Hold,
+    MoveTo,
+    Rotate,
+    TakePhoto,
+    View,
+)
 from rover_agent.dead_reckoning import Pose
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -183,6 +194,11 @@ def _crater_view(pitch, hits=CRATER_AHEAD):
     return _view(_goal(0.0, 60.0, kind="crater"), hits=hits, pitch=pitch)
 
 
+def _on_crest(b, decision) -> bool:
+    """The rover judged itself on the crest: it starts observing with a first photo."""
+    return isinstance(decision, TakePhoto) and b.state == "observing"
+
+
 def test_crater_climb_finishes_on_the_crest_only_after_walking_the_perception_radius():
     b = _behaviour(_goal(0.0, 60.0, kind="crater"))
     first = b.decide(_crater_view(pitch=0.0))
@@ -192,30 +208,30 @@ def test_crater_climb_finishes_on_the_crest_only_after_walking_the_perception_ra
     assert isinstance(b.decide(_crater_view(pitch=3.0, hits=())), MoveTo)  # up the rim
     b.moved(2.0)
     # flat again after only 4 m: a local optimum, not the crest (report 7.2.2)
-    assert not isinstance(b.decide(_crater_view(pitch=0.3, hits=())), Finish)
+    assert not _on_crest(b, b.decide(_crater_view(pitch=0.3, hits=())))
     b.moved(5.9)
-    assert not isinstance(b.decide(_crater_view(pitch=0.3, hits=())), Finish)  # 9.9 m < 10 m
+    assert not _on_crest(b, b.decide(_crater_view(pitch=0.3, hits=())))  # 9.9 m < 10 m
     b.moved(0.1)
-    assert not isinstance(b.decide(_crater_view(pitch=1.0, hits=())), Finish)  # still climbing
-    assert b.decide(_crater_view(pitch=0.5, hits=())) == Finish("reached")
+    assert not _on_crest(b, b.decide(_crater_view(pitch=1.0, hits=())))  # still climbing
+    assert _on_crest(b, b.decide(_crater_view(pitch=0.5, hits=())))
 
 
 def test_crater_climb_needs_a_real_climb():
     b = _behaviour(_goal(0.0, 60.0, kind="crater"))
     b.decide(_crater_view(pitch=0.0))
     b.moved(20.0)
-    assert not isinstance(b.decide(_crater_view(pitch=1.9, hits=())), Finish)  # never above 2 deg
-    assert not isinstance(b.decide(_crater_view(pitch=0.0, hits=())), Finish)
+    assert not _on_crest(b, b.decide(_crater_view(pitch=1.9, hits=())))  # never above 2 deg
+    assert not _on_crest(b, b.decide(_crater_view(pitch=0.0, hits=())))
 
 
 def test_distance_walked_before_seeing_the_crater_does_not_count():
     b = _behaviour(_goal(0.0, 60.0, kind="crater"))
     b.moved(50.0)
-    assert not isinstance(b.decide(_crater_view(pitch=3.0)), Finish)
+    assert not _on_crest(b, b.decide(_crater_view(pitch=3.0)))
     b.moved(5.0)
-    assert not isinstance(b.decide(_crater_view(pitch=0.0, hits=())), Finish)
+    assert not _on_crest(b, b.decide(_crater_view(pitch=0.0, hits=())))
     b.moved(5.0)
-    assert b.decide(_crater_view(pitch=0.0, hits=())) == Finish("reached")
+    assert _on_crest(b, b.decide(_crater_view(pitch=0.0, hits=())))
 
 
 def test_a_new_goal_forgets_the_climb():
@@ -224,7 +240,7 @@ def test_a_new_goal_forgets_the_climb():
     b.moved(12.0)
     b.start_goal(_goal(0.0, 60.0, kind="crater", index=1, total=2))
     assert b.state == "migration"
-    assert not isinstance(b.decide(_crater_view(pitch=0.0, hits=())), Finish)
+    assert not _on_crest(b, b.decide(_crater_view(pitch=0.0, hits=())))
 
 
 # ---- the agent ----
@@ -364,4 +380,16 @@ def test_crater_crest_is_not_judged_while_facing_away_from_the_crater():
     b.decide(_crater_view(pitch=3.0))
     b.moved(12.0)
     facing_away = _view(goal, pose=Pose(0.0, 20.0, 180.0), pitch=-3.0)  # downhill on the outer slope, back to it
-    assert b.decide(facing_away) != Finish("reached")
+    assert not _on_crest(b, b.decide(facing_away))
+
+
+def test_on_the_rim_a_photo_every_30_degrees_once_round_then_done():
+    b = _behaviour(_goal(0.0, 60.0, kind="crater"))
+    b.state = "observing"
+    view = _crater_view(pitch=0.0, hits=())
+    decisions = [b.decide(view) for _ in range(23)]
+    photos = [d for d in decisions if isinstance(d, TakePhoto)]
+    assert len(photos) == 12 and decisions[0] == photos[0]
+    assert [d for d in decisions if isinstance(d, Rotate)] == [Rotate(30.0)] * 11
+    assert len({p.label for p in photos}) == 12 and photos[1].label == "goal0_030.0deg"
+    assert b.decide(view) == Finish("reached")

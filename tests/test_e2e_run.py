@@ -40,6 +40,8 @@ def test_five_rovers_reach_the_crater_with_no_collisions(tmp_path):
     assert "Mission report" in stdout
     for name in ("router", "world", "lander", *(f"rover{i}" for i in range(1, 6))):
         assert (out / "logs" / f"{name}.log").exists()
+    assert len(list((out / "photos").glob("*.png"))) == 5 * 12  # the world's copy of every photo
+    assert len((out / "lander_archive" / "index.jsonl").read_text().splitlines()) == 5 * 12  # sent by radio
     assert processes_mentioning(f"127.0.0.1:{port}") == []
 
 

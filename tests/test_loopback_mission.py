@@ -59,3 +59,19 @@ def test_ten_rovers_complete_without_collisions(ten_rover_run):
 
 def test_ten_rovers_all_reach_the_rim(ten_rover_run):
     assert ten_rover_run.report().rovers_reached_final_goal == 10
+
+
+def test_crater_photos_reach_the_lander_archive(tmp_path):
+    import json
+
+    from lander_agent.runtime import PhotoArchive
+    from world_service.camera import decode_png
+
+    archive = PhotoArchive(tmp_path)
+    world = run_mission(load_scenario(SCENARIOS / "crater_observation.yaml"), 300, archive)
+    assert world.report().rovers_reached_final_goal == 5
+    index = [json.loads(line) for line in (tmp_path / "index.jsonl").read_text().splitlines()]
+    assert len(index) == 5 * 12 == len(archive.received)
+    assert {e["rover"] for e in index} == {1, 2, 3, 4, 5}
+    first = decode_png((tmp_path / index[0]["file"]).read_bytes())
+    assert first.shape == (world.params.camera.height, world.params.camera.width, 3)
