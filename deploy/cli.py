@@ -19,6 +19,7 @@ COMMANDS = {
     "lander": ("lander_agent.app", "run the lander agent"),
     "rover": ("rover_agent.app", "run one rover agent"),
     "scenario": ("deploy.scenario_cli", "import, export and check scenarios"),
+    "command": ("deploy.command_cli", "send a ground command to the lander: set-target, stop, return"),
 }
 
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import logging
 import threading
-from collections import defaultdict
 from pathlib import Path
 
 from deploy.bus import Bus
@@ -14,6 +13,7 @@ from lander_agent.mission import MissionPlan
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.mission import CommandRefused
 
 log = logging.getLogger("lunarsim.lander")
 SEND_PERIOD_S = 1.0
@@ -56,10 +56,7 @@ class Lander:
 
     def broadcast(self, now: float) -> list[tuple[str, m.Message]]:
         out = [self._transmit([rid], cal, "calibration") for rid, cal in self.plan.calibration.items()]
-        by_goal: dict[int, list[int]] = defaultdict(list)
-        for rid, goal in self.plan.goal_of.items():
-            by_goal[goal].append(rid)
-        out += [self._transmit(rids, self.plan.directions[g], "mission_direction") for g, rids in by_goal.items()]
+        out += [self._transmit(rids, d, "mission_direction") for d, rids in self.plan.directions().items()]
         out.append((self.keys.lander("status"), self.plan.status(now, self.partners)))
         return out
 
@@ -84,8 +81,29 @@ class Lander:
             return [self._transmit([msg.sender], self.plan.direction_for(msg.sender), "mission_direction")]
         return []
 
+    def on_ground_command(self, command: m.GroundCommand) -> list[tuple[str, m.Message]]:
+        """Carry out a ground command and always answer it, with the reason when it is refused."""
+        try:
+            rovers = self.plan.on_command(command)
+        except CommandRefused as exc:
+            log.warning("ground command %s refused: %s", command.command, exc)
+            return [self._result(command, False, str(exc))]
+        if command.command == "stop":
+            out = [(self.keys.lander(ks.COMM_OUT), m.OutboundComm(targets=rovers, payload=radio.pack(
+                radio.StopCommand())))]
+        else:
+            out = [self._transmit([rid], self.plan.direction_for(rid), "mission_direction") for rid in rovers]
+        detail = f"{command.command} sent to rover(s) {', '.join(map(str, rovers))}"
+        return [*out, self._result(command, True, detail)]
+
+    def _result(self, command: m.GroundCommand, accepted: bool, detail: str) -> tuple[str, m.Message]:
+        return self.keys.ground_command_result, m.CommandResult(request_id=command.request_id, accepted=accepted,
+                                                                detail=detail)
+
     def handle(self, key: str, payload: bytes) -> list[tuple[str, m.Message]]:
         try:
+            if key == self.keys.ground_command:
+                return self.on_ground_command(codec.decode(m.GroundCommand, payload))
             if key == self.keys.clock:
                 return self.on_clock(codec.decode(m.Clock, payload))
             if key == self.keys.lander(ks.COMM_IN):
@@ -101,7 +119,7 @@ class Lander:
 
 def run(lander: Lander, bus: Bus, stop: threading.Event) -> None:
     keys = lander.keys
-    for key in (keys.clock, keys.lander(ks.COMM_IN), keys.lander(ks.COMM_PARTNERS)):
+    for key in (keys.clock, keys.lander(ks.COMM_IN), keys.lander(ks.COMM_PARTNERS), keys.ground_command):
         bus.subscribe(key)
     bus.declare_token(keys.alive_lander)
     while not stop.is_set():

@@ -85,7 +85,8 @@ class RoverAgent:
     def on_clock(self, clock: m.Clock) -> list[Out]:
         self.now = max(self.now, clock.sim_time)
         out: list[Out] = []
-        if self.finished_goal and self.now - self._last_report >= GOAL_REPORT_RETRY_S:
+        reporting = self.finished_goal is not None and self.finished_goal[1] != "stopped"
+        if reporting and self.now - self._last_report >= GOAL_REPORT_RETRY_S:
             out += self._report_goal()
         if self.now - self._last_status >= STATUS_PERIOD_S:
             out.append(self._status())
@@ -134,7 +135,20 @@ class RoverAgent:
                 self.photo_outbox.pop(label, None)
         elif isinstance(message, radio.CraterFound):
             self.craters_found.add(message.goal_index)
+        elif isinstance(message, radio.StopCommand) and msg.sender == ks.LANDER_ID:
+            return self._stop()
         return []
+
+    def _stop(self) -> list[Out]:
+        """Stop where it is until a new goal comes (need N6): cancel a move, decide nothing more."""
+        self.finished_goal = (self.goal.index if self.goal else -1, "stopped")
+        self.behaviour.state = "stopped"
+        out: list[Out] = []
+        flight = self.in_flight
+        if flight and isinstance(flight.decision, MoveTo | Rotate) and not flight.cancel_sent:
+            flight.cancel_sent = True
+            out.append((self.keys.rover(self.id, ks.CANCEL_ACTION), m.CancelAction()))
+        return [*out, self._status()]
 
     def _on_photo(self, msg: m.Photo) -> list[Out]:
         flight = self.in_flight
@@ -167,7 +181,7 @@ class RoverAgent:
         if self.in_flight is not None:
             return self._watch(hits)
         ready = (self.pose is not None and self.goal is not None and self.finished_goal is None
-                 and self.state not in ("done", "stuck")
+                 and self.state not in ("done", "stuck", "stopped")
                  and msg.stamp >= self.settled_at and self.pitch[1] >= self.settled_at)
         if not ready:
             return []

@@ -83,6 +83,10 @@ class Keyspace:
         return f"{self.prefix}/ground/command"
 
     @property
+    def ground_command_result(self) -> str:
+        return f"{self.prefix}/ground/command_result"
+
+    @property
     def clock(self) -> str:
         return f"{self.prefix}/world/clock"
 

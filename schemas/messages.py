@@ -151,7 +151,7 @@ class Photo(Message):
 
 # ---- agent telemetry, lander, ground, world ----
 
-RoverState = Literal["waiting", "migration", "avoiding", "climbing", "observing", "done", "stuck"]
+RoverState = Literal["waiting", "migration", "avoiding", "climbing", "observing", "done", "stuck", "stopped"]
 
 
 class RoverStatus(Message):
@@ -169,6 +169,23 @@ class LanderStatus(Message):
     rover_goals: dict[int, int] = Field(default_factory=dict, description="rover id -> goal index")
     connected: list[int] = Field(default_factory=list)
     relay_chain: list[int] = Field(default_factory=list)
+
+
+class GroundCommand(Message):
+    """From the ground station to the lander (needs N5, N6). Targets are in map (scenario) coordinates."""
+
+    request_id: str = ""
+    command: Literal["set_target", "stop", "return"]
+    rover_id: int | None = Field(None, description="None: every rover (set_target only)")
+    x: float | None = None
+    z: float | None = None
+    kind: GoalKind = "waypoint"
+
+
+class CommandResult(Message):
+    request_id: str
+    accepted: bool
+    detail: str = ""
 
 
 class Clock(Message):

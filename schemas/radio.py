@@ -42,8 +42,12 @@ class CraterFound(Message):
     goal_index: int
 
 
-RADIO_TYPES: dict[str, type[Message]] = {"goal_report": GoalReport, "photo_report": PhotoReport,
-                                         "photo_ack": PhotoAck, "crater_found": CraterFound}
+class StopCommand(Message):
+    """The lander tells a rover to stop where it is until it is given a new goal (need N6)."""
+
+
+RADIO_TYPES: dict[str, type[Message]] = {"goal_report": GoalReport, "photo_report": PhotoReport, "photo_ack": PhotoAck,
+                                         "crater_found": CraterFound, "stop_command": StopCommand}
 _TAGS = {model: tag for tag, model in RADIO_TYPES.items()}
 
 

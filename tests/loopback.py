@@ -39,6 +39,8 @@ def _deliver(key, payload, world, lander, agents, keys):
         for agent in agents.values():
             out += agent.on_clock(codec.decode(m.Clock, payload))
         return out
+    if key == keys.ground_command:  # the lander carries it out, the world follows it for its statistics
+        return lander.handle(key, payload) + world.receive(key, payload)
     if key.startswith(keys.lander("")):
         return lander.handle(key, payload) if key != keys.lander(ks.COMM_OUT) else world.receive(key, payload)
     if key.startswith(f"{keys.prefix}/rover/"):

@@ -100,6 +100,7 @@ def declare_io(bus: Bus, keys: ks.Keyspace) -> None:
     for topic in World.INPUT_TOPICS:
         bus.subscribe(keys.rovers(topic))
     bus.subscribe(keys.lander(ks.COMM_OUT))
+    bus.subscribe(keys.ground_command)
     bus.subscribe(keys.rovers(ks.ACK))
     bus.subscribe(keys.lander(ks.ACK))
     bus.watch_liveliness(keys.alive_rovers)

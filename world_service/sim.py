@@ -6,6 +6,7 @@ Keeping them apart lets the whole world be tested, and later stepped in lockstep
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 from collections import Counter
@@ -17,6 +18,7 @@ import numpy as np
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.mission import CommandRefused, RoverMissions
 from schemas.scenario import Scenario
 from world_service import camera
 from world_service import navigation as nav
@@ -29,7 +31,7 @@ from world_service.terrain import Heightmap
 log = logging.getLogger("lunarsim.world")
 
 Out = tuple[str, m.Message]
-FINISHED_STATES = ("done", "stuck")
+FINISHED_STATES = ("done", "stuck", "stopped")
 KIND_NAMES = np.array(m.HIT_KINDS)
 PHOTO_TILT_DEG = 8.0
 """Photos look slightly down, so a crater seen from its rim fills the frame."""
@@ -65,6 +67,7 @@ class World:
         self.tick = 0
         self.terrain = Heightmap.from_scenario(scenario, self.rng)
         self.scene = Scene.from_scenario(scenario)
+        self.missions = RoverMissions(scenario)
         self.perceiver = Perceiver(self.scene, self.terrain, self.params)
         self.bodies = {i + 1: nav.RoverBody(i + 1, r.x, r.z, r.heading_deg % 360.0)
                        for i, r in enumerate(scenario.rovers)}
@@ -94,6 +97,9 @@ class World:
     def receive(self, key: str, payload: bytes) -> list[Out]:
         """Handle one sample from an agent; a bad one is logged, counted and answered with nothing."""
         try:
+            if key == self.keys.ground_command:
+                self._on_ground_command(codec.decode(m.GroundCommand, payload))
+                return []
             if key == self.keys.lander(ks.COMM_OUT):
                 return self._radio(ks.LANDER_ID, codec.decode(m.OutboundComm, payload), from_lander=True)
             rover_id, topic = self.keys.parse_rover_key(key)
@@ -204,6 +210,11 @@ class World:
         ks.PHOTO_ACTION: _on_photo_action,
     }
     INPUT_TOPICS = tuple(_handlers)
+
+    def _on_ground_command(self, command: m.GroundCommand) -> None:
+        """Follow the ground's changes to the mission, so statistics judge each rover's real final goal."""
+        with contextlib.suppress(CommandRefused):  # the lander answers the ground; a refusal changes nothing
+            self.missions.apply(command)
 
     def set_alive(self, rover_id: int, alive: bool) -> None:
         """Watchdog: a rover whose agent is gone stops where it is."""
@@ -405,8 +416,7 @@ class World:
     # ---- ground truth and statistics ----
 
     def _goal_of(self, rid: int):
-        index = min(max(self.status[rid].goal_index, 0), len(self.scenario.mission) - 1)
-        return self.scenario.mission[index]
+        return self.missions.goal(rid, self.status[rid].goal_index)
 
     def world_state(self) -> m.WorldState:
         rovers = [  # built by the world from its own state at 5 Hz: no re-validation
@@ -428,10 +438,10 @@ class World:
         return "rotate" if isinstance(body.action, nav.Rotate) else "idle"
 
     def _reached_final(self, rid: int) -> bool:
-        status, final = self.status[rid], len(self.scenario.mission) - 1
+        status, final = self.status[rid], self.missions.final_index(rid)
         body = self.bodies[rid]
         return (status.state == "done" and status.goal_index == final
-                and stats.at_goal(self.scenario, self.scenario.mission[final], body.x, body.z))
+                and stats.at_goal(self.scenario, self.missions.goal(rid, final), body.x, body.z))
 
     def _check_complete(self) -> None:
         finished = all(s.state in FINISHED_STATES for s in self.status.values())

@@ -1,0 +1,64 @@
+"""``lunarsim command``: ground station commands to the lander (needs N5 and N6 of the report).
+
+    lunarsim command set-target --x -590 --z -20 --kind crater   # every rover (or --rover N)
+    lunarsim command stop --rover 3
+    lunarsim command return --rover 3                             # back to the lander
+
+Waits for the lander's answer and prints it. Exit status: 0 accepted, 1 refused (the reason is
+printed), 3 no router, 4 no lander answered.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import uuid
+
+from deploy import process
+from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+
+EXIT_REFUSED = 1
+EXIT_NO_ANSWER = 4
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("command", choices=["set-target", "stop", "return"])
+    parser.add_argument("--rover", type=int, metavar="N", help="the rover (set-target: every rover if omitted)")
+    parser.add_argument("--x", type=float, help="set-target: target x in map coordinates, m")
+    parser.add_argument("--z", type=float, help="set-target: target z in map coordinates, m")
+    parser.add_argument("--kind", choices=["waypoint", "crater"], default="waypoint", help="set-target: goal kind")
+    parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
+    parser.add_argument("--timeout", type=float, default=10.0, metavar="S", help="seconds to wait for the answer")
+    add_zenoh_arguments(parser)
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    import time
+
+    from deploy.bus import Bus
+    from schemas import codec
+    from schemas import messages as m
+    from schemas.keyspace import Keyspace
+
+    if args.command == "set-target" and (args.x is None or args.z is None):
+        raise process.UsageError("set-target needs --x and --z")
+    if args.command != "set-target" and args.rover is None:
+        raise process.UsageError(f"{args.command} needs --rover N")
+    keys = Keyspace(args.world)
+    command = m.GroundCommand(request_id=uuid.uuid4().hex, command=args.command.replace("-", "_"),
+                              rover_id=args.rover, x=args.x, z=args.z, kind=args.kind)
+    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="command")
+    with Bus(session) as bus:
+        bus.subscribe(keys.ground_command_result)
+        bus.publish(keys.ground_command, command)
+        deadline = time.monotonic() + args.timeout
+        while time.monotonic() < deadline:
+            item = bus.receive(timeout=0.2)
+            if item is None:
+                continue
+            result = codec.decode(m.CommandResult, item.payload)
+            if result.request_id == command.request_id:
+                print(("accepted: " if result.accepted else "refused: ") + result.detail)
+                return 0 if result.accepted else EXIT_REFUSED
+    print(f"no lander answered within {args.timeout:g} s (is one running in world {args.world!r}?)", file=sys.stderr)
+    return EXIT_NO_ANSWER

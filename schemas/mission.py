@@ -1,0 +1,56 @@
+"""Each rover's list of goals, and how ground commands change it (needs N5 and N6 of the report).
+
+The lander uses it to tell rovers where to go; the world service uses the same bookkeeping to judge
+which goal is each rover's final one. One implementation, so the two never disagree.
+"""
+
+from __future__ import annotations
+
+from schemas.messages import GroundCommand
+from schemas.scenario import Goal, Scenario
+
+
+class CommandRefused(ValueError):
+    """A ground command that cannot be carried out; the message says why, for the operator."""
+
+
+class RoverMissions:
+    def __init__(self, scenario: Scenario) -> None:
+        self.scenario = scenario
+        self.goals: dict[int, list[Goal]] = {i + 1: list(scenario.mission) for i in range(len(scenario.rovers))}
+
+    def final_index(self, rover_id: int) -> int:
+        return len(self.goals[rover_id]) - 1
+
+    def goal(self, rover_id: int, index: int) -> Goal:
+        goals = self.goals[rover_id]
+        return goals[min(max(index, 0), len(goals) - 1)]
+
+    def apply(self, command: GroundCommand) -> list[int]:
+        """Carry out a command; returns the rovers whose mission changed. Raises CommandRefused."""
+        rovers = self._rovers(command)
+        if command.command == "stop":
+            return rovers
+        goal = self._new_goal(command)
+        for rid in rovers:
+            self.goals[rid].append(goal)
+        return rovers
+
+    def _rovers(self, command: GroundCommand) -> list[int]:
+        if command.rover_id is None:
+            if command.command != "set_target":
+                raise CommandRefused(f"'{command.command}' needs a rover id")
+            return list(self.goals)
+        if command.rover_id not in self.goals:
+            raise CommandRefused(f"there is no rover {command.rover_id} (rovers are 1..{len(self.goals)})")
+        return [command.rover_id]
+
+    def _new_goal(self, command: GroundCommand) -> Goal:
+        if command.command == "return":
+            return Goal(x=self.scenario.lander.x, z=self.scenario.lander.z, kind="waypoint")
+        if command.x is None or command.z is None:
+            raise CommandRefused("set_target needs the target's x and z")
+        goal = Goal(x=command.x, z=command.z, kind=command.kind)
+        if goal.kind == "crater" and self.scenario.crater_of(goal) is None:
+            raise CommandRefused(f"({command.x}, {command.z}) lies in no known crater: send it as a waypoint")
+        return goal
