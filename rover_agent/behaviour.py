@@ -30,7 +30,10 @@ CREST_PITCH = 0.5
 CREST_FACING = 30.0
 """Degrees within which the rover must face the crater for its pitch to say anything about the crest."""
 WAYPOINT_IN_VIEW = 0.9
-"""A waypoint is reached once within this fraction of the perception radius (report 6.6: goal in view)."""
+"""A waypoint is in view within this fraction of the perception radius (report 6.6)..."""
+WAYPOINT_CLOSE = 0.5
+"""...but the rover walks on to within this fraction, leaving room for dead-reckoning drift, unless rovers
+already there block the way."""
 MAX_BLOCKED_ROTATIONS = 12
 MAX_CREST_LOOKS = 3
 ROVER_GAP_CLIMBING = 0.5
@@ -158,7 +161,7 @@ class DefaultBehaviour:
             return self._observe(view.goal)
         goal, pose = view.goal, view.pose
         distance = math.hypot(goal.x - pose.x, goal.z - pose.z)
-        if goal.kind == "waypoint" and distance <= WAYPOINT_IN_VIEW * self.params.perception.perception_radius:
+        if goal.kind == "waypoint" and self._waypoint_reached(view, distance):
             return Finish("reached")
         if goal.kind == "crater":
             decision = self._climb(view)
@@ -169,6 +172,17 @@ class DefaultBehaviour:
                 return decision
         step = self.params.behaviour.min_move_size if self.state == "climbing" else None
         return self._head_for(view, distance, step)
+
+    def _waypoint_reached(self, view: View, distance: float) -> bool:
+        radius = self.params.perception.perception_radius
+        if distance <= WAYPOINT_CLOSE * radius:
+            return True
+        if distance > WAYPOINT_IN_VIEW * radius:
+            return False
+        pose, goal = view.pose, view.goal
+        to_goal = wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading)
+        rovers = tuple(h for h in view.hits if h.kind == "rover")
+        return bool(rovers) and self._free_distance(to_goal, rovers) < self.params.behaviour.min_move_size
 
     def _observe(self, goal: Goal) -> Decision:
         """On the rim: a photo, a turn of ``photo_step_deg``, a photo... once round (report 10.5.3)."""

@@ -8,6 +8,7 @@ import pytest
 
 from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import (
+    WAYPOINT_CLOSE,
     WAYPOINT_IN_VIEW,
     DefaultBehaviour,
     Finish,
@@ -90,18 +91,28 @@ def test_goal_outside_the_window_rotates_towards_it(goal, degrees):
     assert decision.degrees == pytest.approx(degrees, abs=1e-3)
 
 
-def test_near_waypoint_is_walked_to_not_past():
-    z = round(WAYPOINT_IN_VIEW * PARAMS.perception.perception_radius + 0.05, 4)  # just outside "in view"
+def test_a_waypoint_in_view_is_walked_on_to_close_range_not_past():
+    z = round(0.7 * PARAMS.perception.perception_radius, 4)  # in view, but not yet close
     goal = _goal(0.0, z)
     decision = _behaviour(goal).decide(_view(goal))
-    assert isinstance(decision, MoveTo) and decision.x == 0.0
-    assert decision.z == min(z, 0.9 * PARAMS.perception.perception_radius)
+    assert decision == MoveTo(0.0, z)
 
 
-@pytest.mark.parametrize("fraction", [0.0, 0.4, 0.79, 0.9])
-def test_waypoint_in_view_is_reached(fraction):
+@pytest.mark.parametrize("fraction", [0.0, 0.3, WAYPOINT_CLOSE])
+def test_a_close_waypoint_is_reached(fraction):
     goal = _goal(0.0, fraction * PARAMS.perception.perception_radius)
     assert _behaviour(goal).decide(_view(goal)) == Finish("reached")
+
+
+def test_a_waypoint_in_view_but_crowded_by_rovers_is_reached():
+    z = 0.8 * PARAMS.perception.perception_radius
+    goal = _goal(0.0, z)
+    crowd = (Hit(-4.0, 1.6, "rover"), Hit(0.0, 1.5, "rover"), Hit(4.0, 1.6, "rover"))
+    assert _behaviour(goal).decide(_view(goal, hits=crowd)) == Finish("reached")
+    rocks = tuple(Hit(h.angle_deg, h.distance_m, "obstacle") for h in crowd)
+    assert _behaviour(goal).decide(_view(goal, hits=rocks)) != Finish("reached")  # rocks are no crowd
+    far = _goal(0.0, (WAYPOINT_IN_VIEW + 0.05) * PARAMS.perception.perception_radius)
+    assert _behaviour(far).decide(_view(far, hits=crowd)) != Finish("reached")  # out of view
 
 
 def test_crater_goal_is_not_reached_by_distance_alone():

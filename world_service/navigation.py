@@ -18,9 +18,11 @@ from schemas.params import NavigationParams
 
 @dataclass
 class Move:
-    goal_x: float
+    goal_x: float  # where the rover really ends (slip included)
     goal_z: float
     start: tuple[float, float, float]  # x, z, heading at acceptance
+    face_x: float  # the commanded goal: the rover turns to face it, slip displaces but does not rotate
+    face_z: float
     turning: bool = True
     cancelling: bool = False
     final_turn: float = 0.0  # heading error added on arrival (noise)
@@ -65,9 +67,12 @@ class RoverBody:
             return abs(self.action.remaining_deg)
         return 0.0
 
-    def start_move(self, rel_x: float, rel_z: float, final_turn: float = 0.0) -> None:
-        gx, gz = to_world(self.x, self.z, self.heading, rel_x, rel_z)
-        self.action = Move(gx, gz, (self.x, self.z, self.heading), final_turn=final_turn)
+    def start_move(self, rel_x: float, rel_z: float, slip: tuple[float, float] = (0.0, 0.0),
+                   final_turn: float = 0.0) -> None:
+        """Move to a rover-relative point; ``slip`` (rover-relative metres) is how far off the ground takes it."""
+        fx, fz = to_world(self.x, self.z, self.heading, rel_x, rel_z)
+        gx, gz = to_world(self.x, self.z, self.heading, rel_x + slip[0], rel_z + slip[1])
+        self.action = Move(gx, gz, (self.x, self.z, self.heading), fx, fz, final_turn=final_turn)
 
     def start_rotate(self, degrees: float) -> None:
         self.action = Rotate(degrees, (self.x, self.z, self.heading))
@@ -118,7 +123,8 @@ def _step_move(body: RoverBody, move: Move, dt: float, params: NavigationParams,
     if move.turning:
         if move.cancelling:
             return _end_move(body, move, "cancelled")
-        bearing = math.degrees(math.atan2(move.goal_x - body.x, move.goal_z - body.z)) if dist > 1e-9 else body.heading
+        ahead = math.hypot(move.face_x - body.x, move.face_z - body.z) > 1e-9
+        bearing = math.degrees(math.atan2(move.face_x - body.x, move.face_z - body.z)) if ahead else body.heading
         diff = wrap_deg(bearing - body.heading)
         turn = params.angular_speed * dt
         body.heading = (body.heading + max(-turn, min(turn, diff))) % 360.0
@@ -133,11 +139,10 @@ def _step_move(body: RoverBody, move: Move, dt: float, params: NavigationParams,
     else:
         braking = math.sqrt(2 * accel * dist)
         body.velocity = min(body.velocity + accel * dt, params.speed(body.speed_level) * speed_factor, braking)
-    advance = body.velocity * dt if move.cancelling else min(body.velocity * dt, dist)
-    if dist > 1e-9 and advance > 0:
-        h = math.radians(body.heading)
-        body.x += advance * math.sin(h)
-        body.z += advance * math.cos(h)
+    advance = min(body.velocity * dt, dist)
+    if dist > 1e-9 and advance > 0:  # along the line to where the rover really ends, heading unchanged
+        body.x += advance * (move.goal_x - body.x) / dist
+        body.z += advance * (move.goal_z - body.z) / dist
         body.distance_covered += advance
     if not move.cancelling and (dist - advance) < 1e-6:
         body.x, body.z = move.goal_x, move.goal_z

@@ -120,18 +120,17 @@ class World:
         reason = self._move_problem(body, msg)
         if reason:
             return [self._reject(rid, "move", *reason)]
-        x, z, turn = self._with_slip(msg.x, msg.z)
-        body.start_move(x, z, turn)
+        slip, turn = self._noise(msg.x, msg.z)
+        body.start_move(msg.x, msg.z, slip, turn)
         return [self._nav_status(body, "move")]
 
-    def _with_slip(self, x: float, z: float) -> tuple[float, float, float]:
-        """Where a move really ends: the ground slips by a share of the move's length (seeded noise)."""
+    def _noise(self, x: float, z: float) -> tuple[tuple[float, float], float]:
+        """How a move goes wrong (seeded): the ground slips it by a share of its length, the heading drifts."""
         nav_p = self.params.navigation
         sigma = nav_p.slip_std * math.hypot(x, z)
         turn = self.rng.normal(0.0, nav_p.heading_noise_std_deg) if nav_p.heading_noise_std_deg > 0 else 0.0
-        if sigma > 0:
-            x, z = x + self.rng.normal(0.0, sigma), z + self.rng.normal(0.0, sigma)
-        return x, z, turn
+        slip = (self.rng.normal(0.0, sigma), self.rng.normal(0.0, sigma)) if sigma > 0 else (0.0, 0.0)
+        return slip, turn
 
     def _move_problem(self, body: nav.RoverBody, msg: m.MoveAction) -> tuple[str, str] | None:
         p = self.params

@@ -1,0 +1,170 @@
+"""``lunarsim batch``: N seeded runs of a scenario, in parallel, summarised as the report's Table 2.
+
+Each run is a whole ``lunarsim run`` (its own router port and world name) with seed BASE + i. Every
+run's report and the aggregate go to ``DIR/batch.json``; a run that fails is recorded with the end of
+its output, and the others go on.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from deploy import process
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path)
+    parser.add_argument("--runs", type=int, default=5, metavar="N", help="number of seeded runs (default 5)")
+    parser.add_argument("--seed", type=int, default=1, metavar="BASE", help="seed of the first run (default 1)")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, metavar="J", help="runs at a time")
+    parser.add_argument("--lockstep", action="store_true", help="deterministic runs (recommended)")
+    parser.add_argument("--rovers", type=int, metavar="N", help="spawn N rovers in the scenario's formation")
+    parser.add_argument("--max-sim-time", type=float, default=900.0, metavar="S",
+                        help="stop each run after S simulated seconds (default 900)")
+    parser.add_argument("--time-scale", type=float, default=4.0, metavar="K", help="without --lockstep (default 4)")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR")
+
+
+@dataclass
+class Run:
+    index: int
+    seed: int
+    out: Path
+    proc: subprocess.Popen | None = None
+    started: float = 0.0
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from schemas.scenario import load_scenario
+
+    if args.runs < 1 or args.jobs < 1:
+        raise process.UsageError("--runs and --jobs must be at least 1")
+    scenario = load_scenario(args.scenario).with_overrides(rovers=args.rovers)
+    console = Console()
+    args.out.mkdir(parents=True, exist_ok=True)
+    runs = [Run(i, args.seed + i, args.out / f"run-{i + 1:03d}-seed{args.seed + i}") for i in range(args.runs)]
+    console.print(f"{scenario.name}: {args.runs} runs, {len(scenario.rovers)} rovers, {args.jobs} at a time"
+                  + (", lockstep" if args.lockstep else ""))
+    reports, failed = _run_all(runs, args, console)
+    summary = {"scenario": scenario.name, "rovers": len(scenario.rovers), "lockstep": args.lockstep,
+               "runs": reports, "failed": failed, "aggregate": aggregate(reports)}
+    (args.out / "batch.json").write_text(json.dumps(summary, indent=2) + "\n")
+    console.print(table_2(scenario.name, reports, summary["aggregate"]))
+    console.print(f"written {args.out / 'batch.json'}" + (f"; {len(failed)} run(s) failed" if failed else ""))
+    return 1 if failed and not reports else 0
+
+
+def _run_all(runs: list[Run], args: argparse.Namespace, console) -> tuple[list[dict], list[dict]]:
+    waiting, active, reports, failed = list(runs), [], [], []
+    while waiting or active:
+        while waiting and len(active) < args.jobs:
+            run = waiting.pop(0)
+            run.proc, run.started = _start(run, args), time.monotonic()
+            active.append(run)
+        time.sleep(0.2)
+        for run in [r for r in active if r.proc.poll() is not None]:
+            active.remove(run)
+            report = _collect(run)
+            (reports if "error" not in report else failed).append(report)
+            done = len(reports) + len(failed)
+            console.print(f"[{done}/{len(runs)}] seed {run.seed}: " + (
+                f"{report['rovers_reached_final_goal']}/{report['rovers_total']} reached, "
+                f"{report['rover_collisions'] + report['obstacle_collisions']} collisions, "
+                f"{report['rovers_stuck']} stuck" if "error" not in report else f"failed: {report['error']}"))
+    reports.sort(key=lambda r: r["seed"])
+    return reports, failed
+
+
+def _start(run: Run, args: argparse.Namespace) -> subprocess.Popen:
+    command = [sys.executable, "-m", "deploy.cli", "run", str(args.scenario), "--seed", str(run.seed),
+               "--out", str(run.out), "--port", str(_free_port()), "--world", f"batch{run.index}", "--quiet",
+               "--max-sim-time", str(args.max_sim_time), "--time-scale", str(args.time_scale)]
+    if args.lockstep:
+        command.append("--lockstep")
+    if args.rovers:
+        command += ["--rovers", str(args.rovers)]
+    run.out.mkdir(parents=True, exist_ok=True)
+    log = open(run.out / "run.log", "wb")  # noqa: SIM115 - handed to the child
+    proc = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    log.close()
+    return proc
+
+
+def _collect(run: Run) -> dict:
+    try:
+        report = json.loads((run.out / "report.json").read_text())
+    except (OSError, ValueError):
+        tail = (run.out / "run.log").read_text(errors="replace").strip().splitlines()[-3:]
+        return {"seed": run.seed, "error": f"exit {run.proc.returncode}: " + " | ".join(tail)}
+    return {**report, "run": run.index + 1}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def aggregate(reports: list[dict]) -> dict:
+    if not reports:
+        return {}
+    n = len(reports)
+    total = sum(r["rovers_total"] for r in reports)
+    reached = sum(r["rovers_reached_final_goal"] for r in reports)
+
+    def mean(field: str) -> float:
+        return round(sum(r[field] for r in reports) / n, 4)
+
+    return {
+        "runs": n,
+        "relative_path_length_m": mean("relative_path_length_m"),
+        "average_distance_covered_m": mean("average_distance_covered_m"),
+        "average_path_efficiency": mean("average_path_efficiency"),
+        "total_distance_covered_m": mean("total_distance_covered_m"),
+        "rovers_reached_final_goal": reached,
+        "rovers_total": total,
+        "reached_fraction": round(reached / total, 4) if total else 0.0,
+        "rover_collisions": sum(r["rover_collisions"] for r in reports),
+        "obstacle_collisions": sum(r["obstacle_collisions"] for r in reports),
+        "rovers_stuck": sum(r["rovers_stuck"] for r in reports),
+        "mission_duration_s": mean("mission_duration_s"),
+        "complete_runs": sum(bool(r["complete"]) for r in reports),
+    }
+
+
+def table_2(name: str, reports: list[dict], agg: dict):
+    """The report's Table 2, one row per run and an average row."""
+    from rich.table import Table
+
+    table = Table(title=f"{name}: {len(reports)} runs", title_justify="left")
+    for column in ("run", "relative path length", "average distance covered", "average path efficiency",
+                   "total distance covered", "rovers that reached final goal", "rover collisions",
+                   "rovers getting stuck", "mission duration mm:ss"):
+        table.add_column(column, justify="right")
+    for r in reports:
+        table.add_row(str(r["run"]), f"{r['relative_path_length_m']:.2f}", f"{r['average_distance_covered_m']:.2f}",
+                      f"{r['average_path_efficiency']:.3f}", f"{r['total_distance_covered_m']:.1f}",
+                      f"{r['rovers_reached_final_goal']}/{r['rovers_total']}",
+                      str(r["rover_collisions"] + r["obstacle_collisions"]), str(r["rovers_stuck"]),
+                      _mmss(r["mission_duration_s"]))
+    if agg:
+        table.add_row("average", f"{agg['relative_path_length_m']:.2f}", f"{agg['average_distance_covered_m']:.2f}",
+                      f"{agg['average_path_efficiency']:.3f}", f"{agg['total_distance_covered_m']:.1f}",
+                      f"{agg['rovers_reached_final_goal']}/{agg['rovers_total']} ({agg['reached_fraction']:.0%})",
+                      str(agg["rover_collisions"] + agg["obstacle_collisions"]), str(agg["rovers_stuck"]),
+                      _mmss(agg["mission_duration_s"]), style="bold")
+    return table
+
+
+def _mmss(seconds: float) -> str:
+    return f"{int(seconds // 60)}:{int(seconds % 60):02d}"
