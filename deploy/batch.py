@@ -147,9 +147,8 @@ def table_2(name: str, reports: list[dict], agg: dict):
     from rich.table import Table
 
     table = Table(title=f"{name}: {len(reports)} runs", title_justify="left")
-    for column in ("run", "relative path length", "average distance covered", "average path efficiency",
-                   "total distance covered", "rovers that reached final goal", "rover collisions",
-                   "rovers getting stuck", "mission duration mm:ss"):
+    for column in ("run", "rel. path m", "avg covered m", "efficiency", "total m", "reached", "collisions",
+                   "stuck", "mm:ss"):
         table.add_column(column, justify="right")
     for r in reports:
         table.add_row(str(r["run"]), f"{r['relative_path_length_m']:.2f}", f"{r['average_distance_covered_m']:.2f}",
@@ -158,7 +157,7 @@ def table_2(name: str, reports: list[dict], agg: dict):
                       str(r["rover_collisions"] + r["obstacle_collisions"]), str(r["rovers_stuck"]),
                       _mmss(r["mission_duration_s"]))
     if agg:
-        table.add_row("average", f"{agg['relative_path_length_m']:.2f}", f"{agg['average_distance_covered_m']:.2f}",
+        table.add_row("mean", f"{agg['relative_path_length_m']:.2f}", f"{agg['average_distance_covered_m']:.2f}",
                       f"{agg['average_path_efficiency']:.3f}", f"{agg['total_distance_covered_m']:.1f}",
                       f"{agg['rovers_reached_final_goal']}/{agg['rovers_total']} ({agg['reached_fraction']:.0%})",
                       str(agg["rover_collisions"] + agg["obstacle_collisions"]), str(agg["rovers_stuck"]),

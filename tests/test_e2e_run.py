@@ -134,3 +134,18 @@ def test_lockstep_runs_with_the_same_seed_give_the_same_report(tmp_path):
     first, second = _lockstep_report(tmp_path, "a"), _lockstep_report(tmp_path, "b")
     assert first == second
     assert first["seed"] == 7 and first["complete"] is True and first["rovers_reached_final_goal"] >= 4
+
+
+def test_batch_runs_seeded_missions_and_summarises_them(tmp_path):
+    out = tmp_path / "batch"
+    proc = lunarsim("batch", str(SCENARIOS / "crater_observation.yaml"), "--runs", "2", "--rovers", "2",
+                    "--lockstep", "--jobs", "2", "--seed", "11", "--out", str(out))
+    stdout, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 0, stdout + stderr
+    batch = json.loads((out / "batch.json").read_text())
+    assert [r["seed"] for r in batch["runs"]] == [11, 12] and batch["failed"] == []
+    agg = batch["aggregate"]
+    assert agg["runs"] == 2 and agg["rovers_total"] == 4
+    assert agg["rovers_reached_final_goal"] == sum(r["rovers_reached_final_goal"] for r in batch["runs"])
+    assert batch["runs"][0]["total_distance_covered_m"] != batch["runs"][1]["total_distance_covered_m"]
+    assert "mean" in stdout and (out / "run-001-seed11" / "report.json").exists()
