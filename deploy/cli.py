@@ -21,6 +21,7 @@ COMMANDS = {
     "rover": ("rover_agent.app", "run one rover agent"),
     "scenario": ("deploy.scenario_cli", "import, export and check scenarios"),
     "command": ("deploy.command_cli", "send a ground command to the lander: set-target, stop, return"),
+    "check-behaviour": ("deploy.behaviour_check", "check that a rover behaviour keeps the contract"),
 }
 
 

@@ -115,7 +115,8 @@ class Mission:
                             str(self.out / "lander_archive"), *common)
         for rover_id in range(1, len(self.scenario.rovers) + 1):
             self.children.start(f"rover{rover_id}", "rover_agent", "--id", str(rover_id),
-                                "--params", str(self.scenario_file), "--state",
+                                "--params", str(self.scenario_file), "--behaviour", self.scenario.behaviour,
+                                "--state",
                                 str(self.out / "state" / f"rover{rover_id}.json"), *common)
 
     def _monitor(self, stop) -> tuple:

@@ -11,7 +11,18 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from rover_agent.behaviour import DefaultBehaviour, Finish, Goal, Hit, Hold, MoveTo, Rotate, TakePhoto, View
+from rover_agent.behaviour import (
+    BaseBehaviour,
+    DefaultBehaviour,
+    Finish,
+    Goal,
+    Hit,
+    Hold,
+    MoveTo,
+    Rotate,
+    TakePhoto,
+    View,
+)
 from rover_agent.dead_reckoning import Pose, load_pose, save_pose
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -42,7 +53,7 @@ class InFlight:
 
 class RoverAgent:
     def __init__(self, rover_id: int, keys: ks.Keyspace, params: RoverParams,
-                 behaviour: DefaultBehaviour | None = None, state_file: Path | None = None) -> None:
+                 behaviour: BaseBehaviour | None = None, state_file: Path | None = None) -> None:
         self.id = rover_id
         self.keys = keys
         self.params = params

@@ -98,8 +98,49 @@ class TakePhoto:
 Decision = MoveTo | Rotate | Hold | TakePhoto | Finish
 
 
+class BaseBehaviour:
+    """What a rover behaviour is to the agent (report 4.4: any behaviour that keeps the interface will do).
+
+    Write your own by subclassing this and implementing ``decide``; select it by name in the scenario
+    (``behaviour: my_package.module:MyBehaviour``) or with ``lunarsim rover --behaviour``, and check it with
+    ``lunarsim check-behaviour``. The agent owns all I/O and keeps one action in flight:
+
+    - ``decide(view)`` is called with fresh sensor data whenever no action is running. Return ``MoveTo``
+      (rover-relative, in view and within the perception radius), ``Rotate``, ``TakePhoto``, ``Hold`` (do
+      nothing until a time) or ``Finish("reached" | "stuck")`` for the current goal.
+    - ``should_cancel(view)`` is asked on every perception while a move runs.
+    - the event hooks below say what happened to the last action; the defaults ignore them.
+    ``state`` is shown to the ground (one of the ``RoverState`` names of schemas.messages).
+    """
+
+    name = "base"
+
+    def __init__(self, rover_id: int, params: RoverParams) -> None:
+        self.rover_id = rover_id
+        self.params = params
+        self.state = "waiting"
+
+    def decide(self, view: View) -> Decision:
+        raise NotImplementedError
+
+    def should_cancel(self, view: View) -> bool:
+        return False
+
+    def start_goal(self, goal: Goal) -> None:
+        self.state = "migration"
+
+    def moved(self, distance: float) -> None:
+        """A move ended (completed or cut short) after ``distance`` metres."""
+
+    def rejected(self, relative_angle: float) -> None:
+        """The rover refused a move in this direction (blocked, out of view or range)."""
+
+    def cancelled(self, now: float) -> None:
+        """A move this behaviour cancelled has come to a stop."""
+
+
 @dataclass
-class DefaultBehaviour:
+class DefaultBehaviour(BaseBehaviour):
     """The report's single- and multi-rover behaviour with crater climbing."""
 
     rover_id: int

@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 
 import pytest
-from loopback import run_mission
 from procs import SCENARIOS, lunarsim, module, stop, wait_for
 
+from deploy.loopback import run_mission
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import Lander
 from schemas import keyspace as ks

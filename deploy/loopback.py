@@ -1,7 +1,8 @@
 """Run a whole mission in one process, with no router: the world, lander and rover agents wired
 through their pure ``handle`` functions, every message still encoded and decoded with the codec.
 
-Used by tests of mission logic; the cross-process path is tested separately over a real router.
+Deterministic and fast: the behaviour checker and the tests of mission logic use it. Photos are rendered
+before the next tick, as in lockstep. The cross-process path is tested separately over a real router.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import Lander, PhotoArchive
 from rover_agent.agent import RoverAgent
+from rover_agent.behaviour import BaseBehaviour
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -16,11 +18,14 @@ from schemas.scenario import Scenario
 from world_service.sim import World
 
 
-def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None) -> World:
+def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None,
+                behaviour: type[BaseBehaviour] | None = None) -> World:
     keys = ks.Keyspace("loopback")
     world = World(scenario, keys)
     lander = Lander(MissionPlan(scenario), keys, archive)
-    agents = {rid: RoverAgent(rid, keys, scenario.rover_params) for rid in world.bodies}
+    params = scenario.rover_params
+    agents = {rid: RoverAgent(rid, keys, params, behaviour(rid, params) if behaviour else None)
+              for rid in world.bodies}
     pending: list[tuple[str, m.Message]] = []
     while world.sim_time < max_sim_time and not world.complete:
         photos, world.photo_jobs = world.photo_jobs, []  # rendered before the next tick, as in lockstep

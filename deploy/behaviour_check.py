@@ -1,0 +1,89 @@
+"""``lunarsim check-behaviour NAME``: does a rover behaviour keep the contract? (report 4.4)
+
+Two parts. Scripted views, no world: every decision is one of the allowed kinds; moves stay in view
+and within the perception radius; the same inputs give the same decisions; a goal behind is turned
+towards; a goal in view is finished. Then a short mission in one process (no router) on a scenario,
+reporting what a run reports. Problems are listed one per line; the exit status is 1 if there is any.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from deploy import process
+
+DEFAULT_SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "crater_observation.yaml"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("behaviour", help="default, straight, an installed plugin, or package.module:Class")
+    parser.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="for the short mission")
+    parser.add_argument("--rovers", type=int, default=2, metavar="N", help="rovers in the short mission")
+    parser.add_argument("--max-sim-time", type=float, default=300.0, metavar="S")
+
+
+def scripted_problems(cls, params) -> list[str]:
+    """Contract checks on scripted views; returns one line per problem."""
+    from rover_agent import behaviour as b
+    from rover_agent.dead_reckoning import Pose
+
+    problems: list[str] = []
+    fov, radius = params.perception.field_of_view_degrees, params.perception.perception_radius
+    rock = (b.Hit(0.0, 3.0, "obstacle"),)
+    cases = {
+        "goal ahead, nothing in view": (b.Goal(0, 1, "waypoint", 0.0, 60.0), ()),
+        "goal ahead, a rock 3 m ahead": (b.Goal(0, 1, "waypoint", 0.0, 60.0), rock),
+        "goal behind": (b.Goal(0, 1, "waypoint", 0.0, -60.0), ()),
+        "crater goal ahead": (b.Goal(0, 1, "crater", 0.0, 60.0), ()),
+    }
+    for label, (goal, hits) in cases.items():
+        runs = []
+        for _ in range(2):
+            behaviour = cls(1, params)
+            behaviour.start_goal(goal)
+            view = b.View(0.0, Pose(0.0, 0.0, 0.0), goal, hits, 0.0)
+            runs.append(behaviour.decide(view))
+        decision = runs[0]
+        if runs[0] != runs[1]:
+            problems.append(f"{label}: not deterministic ({runs[0]} then {runs[1]})")
+        if not isinstance(decision, b.MoveTo | b.Rotate | b.Hold | b.TakePhoto | b.Finish):
+            problems.append(f"{label}: decided {decision!r}, not one of MoveTo, Rotate, Hold, TakePhoto, Finish")
+        elif isinstance(decision, b.MoveTo):
+            if abs(math.degrees(math.atan2(decision.x, decision.z))) > fov / 2:
+                problems.append(f"{label}: {decision} is outside the {fov:g} degree field of view")
+            if math.hypot(decision.x, decision.z) > radius * (1 + params.navigation.move_action_tolerance_factor):
+                problems.append(f"{label}: {decision} is beyond the {radius:g} m perception radius")
+            if hits and abs(decision.x) < 0.5 and decision.z >= 3.0:
+                problems.append(f"{label}: {decision} walks into the rock")
+        if label == "goal behind" and not isinstance(decision, b.Rotate):
+            problems.append(f"{label}: expected a Rotate towards the goal, got {decision}")
+    behaviour = cls(1, params)
+    near = b.Goal(0, 1, "waypoint", 0.0, 1.0)
+    behaviour.start_goal(near)
+    if behaviour.decide(b.View(0.0, Pose(0.0, 0.0, 0.0), near, (), 0.0)) != b.Finish("reached"):
+        problems.append("a waypoint 1 m ahead is in view: expected Finish('reached')")
+    return problems
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    from deploy.loopback import run_mission
+    from rover_agent.behaviours import UnknownBehaviour, load_behaviour
+    from schemas.scenario import load_scenario
+
+    try:
+        cls = load_behaviour(args.behaviour)
+    except UnknownBehaviour as exc:
+        raise process.UsageError(str(exc)) from None
+    scenario = load_scenario(args.scenario).with_overrides(rovers=args.rovers)
+    problems = scripted_problems(cls, scenario.rover_params)
+    for line in problems:
+        print(f"problem: {line}")
+    report = run_mission(scenario, args.max_sim_time, behaviour=cls).report()
+    print(f"mission {scenario.name} with {args.rovers} rovers: {report.rovers_reached_final_goal}/"
+          f"{report.rovers_total} reached, {report.rover_collisions + report.obstacle_collisions} collisions, "
+          f"{report.rovers_stuck} stuck, efficiency {report.average_path_efficiency:.3f}, "
+          f"{'complete' if report.complete else 'not complete'} after {report.mission_duration_s:.1f} s")
+    print("contract: ok" if not problems else f"contract: {len(problems)} problem(s)")
+    return 1 if problems else 0

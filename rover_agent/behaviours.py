@@ -1,0 +1,49 @@
+"""Finding a rover behaviour by name: built-ins, installed plugins, or ``package.module:Class``.
+
+Installed packages register behaviours under the ``lunarsim.behaviours`` entry-point group, so a team's
+own behaviour is selected by name without touching LunarSim.
+"""
+
+from __future__ import annotations
+
+import importlib
+from importlib.metadata import entry_points
+
+from rover_agent.behaviour import BaseBehaviour
+
+BUILT_IN = {
+    "default": "rover_agent.behaviour:DefaultBehaviour",
+    "straight": "rover_agent.examples:StraightLine",
+}
+ENTRY_POINT_GROUP = "lunarsim.behaviours"
+
+
+class UnknownBehaviour(ValueError):
+    """A behaviour name that resolves to nothing usable; the message lists what is known."""
+
+
+def known_names() -> list[str]:
+    return sorted(set(BUILT_IN) | {ep.name for ep in entry_points(group=ENTRY_POINT_GROUP)})
+
+
+def load_behaviour(name: str) -> type[BaseBehaviour]:
+    target = BUILT_IN.get(name)
+    if target is None:
+        plugins = {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+        if name in plugins:
+            return _check(name, plugins[name].load())
+        target = name
+    module_name, _, attr = target.partition(":")
+    if not attr:
+        raise UnknownBehaviour(f"unknown behaviour {name!r}: use one of {', '.join(known_names())} "
+                               "or 'package.module:Class'")
+    try:
+        return _check(name, getattr(importlib.import_module(module_name), attr))
+    except (ImportError, AttributeError) as exc:
+        raise UnknownBehaviour(f"behaviour {name!r} cannot be loaded: {exc}") from None
+
+
+def _check(name: str, cls: object) -> type[BaseBehaviour]:
+    if not (isinstance(cls, type) and issubclass(cls, BaseBehaviour)):
+        raise UnknownBehaviour(f"behaviour {name!r} is not a subclass of rover_agent.behaviour.BaseBehaviour")
+    return cls
