@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 
+from lander_agent.daisy_chain import Chain, plan_chain
 from schemas import messages as m
 from schemas.frames import bearing_deg
 from schemas.mission import RoverMissions
@@ -27,6 +28,9 @@ class MissionPlan:
         self.missions = RoverMissions(scenario)
         self.goal_of = dict.fromkeys(self.calibration, 0)
         self.outcome: dict[int, str] = {}
+        self.chains: dict[int, Chain] = {}
+        self.finished: dict[int, set[int]] = {}  # goal index -> rovers done with it, held while a chain stands
+        self._form_chain(0)
 
     @property
     def rover_ids(self) -> list[int]:
@@ -36,9 +40,33 @@ class MissionPlan:
         index = self.goal_of[rover_id]
         goal = self.missions.goal(rover_id, index)
         lx, lz = self.scenario.lander.x, self.scenario.lander.z
+        x, z, kind = goal.x - lx, goal.z - lz, goal.kind
+        chain = self.chains.get(index)
+        if chain and rover_id in chain.spots:
+            (x, z), kind = chain.spots[rover_id], "relay"
         return m.MissionDirection(goal_index=index, goals_total=self.missions.final_index(rover_id) + 1,
-                                  kind=goal.kind, bearing_deg=round(bearing_deg(goal.x - lx, goal.z - lz), 6),
-                                  distance_m=round(math.hypot(goal.x - lx, goal.z - lz), 6))
+                                  kind=kind, bearing_deg=round(bearing_deg(x, z), 6),
+                                  distance_m=round(math.hypot(x, z), 6))
+
+    def _form_chain(self, index: int) -> None:
+        """A daisy chain for goal ``index`` if the lander's radio cannot reach where the rovers are going."""
+        rovers = [rid for rid, g in self.goal_of.items() if g == index and rid not in self.outcome]
+        if not rovers:
+            return
+        goal = self.missions.goal(rovers[0], index)
+        lx, lz = self.scenario.lander.x, self.scenario.lander.z
+        crater = self.scenario.crater_of(goal) if goal.kind == "crater" else None
+        reach = math.hypot(goal.x - lx, goal.z - lz) - (crater.radius_m if crater else 0.0)
+        c = self.scenario.rover_params.communication
+        chain = plan_chain((goal.x - lx, goal.z - lz), reach, rovers, c.lander_comm_range, c.comm_range)
+        if chain.spots:
+            self.chains[index] = chain
+
+    @property
+    def relay_chain(self) -> list[int]:
+        """Rovers holding relay spots now, from the lander outwards."""
+        return [rid for chain in self.chains.values() for rid in chain.relays
+                if self.outcome.get(rid) is None and self.goal_of[rid] in self.chains]
 
     def directions(self) -> dict[m.MissionDirection, list[int]]:
         """Each distinct direction with the rovers it is for, so one transmission serves them all."""
@@ -47,15 +75,40 @@ class MissionPlan:
             grouped[self.direction_for(rid)].append(rid)
         return dict(grouped)
 
-    def on_report(self, rover_id: int, report: GoalReport) -> bool:
-        """Advance a rover past a finished goal; True if it now has a new goal to be told about."""
-        if rover_id not in self.goal_of or report.goal_index != self.goal_of[rover_id]:
-            return False
-        if report.outcome == "stuck" or report.goal_index >= self.missions.final_index(rover_id):
+    def on_report(self, rover_id: int, report: GoalReport) -> list[int]:
+        """Note a finished goal; returns the rovers that now have a new goal to be told about.
+
+        Without a chain a rover goes on at once. While a chain stands for the goal, finished rovers wait
+        (leaving would break the chain's purpose) until every rover that is not a relay is done; then all,
+        relays too, go on together and a new chain forms for the next goal (report 6.5.2).
+        """
+        index = report.goal_index
+        if rover_id not in self.goal_of or index != self.goal_of[rover_id] or report.outcome == "relay":
+            return []
+        if report.outcome == "stuck" or (index >= self.missions.final_index(rover_id) and index not in self.chains):
             self.outcome[rover_id] = report.outcome
-            return False
-        self.goal_of[rover_id] += 1
-        return True
+            return []
+        if index not in self.chains:
+            self.goal_of[rover_id] += 1
+            return [rover_id]
+        self.finished.setdefault(index, set()).add(rover_id)
+        return self._release(index)
+
+    def _release(self, index: int) -> list[int]:
+        chain = self.chains[index]
+        group = [rid for rid, g in self.goal_of.items() if g == index and rid not in self.outcome]
+        if any(rid not in chain.spots and rid not in self.finished[index] for rid in group):
+            return []
+        del self.chains[index]
+        moving = []
+        for rid in group:
+            if index >= self.missions.final_index(rid):
+                self.outcome[rid] = "reached" if rid in self.finished[index] else "relay"
+            else:
+                self.goal_of[rid] += 1
+                moving.append(rid)
+        self._form_chain(index + 1)
+        return moving
 
     def on_command(self, command: m.GroundCommand) -> list[int]:
         """Apply a ground command (raises CommandRefused); returns the rovers it concerns."""
@@ -75,4 +128,5 @@ class MissionPlan:
         return "observation" if observing else "migration"
 
     def status(self, stamp: float, connected: list[int]) -> m.LanderStatus:
-        return m.LanderStatus(stamp=stamp, phase=self.phase, rover_goals=dict(self.goal_of), connected=connected)
+        return m.LanderStatus(stamp=stamp, phase=self.phase, rover_goals=dict(self.goal_of), connected=connected,
+                              relay_chain=self.relay_chain)

@@ -75,10 +75,10 @@ class Lander:
             self.archive.store(msg.sender, report)
             ack = radio.pack(radio.PhotoAck(labels=[report.label]))
             return [(self.keys.lander(ks.COMM_OUT), m.OutboundComm(targets=[msg.sender], payload=ack))]
-        if isinstance(report, radio.GoalReport) and self.plan.on_report(msg.sender, report):
-            log.info("rover %d: goal %d done, sending goal %d", msg.sender, report.goal_index,
-                     self.plan.goal_of[msg.sender])
-            return [self._transmit([msg.sender], self.plan.direction_for(msg.sender), "mission_direction")]
+        if isinstance(report, radio.GoalReport):
+            moving = self.plan.on_report(msg.sender, report)
+            log.info("rover %d: goal %d %s; new goals for %s", msg.sender, report.goal_index, report.outcome, moving)
+            return [self._transmit([rid], self.plan.direction_for(rid), "mission_direction") for rid in moving]
         return []
 
     def on_ground_command(self, command: m.GroundCommand) -> list[tuple[str, m.Message]]:

@@ -224,8 +224,8 @@ class RoverAgent:
     def _finish(self, outcome: str) -> list[Out]:
         goal = self.goal
         self.finished_goal = (goal.index, outcome)
-        if outcome == "stuck":
-            self.behaviour.state = "stuck"
+        if outcome in ("stuck", "relay"):
+            self.behaviour.state = outcome
         elif goal.final:
             self.behaviour.state = "done"
         else:

@@ -34,6 +34,8 @@ WAYPOINT_IN_VIEW = 0.9
 WAYPOINT_CLOSE = 0.5
 """...but the rover walks on to within this fraction, leaving room for dead-reckoning drift, unless rovers
 already there block the way."""
+RELAY_CLOSE_M = 1.5
+"""A relay holds its spot within this distance: the chain's spacing margin is for drift, not for slack."""
 MAX_BLOCKED_ROTATIONS = 12
 MAX_CREST_LOOKS = 3
 ROVER_GAP_CLIMBING = 0.5
@@ -87,7 +89,7 @@ class Hold:
 
 @dataclass(frozen=True)
 class Finish:
-    outcome: str  # "reached" | "stuck"
+    outcome: str  # "reached" | "stuck" | "relay" (holding a daisy-chain spot)
 
 
 @dataclass(frozen=True)
@@ -204,6 +206,8 @@ class DefaultBehaviour(BaseBehaviour):
         distance = math.hypot(goal.x - pose.x, goal.z - pose.z)
         if goal.kind == "waypoint" and self._waypoint_reached(view, distance):
             return Finish("reached")
+        if goal.kind == "relay" and distance <= RELAY_CLOSE_M:
+            return Finish("relay")
         if goal.kind == "crater":
             decision = self._climb(view)
             if decision == Finish("reached"):
@@ -268,7 +272,7 @@ class DefaultBehaviour(BaseBehaviour):
         if abs(to_goal) > window:
             return Rotate(round(to_goal, 3))
         want = min(0.9 * p.perception.perception_radius, step or math.inf,
-                   distance if goal.kind == "waypoint" else math.inf)
+                   distance if goal.kind != "crater" else math.inf)
         for angle in self._candidates(to_goal, window):
             free = self._free_distance(angle, view.hits)
             if free >= min(want, p.behaviour.min_move_size):

@@ -16,6 +16,8 @@ from schemas import keyspace as ks
 HitKind = Literal["rover", "obstacle", "terrain", "lander", "crater_terrain"]
 HIT_KINDS: tuple[HitKind, ...] = ("rover", "obstacle", "terrain", "lander", "crater_terrain")
 GoalKind = Literal["crater", "waypoint"]
+DirectionKind = Literal["crater", "waypoint", "relay"]
+"""A mission direction may also send a rover to hold a relay spot of the daisy chain."""
 
 
 class Message(BaseModel):
@@ -123,7 +125,7 @@ class MissionDirection(Message):
 
     goal_index: int = Field(ge=0)
     goals_total: int = Field(ge=1)
-    kind: GoalKind
+    kind: DirectionKind
     bearing_deg: float
     distance_m: float = Field(ge=0)
 
@@ -151,7 +153,8 @@ class Photo(Message):
 
 # ---- agent telemetry, lander, ground, world ----
 
-RoverState = Literal["waiting", "migration", "avoiding", "climbing", "observing", "done", "stuck", "stopped"]
+RoverState = Literal["waiting", "migration", "avoiding", "climbing", "observing", "done", "stuck", "stopped",
+                     "relay"]
 
 
 class RoverStatus(Message):
@@ -244,6 +247,8 @@ class MissionReport(Message):
     rejected_messages: int = 0
     lander_connection_losses: int = Field(0, description="times a rover lost its route to the lander (6.3.3)")
     disconnected_time_s: float = Field(0.0, description="rover-seconds without a route to the lander")
+    worst_rover_connected_fraction: float = Field(1.0, description="share of the mission the least connected "
+                                                                   "rover had a route to the lander")
     max_rovers_in_daisy_chain: int = Field(0, description="most rovers relaying for others at one time")
     radio_dropped: int = Field(0, description="transmissions whose target was out of reach")
     radio_lost: int = Field(0, description="transmissions lost to the configured loss probability")

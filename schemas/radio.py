@@ -18,7 +18,7 @@ class GoalReport(Message):
     """A rover tells the lander it finished (or gave up on) a goal, so the lander sends the next one."""
 
     goal_index: int
-    outcome: Literal["reached", "stuck"]
+    outcome: Literal["reached", "stuck", "relay"]
 
 
 class PhotoReport(Message):

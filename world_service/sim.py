@@ -31,7 +31,7 @@ from world_service.terrain import Heightmap
 log = logging.getLogger("lunarsim.world")
 
 Out = tuple[str, m.Message]
-FINISHED_STATES = ("done", "stuck", "stopped")
+FINISHED_STATES = ("done", "stuck", "stopped", "relay")
 KIND_NAMES = np.array(m.HIT_KINDS)
 PHOTO_TILT_DEG = 8.0
 """Photos look slightly down, so a crater seen from its rim fills the frame."""

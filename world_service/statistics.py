@@ -104,6 +104,8 @@ class LinkStats:
     connected: dict[int, bool] = field(default_factory=dict)
     losses: int = 0
     disconnected_s: float = 0.0
+    disconnected_by_rover: dict[int, float] = field(default_factory=dict)
+    elapsed_s: float = 0.0
     max_relays: int = 0
     dropped: int = 0
     lost: int = 0
@@ -111,10 +113,16 @@ class LinkStats:
     def update(self, connected: dict[int, bool], relays: int, elapsed_s: float) -> None:
         self.losses += sum(1 for rid, now in connected.items() if self.connected.get(rid, True) and not now)
         self.disconnected_s += elapsed_s * sum(1 for now in connected.values() if not now)
+        self.elapsed_s += elapsed_s
+        for rid, now in connected.items():
+            self.disconnected_by_rover[rid] = self.disconnected_by_rover.get(rid, 0.0) + (0.0 if now else elapsed_s)
         self.max_relays = max(self.max_relays, relays)
         self.connected = connected
 
     def as_fields(self) -> dict:
+        worst = max(self.disconnected_by_rover.values(), default=0.0)
+        connected = 1.0 - worst / self.elapsed_s if self.elapsed_s > 0 else 1.0
         return {"lander_connection_losses": self.losses, "disconnected_time_s": round(self.disconnected_s, 4),
+                "worst_rover_connected_fraction": round(connected, 4),
                 "max_rovers_in_daisy_chain": self.max_relays, "radio_dropped": self.dropped,
                 "radio_lost": self.lost}

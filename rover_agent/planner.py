@@ -1,0 +1,320 @@
+"""A memory of what the rover has seen and a shortest-path planner over it, so it can get out of dead ends.
+
+Greedy avoidance (walk toward the goal, take the free direction nearest it) only knows the current view, so
+in a maze of staggered baffles it walks back into the same dead end. Here the rover remembers the static
+things it has seen in a sparse occupancy grid in its own frame (the lander frame of its dead-reckoned
+``Pose`` and of its goals) and plans with A* through every cell not known to be blocked. Unknown cells
+count as free (optimistic planning): rerunning the plan at every decision as walls get discovered does what
+D* Lite does, only more simply. The grid is unbounded, so the search has an expansion budget; when it runs
+out the rover still gets the path that brings it nearest the goal.
+
+Pure standard library: this runs on the rover's small flight computer.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from rover_agent.behaviour import Hit
+    from rover_agent.dead_reckoning import Pose
+
+Cell = tuple[int, int]
+Point = tuple[float, float]
+
+STATIC_KINDS = frozenset({"obstacle", "terrain", "lander"})
+"""Perceived kinds worth remembering: they stay put. Rovers move and crater terrain is walkable."""
+SQRT2 = math.sqrt(2.0)
+_NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
+               (1, 1, SQRT2), (1, -1, SQRT2), (-1, 1, SQRT2), (-1, -1, SQRT2))
+_TIE = 1e-9
+
+
+class OccupancyGrid:
+    """Sparse, unbounded grid of cells ``cell_m`` wide; cell (i, j) is centred on (i * cell_m, j * cell_m).
+
+    Each cell that ever had a hit keeps two counts: scans that hit something in it and scans whose free rays
+    crossed it. It is blocked while it has hits and has not been seen free more often, so one noisy hit (or
+    a wall placed slightly wrong by dead-reckoning drift) can be outvoted by looking through it again, while
+    a wall seen many times is not erased by one grazing ray. Only cells with hits are counted, which keeps
+    the memory proportional to the obstacles seen, not to the ground covered.
+    """
+
+    def __init__(self, cell_m: float = 1.0) -> None:
+        if cell_m <= 0:
+            raise ValueError("cell_m must be positive")
+        self.cell_m = float(cell_m)
+        self._hits: dict[Cell, int] = {}
+        self._free: dict[Cell, int] = {}
+        self._blocked: set[Cell] = set()
+        self._version = 0
+        self._inflated: dict[float, frozenset[Cell]] = {}
+        self._inflated_version = -1
+
+    def cell_of(self, x: float, z: float) -> Cell:
+        """Rounded, not floored, so points on whole cell centres do not flip cells on float noise."""
+        c = self.cell_m
+        return math.floor(x / c + 0.5), math.floor(z / c + 0.5)
+
+    def centre_of(self, i: int, j: int) -> Point:
+        return i * self.cell_m, j * self.cell_m
+
+    def blocked(self, i: int, j: int) -> bool:
+        return (i, j) in self._blocked
+
+    @property
+    def blocked_cells(self) -> frozenset[Cell]:
+        return frozenset(self._blocked)
+
+    def block(self, cells: Iterable[Cell]) -> None:
+        """Mark cells as hit once each: for a map known in advance (and for tests)."""
+        cells = set(cells)
+        for cell in cells:
+            self._hits[cell] = self._hits.get(cell, 0) + 1
+        self._refresh(cells)
+
+    def observe(self, pose: Pose, hits: Iterable[Hit], radius: float, free_angles: Iterable[float] = ()) -> None:
+        """Add one scan taken at ``pose``: static hits count against their cells, free rays for them.
+
+        ``free_angles`` are the relative angles (degrees, negative left) of rays that hit nothing within
+        ``radius``. A cell hit in this scan is not also counted free by it: a ray grazing a wall's cell does
+        not contradict the hit inside it.
+        """
+        hit_cells = {self.cell_of(*ray_point(pose, h.angle_deg, h.distance_m))
+                     for h in hits if h.kind in STATIC_KINDS}
+        for cell in hit_cells:
+            self._hits[cell] = self._hits.get(cell, 0) + 1
+        seen_free = {c for c in self._ray_cells(pose, free_angles, radius) if c in self._hits} - hit_cells
+        for cell in seen_free:
+            self._free[cell] = self._free.get(cell, 0) + 1
+        self._refresh(hit_cells | seen_free)
+
+    def _ray_cells(self, pose: Pose, angles: Iterable[float], radius: float) -> set[Cell]:
+        """Cells under rays walked in half-cell steps out to ``radius``."""
+        step = self.cell_m / 2
+        steps = int(radius / step + _TIE)
+        cells: set[Cell] = set()
+        for angle in angles:
+            h = math.radians(pose.heading + angle)
+            sx, sz = step * math.sin(h), step * math.cos(h)
+            cells.update(self.cell_of(pose.x + k * sx, pose.z + k * sz) for k in range(1, steps + 1))
+        return cells
+
+    def _refresh(self, cells: Iterable[Cell]) -> None:
+        for cell in cells:
+            hits = self._hits.get(cell, 0)
+            now = hits >= 1 and self._free.get(cell, 0) <= hits
+            if now != (cell in self._blocked):
+                (self._blocked.add if now else self._blocked.discard)(cell)
+                self._version += 1
+
+    def inflated(self, clearance_m: float) -> frozenset[Cell]:
+        """Cells whose centre lies within ``clearance_m`` of a blocked cell's centre (cached until the map
+        changes: the rover plans every decision but its map changes only when it sees something new)."""
+        if self._inflated_version != self._version:
+            self._inflated, self._inflated_version = {}, self._version
+        cells = self._inflated.get(clearance_m)
+        if cells is None:
+            offsets = disc_offsets(clearance_m / self.cell_m)
+            cells = frozenset((i + di, j + dj) for i, j in self._blocked for di, dj in offsets)
+            self._inflated[clearance_m] = cells
+        return cells
+
+
+def ray_point(pose: Pose, angle_deg: float, distance_m: float) -> Point:
+    """Where a perception hit at a relative angle (negative left) and distance lies in the pose's frame."""
+    h = math.radians(pose.heading + angle_deg)
+    return pose.x + distance_m * math.sin(h), pose.z + distance_m * math.cos(h)
+
+
+def disc_offsets(radius_cells: float) -> list[Cell]:
+    """Cell offsets whose centres lie within ``radius_cells`` of the origin's centre (the origin included)."""
+    r = math.ceil(radius_cells)
+    limit = radius_cells * radius_cells + _TIE
+    return [(di, dj) for di in range(-r, r + 1) for dj in range(-r, r + 1) if di * di + dj * dj <= limit]
+
+
+def _forbidden(grid: OccupancyGrid, clearance_m: float, ends: Sequence[Cell]) -> frozenset[Cell]:
+    """Cells the rover's centre must not enter: too near a blocked cell.
+
+    The ends (start, goal) are always allowed, and when one lies within the clearance so are the unblocked
+    cells around it, so a rover standing near a wall can step away from it and a goal next to a rock can
+    still be reached.
+    """
+    inflated = grid.inflated(clearance_m)
+    allowed: set[Cell] = set()
+    for ci, cj in ends:
+        allowed.add((ci, cj))
+        if (ci, cj) in inflated:
+            allowed.update((ci + di, cj + dj) for di, dj in disc_offsets(clearance_m / grid.cell_m)
+                           if not grid.blocked(ci + di, cj + dj))
+    return inflated - allowed if allowed & inflated else inflated
+
+
+def plan(grid: OccupancyGrid, start_xz: Point, goal_xz: Point, clearance_m: float,
+         max_expansions: int = 20000) -> list[Point] | None:
+    """Shortest 8-connected path from the start to the goal through cells clear of known obstacles.
+
+    Returns the cell centres after the start up to the goal (the last point is the goal itself). When the
+    budget runs out first, returns the path to the expanded cell nearest the goal, so the rover still makes
+    progress while it discovers more of the world. None only when the search runs out of cells: on an
+    unbounded grid where unknown is free, that means the start is walled in.
+    """
+    start, goal = grid.cell_of(*start_xz), grid.cell_of(*goal_xz)
+    goal_point = (float(goal_xz[0]), float(goal_xz[1]))
+    if start == goal:
+        return [goal_point]
+    found = _astar(start, goal, _forbidden(grid, clearance_m, (start, goal)), max_expansions)
+    if found is None:
+        return None
+    cells, reached = found
+    path = [grid.centre_of(i, j) for i, j in cells[1:]]
+    if reached:
+        path[-1] = goal_point
+    return path
+
+
+_STRIDE = 1 << 22
+_OFFSET = 1 << 21
+"""Cells are packed into one int inside the search (int hashing and adding beat tuples by about 2x), which
+caps |i|, |j| below 2**21 cells: 2000 km at 1 m cells."""
+
+
+def _astar(start: Cell, goal: Cell, forbidden: frozenset[Cell], budget: int) -> tuple[list[Cell], bool] | None:
+    """A* with the octile heuristic; ties go to the cell nearer the goal, which keeps open-ground searches
+    narrow. Diagonal steps may not cut the corner of a forbidden cell."""
+    stride, gi, gj = _STRIDE, goal[0], goal[1]
+    blocked = {(i + _OFFSET) * stride + j + _OFFSET for i, j in forbidden}
+    moves = [(di, dj, di * stride + dj, cost, di * stride if di and dj else 0, dj if di and dj else 0)
+             for di, dj, cost in _NEIGHBOURS]
+    k_diag = SQRT2 - 2.0
+    start_key = (start[0] + _OFFSET) * stride + start[1] + _OFFSET
+    goal_key = (gi + _OFFSET) * stride + gj + _OFFSET
+    g = {start_key: 0.0}
+    parent: dict[int, int] = {}
+    cell_ij = {start_key: start}
+    h0 = _octile(start[0] - gi, start[1] - gj)
+    heap = [(h0, h0, start_key)]
+    best, best_h, expanded = start_key, math.inf, 0
+    while heap:
+        f, hc, key = heapq.heappop(heap)
+        gc = g[key]
+        if f - hc > gc + _TIE:  # stale entry: the cell was reached more cheaply since
+            continue
+        if key == goal_key:
+            return _trace(parent, key, cell_ij), True
+        if hc < best_h and key != start_key:
+            best, best_h = key, hc
+        expanded += 1
+        if expanded > budget:
+            return (_trace(parent, best, cell_ij), False) if best != start_key else None
+        i, j = cell_ij[key]
+        for di, dj, dk, cost, side_a, side_b in moves:
+            n = key + dk
+            if n in blocked or (side_a and (key + side_a in blocked or key + side_b in blocked)):
+                continue
+            ng = gc + cost
+            if ng < g.get(n, math.inf):
+                g[n], parent[n] = ng, key
+                ni, nj = i + di, j + dj
+                cell_ij[n] = (ni, nj)
+                dx, dz = abs(ni - gi), abs(nj - gj)
+                hn = dx + dz + k_diag * (dx if dx < dz else dz)
+                heapq.heappush(heap, (ng + hn, hn, n))
+    return None
+
+
+def _octile(di: int, dj: int) -> float:
+    dx, dz = abs(di), abs(dj)
+    return dx + dz + (SQRT2 - 2.0) * min(dx, dz)
+
+
+def _trace(parent: dict[int, int], key: int, cell_ij: dict[int, Cell]) -> list[Cell]:
+    keys = [key]
+    while key in parent:
+        key = parent[key]
+        keys.append(key)
+    return [cell_ij[k] for k in reversed(keys)]
+
+
+def simplify(path: Sequence[Point], grid: OccupancyGrid, clearance_m: float,
+             start_xz: Point | None = None) -> list[Point]:
+    """Drop intermediate points while the straight line between kept points stays clear.
+
+    A cell path zigzags in 45-degree steps; the rover should instead walk long straight legs, as the report's
+    rovers do. From each kept point it jumps to the farthest later point in clear line of sight. With
+    ``start_xz`` the first leg is checked from the start, which is not returned (as ``plan`` leaves it out);
+    without it the path's first point is the anchor and is kept.
+    """
+    points = ([start_xz] if start_xz is not None else []) + list(path)
+    if len(points) <= 2:
+        return list(path)
+    ends = (grid.cell_of(*points[0]), grid.cell_of(*points[-1]))
+    forbidden = _forbidden(grid, clearance_m, ends)
+    kept, anchor = [points[0]], 0
+    while anchor < len(points) - 1:
+        nxt = anchor + 1
+        for far in range(len(points) - 1, anchor + 1, -1):
+            if segment_clear(points[anchor], points[far], forbidden, grid.cell_m):
+                nxt = far
+                break
+        kept.append(points[nxt])
+        anchor = nxt
+    return kept[1:] if start_xz is not None else kept
+
+
+def segment_clear(a: Point, b: Point, forbidden: frozenset[Cell] | set[Cell], cell_m: float) -> bool:
+    """Whether the segment a-b crosses no forbidden cell.
+
+    Walks every cell the segment touches (an exact grid traversal, including both neighbours where it
+    passes through a cell corner) rather than sampling points, so it cannot slip past the corner of a
+    forbidden cell, and it costs one step per cell crossed.
+    """
+    x0, z0 = a[0] / cell_m + 0.5, a[1] / cell_m + 0.5
+    x1, z1 = b[0] / cell_m + 0.5, b[1] / cell_m + 0.5
+    i, j = math.floor(x0), math.floor(z0)
+    steps = abs(math.floor(x1) - i) + abs(math.floor(z1) - j)
+    si, ti, dti = _axis(x0, x1, i)
+    sj, tj, dtj = _axis(z0, z1, j)
+    if (i, j) in forbidden:
+        return False
+    for _ in range(steps):
+        if abs(ti - tj) < _TIE and ((i + si, j) in forbidden or (i, j + sj) in forbidden):
+            return False
+        if ti < tj:
+            i, ti = i + si, ti + dti
+        else:
+            j, tj = j + sj, tj + dtj
+        if (i, j) in forbidden:
+            return False
+    return True
+
+
+def _axis(u0: float, u1: float, cell: int) -> tuple[int, float, float]:
+    """Step direction, parameter of the first cell boundary, and parameter per cell, along one axis."""
+    du = u1 - u0
+    if du == 0:
+        return 0, math.inf, math.inf
+    per_cell = 1.0 / abs(du)
+    first = (cell + 1 - u0) if du > 0 else (u0 - cell)
+    return (1 if du > 0 else -1), first * per_cell, per_cell
+
+
+def next_waypoint(grid: OccupancyGrid, pose: Pose, goal_xz: Point, clearance_m: float, max_step_m: float,
+                  max_expansions: int = 20000) -> Point | None:
+    """Where to move next: the first corner of the simplified plan, at most ``max_step_m`` away along the
+    leg (short steps let the rover look again before committing to what the map only guesses). None when
+    the rover is walled in."""
+    start = (pose.x, pose.z)
+    path = plan(grid, start, goal_xz, clearance_m, max_expansions)
+    if path is None:
+        return None
+    x, z = simplify(path, grid, clearance_m, start_xz=start)[0]
+    length = math.hypot(x - pose.x, z - pose.z)
+    if length <= max_step_m:
+        return x, z
+    f = max_step_m / length
+    return pose.x + f * (x - pose.x), pose.z + f * (z - pose.z)
