@@ -27,6 +27,8 @@ CLIMB_PITCH = 2.0
 """Degrees of nose-up pitch that count as having started up the crater rim."""
 CREST_PITCH = 0.5
 """At or below this pitch, after climbing, the rover stands on the crest."""
+NEAR_CREST_PITCH = 4.0
+"""Below this pitch, after climbing, the crest is close: half steps."""
 CREST_FACING = 30.0
 """Degrees within which the rover must face the crater for its pitch to say anything about the crest."""
 WAYPOINT_IN_VIEW = 0.9
@@ -215,8 +217,15 @@ class DefaultBehaviour(BaseBehaviour):
                 return self._observe(goal)
             if decision:
                 return decision
-        step = self.params.behaviour.min_move_size if self.state == "climbing" else None
-        return self._head_for(view, distance, step)
+        return self._head_for(view, distance, self._climbing_step(view))
+
+    def _climbing_step(self, view: View) -> float | None:
+        """Short steps on the rim, shorter still near the top, so the rover stops on the crest, not past it."""
+        if self.state != "climbing":
+            return None
+        step = self.params.behaviour.min_move_size
+        near_top = self._max_pitch >= CLIMB_PITCH and view.pitch_deg < NEAR_CREST_PITCH
+        return step / 2 if near_top else step
 
     def _waypoint_reached(self, view: View, distance: float) -> bool:
         radius = self.params.perception.perception_radius
