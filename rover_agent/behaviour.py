@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass, field
 
 from rover_agent.dead_reckoning import Pose
+from rover_agent.planner import OccupancyGrid, next_waypoint
 from schemas.frames import bearing_deg, wrap_deg
 from schemas.params import RoverParams
 
@@ -132,6 +133,7 @@ class BaseBehaviour:
 
     def start_goal(self, goal: Goal) -> None:
         self.state = "migration"
+        self._routing = False
 
     def moved(self, distance: float) -> None:
         """A move ended (completed or cut short) after ``distance`` metres."""
@@ -159,6 +161,8 @@ class DefaultBehaviour(BaseBehaviour):
     _hold_until: float = 0.0
     _photos_taken: int = 0
     _photo_due: bool = True
+    _map: OccupancyGrid = field(default_factory=OccupancyGrid)
+    _routing: bool = False
 
     name = "default"
 
@@ -273,15 +277,43 @@ class DefaultBehaviour(BaseBehaviour):
         self._crest_looks += 1
         return Rotate(round(to_crater, 3))
 
+    def _remember(self, view: View) -> None:
+        """Add what is in view to the rover's map: static obstacles where rays hit, free ground where not."""
+        p = self.params
+        rays = _ray_angles(p.perception.field_of_view_degrees, p.perception.perception_granularity)
+        seen = {round(h.angle_deg, 3) for h in view.hits}
+        free = [a for a in rays if round(a, 3) not in seen]
+        self._map.observe(view.pose, view.hits, p.perception.perception_radius, free)
+
+    def _route_point(self, view: View) -> tuple[float, float] | None:
+        """Once routing: the next corner of the shortest route to the goal around every obstacle seen so far.
+
+        The report's rules (6.1.2) steer until the rover is first blocked everywhere in view; from then on,
+        for this goal, the scan aims along a route planned on the rover's own map, so dead ends it has seen
+        (a maze's) are left behind rather than walked into again.
+        """
+        if not self._routing:
+            return None
+        p = self.params
+        clearance = p.behaviour.rover_radius + OBSTACLE_MARGIN + self._map.cell_m / 2
+        return next_waypoint(self._map, view.pose, (view.goal.x, view.goal.z), clearance,
+                             0.9 * p.perception.perception_radius)
+
     def _head_for(self, view: View, distance: float, step: float | None) -> Decision:
         p = self.params
         pose, goal = view.pose, view.goal
-        to_goal = wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading)
+        self._remember(view)
+        tx, tz = self._route_point(view) or (goal.x, goal.z)
+        to_goal = wrap_deg(bearing_deg(tx - pose.x, tz - pose.z) - pose.heading)
         window = min(p.perception.field_of_view_degrees / 2 - 5, p.behaviour.scanner_field_of_view / 2)
         if abs(to_goal) > window:
+            self._blocked_rotations += 1  # turning without getting anywhere counts toward giving up
+            if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
+                return Finish("stuck")
             return Rotate(round(to_goal, 3))
+        on_route = (tx, tz) != (goal.x, goal.z)  # a corner of the route: walk to it, not past it
         want = min(0.9 * p.perception.perception_radius, step or math.inf,
-                   distance if goal.kind != "crater" else math.inf)
+                   math.hypot(tx - pose.x, tz - pose.z) if on_route or goal.kind != "crater" else math.inf)
         for angle in self._candidates(to_goal, window):
             free = self._free_distance(angle, view.hits)
             if free >= min(want, p.behaviour.min_move_size):
@@ -292,6 +324,7 @@ class DefaultBehaviour(BaseBehaviour):
         if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
             return Finish("stuck")
         self._rejected.clear()
+        self._routing = True
         return Rotate(p.behaviour.rotate_action)
 
     def _candidates(self, to_goal: float, window: float) -> list[float]:
@@ -317,3 +350,8 @@ class DefaultBehaviour(BaseBehaviour):
             if across < clearance and along > 0:
                 free = min(free, along - math.sqrt(clearance * clearance - across * across))
         return max(free, 0.0)
+
+
+def _ray_angles(fov_deg: float, count: int) -> list[float]:
+    """The perception's ray angles, as the world casts them (evenly over the field of view)."""
+    return [-fov_deg / 2 + fov_deg * i / (count - 1) for i in range(count)]

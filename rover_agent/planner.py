@@ -3,10 +3,10 @@
 Greedy avoidance (walk toward the goal, take the free direction nearest it) only knows the current view, so
 in a maze of staggered baffles it walks back into the same dead end. Here the rover remembers the static
 things it has seen in a sparse occupancy grid in its own frame (the lander frame of its dead-reckoned
-``Pose`` and of its goals) and plans with A* through every cell not known to be blocked. Unknown cells
-count as free (optimistic planning): rerunning the plan at every decision as walls get discovered does what
-D* Lite does, only more simply. The grid is unbounded, so the search has an expansion budget; when it runs
-out the rover still gets the path that brings it nearest the goal.
+``Pose`` and of its goals) and plans a shortest path through every cell not known to be blocked. Unknown
+cells count as free (optimistic planning): rerunning the plan at every decision as walls get discovered does
+what D* Lite does, only more simply. The search is A* made fast with jump points; it has an expansion
+budget, and when the goal is out of reach the rover still gets the path that brings it nearest the goal.
 
 Pure standard library: this runs on the rover's small flight computer.
 """
@@ -162,20 +162,22 @@ def plan(grid: OccupancyGrid, start_xz: Point, goal_xz: Point, clearance_m: floa
     """Shortest 8-connected path from the start to the goal through cells clear of known obstacles.
 
     Returns the cell centres after the start up to the goal (the last point is the goal itself). When the
-    budget runs out first, or the goal is walled off, returns the path to the expanded cell nearest the goal,
-    so the rover still makes progress while it discovers more of the world. None only when the search runs
-    out of cells: on an unbounded grid where unknown is free, that means the start is walled in.
+    goal is walled off, or the budget runs out first, returns the path to the cell nearest the goal that the
+    search reached, so the rover still makes progress while it discovers more of the world; that path is
+    empty when the start is already the nearest. None only when the start is walled in: the rover's region
+    is finite (unknown counts as free, so the walls it has seen close it).
     """
     start, goal = grid.cell_of(*start_xz), grid.cell_of(*goal_xz)
     goal_point = (float(goal_xz[0]), float(goal_xz[1]))
     if start == goal:
         return [goal_point]
     forbidden = _forbidden(grid, clearance_m, (start, goal))
-    jumps = _JumpSearch(forbidden, start, goal).run(max_expansions)
+    search = _JumpSearch(forbidden, start, goal)
+    jumps = search.run(max_expansions)
     if jumps is not None:
         cells, reached = _interpolate(jumps), True
     else:  # no way to the goal, or no budget left: plain A* finds the best progress or proves the start walled in
-        found = _astar(start, goal, forbidden, max_expansions)
+        found = _astar(start, goal, forbidden, max_expansions, search.box)
         if found is None:
             return None
         cells, reached = found
@@ -183,6 +185,19 @@ def plan(grid: OccupancyGrid, start_xz: Point, goal_xz: Point, clearance_m: floa
     if reached:
         path[-1] = goal_point
     return path
+
+
+def _box(forbidden: frozenset[Cell], start: Cell, goal: Cell) -> tuple[int, int, int, int]:
+    """(lo_i, hi_i, lo_j, hi_j): the bounding box of the forbidden cells, start and goal, plus a free ring.
+
+    The searches treat the cells just outside it as a fence. That loses no shortest path, since clamping a
+    path's cells into the box never lengthens it (each coordinate only gets closer) and only moves them onto
+    the free ring, and no nearest approach to the goal either. The ring is outside every wall, so a region
+    that reaches it is not walled in.
+    """
+    i_all = [i for i, _ in forbidden] + [start[0], goal[0]]
+    j_all = [j for _, j in forbidden] + [start[1], goal[1]]
+    return min(i_all) - 1, max(i_all) + 1, min(j_all) - 1, max(j_all) + 1
 
 
 def _interpolate(jumps: list[Cell]) -> list[Cell]:
@@ -203,18 +218,13 @@ class _JumpSearch:
     between at once. A straight line is answered by bisecting per-line sorted lists of walls and of jump
     points rather than by stepping along it, which makes it cheap enough for the flight computer.
 
-    The unbounded grid is fenced one free ring beyond the bounding box of the forbidden cells, start and
-    goal: clamping a path into that box never lengthens it (each coordinate only gets closer), so the fence
-    loses no shortest path but makes every line end.
+    The unbounded grid is fenced (see ``_box``), which makes every line end.
     """
 
     def __init__(self, forbidden: frozenset[Cell], start: Cell, goal: Cell) -> None:
         self.forbidden, self.start, self.goal = forbidden, start, goal
-        ends = (start, goal)
-        self.lo_i = min(min((i for i, _ in forbidden), default=start[0]), *(c[0] for c in ends)) - 1
-        self.hi_i = max(max((i for i, _ in forbidden), default=start[0]), *(c[0] for c in ends)) + 1
-        self.lo_j = min(min((j for _, j in forbidden), default=start[1]), *(c[1] for c in ends)) - 1
-        self.hi_j = max(max((j for _, j in forbidden), default=start[1]), *(c[1] for c in ends)) + 1
+        self.box = _box(forbidden, start, goal)
+        self.lo_i, self.hi_i, self.lo_j, self.hi_j = self.box
         self.rows: dict[int, list[int]] = {}  # j -> sorted i of forbidden cells in that row
         self.cols: dict[int, list[int]] = {}  # i -> sorted j
         for i, j in forbidden:
@@ -349,13 +359,15 @@ _OFFSET = 1 << 21
 caps |i|, |j| below 2**21 cells: 2000 km at 1 m cells."""
 
 
-def _astar(start: Cell, goal: Cell, forbidden: frozenset[Cell], budget: int) -> tuple[list[Cell], bool] | None:
-    """Plain A* with the octile heuristic, on the unbounded grid, for when the goal cannot be reached: it
-    returns the path to the expanded cell nearest the goal once the budget is spent, or None when it runs out
-    of cells first (the start is walled in). Ties go to the cell nearer the goal; diagonal steps may not cut
-    the corner of a forbidden cell, as in the jump point search."""
+def _astar(start: Cell, goal: Cell, forbidden: frozenset[Cell], budget: int,
+           box: tuple[int, int, int, int]) -> tuple[list[Cell], bool] | None:
+    """Plain A* with the octile heuristic, fenced like the jump point search, for when that did not reach
+    the goal: it returns the path to the reached cell nearest the goal once the budget is spent or the
+    rover's region is exhausted, or None when that region is walled in. Ties go to the cell nearer the goal;
+    diagonal steps may not cut the corner of a forbidden cell."""
     stride, gi, gj = _STRIDE, goal[0], goal[1]
-    blocked = {(i + _OFFSET) * stride + j + _OFFSET for i, j in forbidden}
+    lo_i, hi_i, lo_j, hi_j = box
+    blocked = {(i + _OFFSET) * stride + j + _OFFSET for i, j in _with_fence(forbidden, box)}
     moves = [(di, dj, di * stride + dj, cost, di * stride if di and dj else 0, dj if di and dj else 0)
              for di, dj, cost in _NEIGHBOURS]
     k_diag = SQRT2 - 2.0
@@ -366,7 +378,7 @@ def _astar(start: Cell, goal: Cell, forbidden: frozenset[Cell], budget: int) -> 
     cell_ij = {start_key: start}
     h0 = _octile(start[0] - gi, start[1] - gj)
     heap = [(h0, h0, start_key)]
-    best, best_h, expanded = start_key, math.inf, 0
+    best, best_h, expanded = start_key, h0, 0
     while heap:
         f, hc, key = heapq.heappop(heap)
         gc = g[key]
@@ -374,11 +386,11 @@ def _astar(start: Cell, goal: Cell, forbidden: frozenset[Cell], budget: int) -> 
             continue
         if key == goal_key:
             return _trace(parent, key, cell_ij), True
-        if hc < best_h and key != start_key:
+        if hc < best_h:
             best, best_h = key, hc
         expanded += 1
         if expanded > budget:
-            return (_trace(parent, best, cell_ij), False) if best != start_key else None
+            return _trace(parent, best, cell_ij), False
         i, j = cell_ij[key]
         for di, dj, dk, cost, side_a, side_b in moves:
             n = key + dk
@@ -392,7 +404,20 @@ def _astar(start: Cell, goal: Cell, forbidden: frozenset[Cell], budget: int) -> 
                 dx, dz = abs(ni - gi), abs(nj - gj)
                 hn = dx + dz + k_diag * (dx if dx < dz else dz)
                 heapq.heappush(heap, (ng + hn, hn, n))
-    return None
+    if all(lo_i < i < hi_i and lo_j < j < hi_j for i, j in cell_ij.values()):
+        return None  # the region never reached the free ring round every wall: walled in
+    return _trace(parent, best, cell_ij), False
+
+
+def _with_fence(forbidden: frozenset[Cell], box: tuple[int, int, int, int]) -> Iterable[Cell]:
+    lo_i, hi_i, lo_j, hi_j = box
+    yield from forbidden
+    for i in range(lo_i - 1, hi_i + 2):
+        yield i, lo_j - 1
+        yield i, hi_j + 1
+    for j in range(lo_j, hi_j + 1):
+        yield lo_i - 1, j
+        yield hi_i + 1, j
 
 
 def _octile(di: int, dj: int) -> float:
@@ -420,18 +445,19 @@ def simplify(path: Sequence[Point], grid: OccupancyGrid, clearance_m: float,
     points = ([start_xz] if start_xz is not None else []) + list(path)
     if len(points) <= 2:
         return list(path)
-    ends = (grid.cell_of(*points[0]), grid.cell_of(*points[-1]))
-    forbidden = _forbidden(grid, clearance_m, ends)
+    forbidden = _forbidden(grid, clearance_m, (grid.cell_of(*points[0]), grid.cell_of(*points[-1])))
     kept, anchor = [points[0]], 0
     while anchor < len(points) - 1:
-        nxt = anchor + 1
-        for far in range(len(points) - 1, anchor + 1, -1):
-            if segment_clear(points[anchor], points[far], forbidden, grid.cell_m):
-                nxt = far
-                break
-        kept.append(points[nxt])
-        anchor = nxt
+        anchor = _farthest_visible(points, anchor, forbidden, grid.cell_m)
+        kept.append(points[anchor])
     return kept[1:] if start_xz is not None else kept
+
+
+def _farthest_visible(points: Sequence[Point], anchor: int, forbidden: frozenset[Cell], cell_m: float) -> int:
+    for far in range(len(points) - 1, anchor + 1, -1):
+        if segment_clear(points[anchor], points[far], forbidden, cell_m):
+            return far
+    return anchor + 1
 
 
 def segment_clear(a: Point, b: Point, forbidden: frozenset[Cell] | set[Cell], cell_m: float) -> bool:
@@ -473,14 +499,16 @@ def _axis(u0: float, u1: float, cell: int) -> tuple[int, float, float]:
 
 def next_waypoint(grid: OccupancyGrid, pose: Pose, goal_xz: Point, clearance_m: float, max_step_m: float,
                   max_expansions: int = 20000) -> Point | None:
-    """Where to move next: the first corner of the simplified plan, at most ``max_step_m`` away along the
-    leg (short steps let the rover look again before committing to what the map only guesses). None when
-    the rover is walled in."""
+    """Where to move next: the end of the first straight leg of the plan, at most ``max_step_m`` away along it
+    (short steps let the rover look again before trusting what the map only guesses). None when the rover is
+    walled in, or already as near as it can get to a walled-off goal."""
     start = (pose.x, pose.z)
     path = plan(grid, start, goal_xz, clearance_m, max_expansions)
-    if path is None:
+    if not path:
         return None
-    x, z = simplify(path, grid, clearance_m, start_xz=start)[0]
+    points = [start, *path]
+    forbidden = _forbidden(grid, clearance_m, (grid.cell_of(*start), grid.cell_of(*path[-1])))
+    x, z = points[_farthest_visible(points, 0, forbidden, grid.cell_m)]  # simplify's first leg, and only that
     length = math.hypot(x - pose.x, z - pose.z)
     if length <= max_step_m:
         return x, z

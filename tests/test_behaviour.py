@@ -8,6 +8,7 @@ import pytest
 
 from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import (
+    MAX_BLOCKED_ROTATIONS,
     WAYPOINT_CLOSE,
     WAYPOINT_IN_VIEW,
     DefaultBehaviour,
@@ -151,23 +152,34 @@ def test_crater_terrain_does_not_block():
     assert _behaviour().decide(_view(hits=hits)) == MoveTo(0.0, 9.0)
 
 
-def test_obstacles_everywhere_rotate_sixty_then_give_up_after_twelve():
-    hits = [Hit(float(a), 1.0, "obstacle") for a in range(-105, 106, 5)]
-    b = _behaviour()
-    for _ in range(12):
-        assert b.decide(_view(hits=hits)) == Rotate(60.0)
-    assert b.decide(_view(hits=hits)) == Finish("stuck")
+BOXED_IN = [Hit(float(a), 1.0, "obstacle") for a in range(-105, 106, 5)]
+
+
+def _decisions_until_stuck(b, limit=60):
+    decisions = []
+    for _ in range(limit):
+        decisions.append(b.decide(_view(hits=BOXED_IN)))
+        if decisions[-1] == Finish("stuck"):
+            break
+    return decisions
+
+
+def test_obstacles_everywhere_rotate_sixty_then_turn_to_the_route_and_give_up_in_time():
+    decisions = _decisions_until_stuck(_behaviour())
+    assert decisions[0] == Rotate(60.0)  # the report's rotation when blocked everywhere in view
+    assert decisions[-1] == Finish("stuck")
+    assert all(isinstance(d, Rotate) for d in decisions[:-1])  # never a move into the obstacles
+    assert MAX_BLOCKED_ROTATIONS < len(decisions) <= 2 * MAX_BLOCKED_ROTATIONS + 2
+    assert any(d.degrees != 60.0 for d in decisions[:-1])  # routing: it turns to face the planned way out
 
 
 def test_a_move_resets_the_blocked_count():
-    hits = [Hit(float(a), 1.0, "obstacle") for a in range(-105, 106, 5)]
+    alone = len(_decisions_until_stuck(_behaviour()))
     b = _behaviour()
-    for _ in range(12):
-        assert b.decide(_view(hits=hits)) == Rotate(60.0)
+    for _ in range(alone - 3):
+        b.decide(_view(hits=BOXED_IN))
     b.moved(2.0)
-    for _ in range(12):
-        assert b.decide(_view(hits=hits)) == Rotate(60.0)
-    assert b.decide(_view(hits=hits)) == Finish("stuck")
+    assert len(_decisions_until_stuck(b)) > 3
 
 
 def test_a_rejected_direction_is_not_tried_again():
