@@ -48,7 +48,6 @@ class InFlight:
     start: Pose
     sent_at: float = 0.0
     cancel_sent: bool = False
-    awaiting_cancel_result: bool = False
 
 
 class RoverAgent:
@@ -244,15 +243,17 @@ class RoverAgent:
     def _status(self) -> Out:
         self._last_status = self.now
         index = self.goal.index if self.goal else -1
-        return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(stamp=self.now, state=self.state, goal_index=index)
+        detail = "another rover found the crater" if index in self.craters_found else ""
+        return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(stamp=self.now, state=self.state, goal_index=index,
+                                                                  detail=detail)
 
     # ---- navigation feedback ----
 
     def _on_navigation_status(self, msg: m.NavigationStatus) -> list[Out]:
         self.now = max(self.now, msg.stamp)
         flight = self.in_flight
-        if flight is None or msg.outcome == "running":
-            return []
+        if flight is None or msg.outcome == "running" or isinstance(flight.decision, TakePhoto):
+            return []  # a photo is not a navigation action: its status, if any, is not ours
         if msg.outcome == "completed":
             decision = flight.decision
             if isinstance(decision, MoveTo):
@@ -261,8 +262,7 @@ class RoverAgent:
             else:
                 self.pose = flight.start.after_rotate(decision.degrees)
             self._settle(msg.stamp)
-        else:
-            flight.awaiting_cancel_result = True
+        # otherwise the action ended early: the CancelResult that follows says where the rover stopped
         return []
 
     def _on_cancel_result(self, msg: m.CancelResult) -> list[Out]:

@@ -34,8 +34,6 @@ STATUS: Final = "status"
 ACK: Final = "ack"
 """Lockstep: an agent's acknowledgement that it has handled a clock tick (rover and lander keys)."""
 
-ROVER_ACTION_TOPICS: Final = (MOVE_ACTION, ROTATE_ACTION, CANCEL_ACTION, SPEED_ACTION, PHOTO_ACTION)
-"""Topics a rover agent publishes to its simulated (or real) rover."""
 
 _FORBIDDEN = set("/*$#?")
 

@@ -70,3 +70,16 @@ def processes_mentioning(text: str) -> list[int]:
         if text in cmdline and state != "Z":
             pids.append(int(entry.name))
     return pids
+
+
+def run_cli_mission(out: Path, *args: str, timeout: float = 240) -> tuple[dict, str]:
+    """``lunarsim run ARGS --out OUT``, waited for; it must exit 0. Returns (report.json, stdout)."""
+    import json
+
+    proc = lunarsim("run", *args, "--out", str(out))
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, f"exit {proc.returncode}\n{stdout}\n{stderr}"
+    return json.loads((out / "report.json").read_text()), stdout

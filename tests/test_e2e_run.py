@@ -10,7 +10,7 @@ import sys
 import pytest
 import yaml
 import zenoh
-from procs import SCENARIOS, free_port, lunarsim, processes_mentioning, wait_for
+from procs import SCENARIOS, free_port, lunarsim, processes_mentioning, run_cli_mission, wait_for
 
 from deploy.zenoh_config import build_config
 from schemas import codec
@@ -23,14 +23,8 @@ pytestmark = pytest.mark.e2e
 def test_five_rovers_reach_the_crater_with_no_collisions(tmp_path):
     port = free_port()
     out = tmp_path / "run"
-    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--out", str(out), "--port", str(port),
-                    "--time-scale", "5", "--max-sim-time", "300", "--quiet")
-    try:
-        stdout, stderr = proc.communicate(timeout=300)
-    finally:
-        proc.kill()
-    assert proc.returncode == 0, f"exit {proc.returncode}\n{stdout}\n{stderr}"
-    report = json.loads((out / "report.json").read_text())
+    report, stdout = run_cli_mission(out, str(SCENARIOS / "crater_observation.yaml"), "--port", str(port),
+                                     "--time-scale", "5", "--max-sim-time", "300", "--quiet", timeout=300)
     assert report["rovers_total"] == 5
     assert report["rovers_reached_final_goal"] == 5, report
     assert report["rover_collisions"] == 0 and report["obstacle_collisions"] == 0, report
@@ -117,15 +111,8 @@ def _noisy_scenario(tmp_path):
 
 
 def _lockstep_report(tmp_path, name: str) -> dict:
-    out = tmp_path / name
-    proc = lunarsim("run", str(_noisy_scenario(tmp_path)), "--lockstep", "--seed", "7",
-                    "--port", str(free_port()), "--out", str(out), "--quiet")
-    try:
-        stdout, stderr = proc.communicate(timeout=240)
-    finally:
-        proc.kill()
-    assert proc.returncode == 0, stdout + stderr
-    report = json.loads((out / "report.json").read_text())
+    report, _ = run_cli_mission(tmp_path / name, str(_noisy_scenario(tmp_path)), "--lockstep", "--seed", "7",
+                                "--port", str(free_port()), "--quiet")
     report.pop("wall_time_s")
     return report
 

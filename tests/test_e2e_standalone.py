@@ -10,7 +10,7 @@ import json
 import pytest
 import yaml
 import zenoh
-from procs import REPO, SCENARIOS, lunarsim, module, stop, wait_for
+from procs import REPO, SCENARIOS, lunarsim, module, run_cli_mission, stop, wait_for
 
 from deploy.zenoh_config import build_config
 from schemas import codec
@@ -60,14 +60,8 @@ def test_processes_started_one_by_one_complete_a_two_rover_mission(router, tmp_p
 
 def test_run_uses_a_running_router_with_connect(router, tmp_path):
     out = tmp_path / "run"
-    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--connect", router, "--rovers", "2",
-                    "--world", "connected", "--time-scale", "5", "--max-sim-time", "300", "--out", str(out), "--quiet")
-    try:
-        stdout, stderr = proc.communicate(timeout=240)
-    finally:
-        proc.kill()
-    assert proc.returncode == 0, stdout + stderr
-    report = json.loads((out / "report.json").read_text())
+    report, _ = run_cli_mission(out, str(SCENARIOS / "crater_observation.yaml"), "--connect", router, "--rovers",
+                                "2", "--world", "connected", "--time-scale", "5", "--max-sim-time", "300", "--quiet")
     assert report["rovers_total"] == 2 and report["rovers_reached_final_goal"] == 2
     assert not (out / "logs" / "router.log").exists()
 
