@@ -51,6 +51,9 @@ def run_from_args(args: argparse.Namespace) -> int:
         raise process.UsageError("--runs and --jobs must be at least 1")
     scenario = load_scenario(args.scenario).with_overrides(rovers=args.rovers)
     console = Console()
+    if args.out.exists() and any(args.out.glob("run-*")):
+        raise process.UsageError(f"{args.out} already holds a batch (run-* folders): choose another --out, so "
+                                 "no run overwrites another's report")
     args.out.mkdir(parents=True, exist_ok=True)
     runs = [Run(i, args.seed + i, args.out / f"run-{i + 1:03d}-seed{args.seed + i}") for i in range(args.runs)]
     console.print(f"{scenario.name}: {args.runs} runs, {len(scenario.rovers)} rovers, {args.jobs} at a time"

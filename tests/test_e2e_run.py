@@ -136,3 +136,10 @@ def test_batch_runs_seeded_missions_and_summarises_them(tmp_path):
     assert agg["rovers_reached_final_goal"] == sum(r["rovers_reached_final_goal"] for r in batch["runs"])
     assert batch["runs"][0]["total_distance_covered_m"] != batch["runs"][1]["total_distance_covered_m"]
     assert "mean" in stdout and (out / "run-001-seed11" / "report.json").exists()
+
+
+def test_batch_refuses_a_folder_that_holds_another_batch(tmp_path):
+    (tmp_path / "run-001-seed1").mkdir()
+    proc = lunarsim("batch", str(SCENARIOS / "crater_observation.yaml"), "--runs", "1", "--out", str(tmp_path))
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 2 and "already holds a batch" in stderr
