@@ -2,10 +2,13 @@
 
 It follows report section 6: head for the goal, scan the perception hits for a free direction
 (trying directions nearest the goal first, right before left as the report turns right), walk to the
-edge of what is known to be free, and rotate 60 degrees when everything in view is blocked. For a
-crater goal it climbs the rim with the gyroscope and stops on the crest only after having climbed and
-walked at least the perception radius since first seeing crater terrain (the report's 7.2.2 fix for
-stopping on a local optimum). A waypoint counts as reached once it is well within view (6.6).
+edge of what is known to be free, and rotate 60 degrees when everything in view is blocked. From the
+first such block on, it aims along a route planned on its own map of the obstacles it has seen
+(``planner``), which leads out of dead ends. For a crater goal it climbs the rim with the gyroscope and
+stops on the crest only after having climbed and walked at least the perception radius since first
+seeing crater terrain (the report's 7.2.2 fix for stopping on a local optimum), then photographs the
+crater once round. A waypoint is reached once close, or in view with rovers crowding it (6.6); a relay
+spot of the daisy chain once the rover stands on it.
 
 No I/O here: the runtime feeds a ``View`` and sends what ``decide`` returns, so this is tested with
 scripted sensor data and no router.

@@ -121,7 +121,10 @@ class CommPartners(Message):
 
 
 class MissionDirection(Message):
-    """The current goal as the lander knows it: bearing and distance from the lander (report 10.4.3)."""
+    """Where the lander sends a rover now: bearing and distance from the lander (report 10.4.3).
+
+    Usually the rover's current mission goal; ``kind == "relay"`` sends it to hold a daisy-chain spot.
+    """
 
     goal_index: int = Field(ge=0)
     goals_total: int = Field(ge=1)

@@ -11,6 +11,7 @@ import pytest
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.frames import wrap_deg
 from schemas.params import NavigationParams
 from schemas.scenario import Crater, TerrainSpec, parse_scenario
 from world_service import geometry as geo
@@ -245,7 +246,7 @@ def test_move_relative_ends_exactly_on_the_goal_facing_along_the_move(start, goa
     assert (ended.action, ended.outcome, ended.start) == ("move", "completed", start)
     assert (body.x, body.z) == pytest.approx(goal_world, abs=1e-12)
     expected = start[2] + math.degrees(math.atan2(3, 4)) if bearing is None else bearing
-    assert geo.wrap_deg(body.heading - expected) == pytest.approx(0.0, abs=1e-6)
+    assert wrap_deg(body.heading - expected) == pytest.approx(0.0, abs=1e-6)
     assert body.distance_covered == pytest.approx(5.0)
     assert not body.busy and body.velocity == 0.0 and body.remaining() == 0.0
 
@@ -257,7 +258,7 @@ def test_rotate_changes_the_heading_by_its_angle(degrees):
     assert body.remaining() == abs(degrees)
     ended = _run(body)
     assert (ended.action, ended.outcome) == ("rotate", "completed")
-    assert geo.wrap_deg(body.heading - (30.0 + degrees)) == pytest.approx(0.0, abs=1e-6)
+    assert wrap_deg(body.heading - (30.0 + degrees)) == pytest.approx(0.0, abs=1e-6)
     assert (body.x, body.z) == (2.0, 3.0) and body.distance_covered == 0.0
 
 

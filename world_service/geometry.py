@@ -18,11 +18,6 @@ def direction(heading_deg: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
     return np.sin(h), np.cos(h)
 
 
-def wrap_deg(angle: np.ndarray | float) -> np.ndarray | float:
-    """Wrap to [-180, 180)."""
-    return (angle + 180.0) % 360.0 - 180.0
-
-
 def ray_circles(ox, oz, dx, dz, cx, cz, r) -> np.ndarray:
     """Distance along unit rays to where each enters each circle; inf if it misses or starts inside."""
     ox, oz, dx, dz = (np.asarray(a, float)[..., None] for a in (ox, oz, dx, dz))
