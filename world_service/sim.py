@@ -64,6 +64,8 @@ class World:
         self.gyroscope_period = self._period(p.perception.gyroscope_frequency)
         self.status_period = self._period(p.navigation.publish_frequency)
         self.partners_period = self._period(p.communication.partners_frequency)
+        self.stats_period = self._period(1.0)
+        self.activation_range = scenario.terrain_spec().chunk_activation_range_m
         self.tick = 0
         self.terrain = Heightmap.from_scenario(scenario, self.rng)
         self.scene = Scene.from_scenario(scenario)
@@ -276,7 +278,7 @@ class World:
     def _activate_terrain(self) -> None:
         """Chunk activation (report 10.7.1): keep terrain tiles near rovers loaded, let far ones go."""
         points = np.array([(b.x, b.z) for b in self.bodies.values()])
-        self.terrain.keep_near(points, self.scenario.terrain_spec().chunk_activation_range_m)
+        self.terrain.keep_near(points, self.activation_range)
 
     def _track_links(self) -> None:
         reach = self.graph.connected_to_lander()
@@ -372,7 +374,7 @@ class World:
             out.append((self.keys.lander(ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(ks.LANDER_ID))))
         if self.tick % self.perception_period == 0:
             out.append((self.keys.state, self.world_state()))
-        if self.tick % self._period(1.0) == 0:
+        if self.tick % self.stats_period == 0:
             out.append((self.keys.stats, m.WorldStats(stamp=self.sim_time, report=self.report())))
         return out
 
