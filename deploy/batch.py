@@ -27,6 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, metavar="J", help="runs at a time")
     parser.add_argument("--lockstep", action="store_true", help="deterministic runs (recommended)")
     parser.add_argument("--rovers", type=int, metavar="N", help="spawn N rovers in the scenario's formation")
+    parser.add_argument("--params", type=Path, metavar="FILE", help="rover parameters (YAML) replacing the "
+                        "scenario's rover_params, e.g. scenarios/params/report_defaults.yaml")
     parser.add_argument("--max-sim-time", type=float, default=900.0, metavar="S",
                         help="stop each run after S simulated seconds (default 900)")
     parser.add_argument("--time-scale", type=float, default=4.0, metavar="K", help="without --lockstep (default 4)")
@@ -45,11 +47,12 @@ class Run:
 def run_from_args(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from schemas.scenario import load_scenario
+    from schemas.scenario import load_rover_params, load_scenario
 
     if args.runs < 1 or args.jobs < 1:
         raise process.UsageError("--runs and --jobs must be at least 1")
-    scenario = load_scenario(args.scenario).with_overrides(rovers=args.rovers)
+    params = load_rover_params(args.params) if args.params else None
+    scenario = load_scenario(args.scenario).with_overrides(rovers=args.rovers, rover_params=params)
     console = Console()
     if args.out.exists() and any(args.out.glob("run-*")):
         raise process.UsageError(f"{args.out} already holds a batch (run-* folders): choose another --out, so "
@@ -96,6 +99,8 @@ def _start(run: Run, args: argparse.Namespace) -> subprocess.Popen:
         command.append("--lockstep")
     if args.rovers:
         command += ["--rovers", str(args.rovers)]
+    if args.params:
+        command += ["--params", str(args.params)]
     run.out.mkdir(parents=True, exist_ok=True)
     log = open(run.out / "run.log", "wb")  # noqa: SIM115 - handed to the child
     proc = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)

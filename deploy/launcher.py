@@ -27,6 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-sim-time", type=float, metavar="S", help="stop after S simulated seconds")
     parser.add_argument("--seed", type=int, help="override the scenario's seed")
     parser.add_argument("--rovers", type=int, metavar="N", help="spawn N rovers in the scenario's formation")
+    parser.add_argument("--params", type=Path, metavar="FILE", help="rover parameters (YAML) replacing the "
+                        "scenario's rover_params, e.g. scenarios/params/report_defaults.yaml")
     parser.add_argument("--time-scale", type=float, default=1.0, metavar="K",
                         help="simulated seconds per wall second (default 1 = real time)")
     parser.add_argument("--lockstep", action="store_true",
@@ -41,11 +43,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run_from_args(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from schemas.scenario import dump_scenario, load_scenario
+    from schemas.scenario import dump_scenario, load_rover_params, load_scenario
 
     if args.time_scale <= 0:
         raise process.UsageError(f"--time-scale must be positive for a live run, got {args.time_scale}")
-    scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers)
+    params = load_rover_params(args.params) if args.params else None
+    scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers, rover_params=params)
     out = args.out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
     out.mkdir(parents=True, exist_ok=True)
     scenario_file = out / "scenario.yaml"

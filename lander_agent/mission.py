@@ -12,11 +12,12 @@ import math
 from collections import defaultdict
 
 from lander_agent.daisy_chain import Chain, plan_chain
+from lander_agent.stations import station_offsets
 from schemas import messages as m
 from schemas.frames import bearing_deg
 from schemas.mission import RoverMissions
 from schemas.radio import GoalReport
-from schemas.scenario import Scenario
+from schemas.scenario import Goal, Scenario
 
 
 class MissionPlan:
@@ -30,7 +31,12 @@ class MissionPlan:
         self.outcome: dict[int, str] = {}
         self.chains: dict[int, Chain] = {}
         self.finished: dict[int, set[int]] = {}  # goal index -> rovers done with it, held while a chain stands
+        self.stations: dict[tuple[int, Goal], dict[int, tuple[float, float]]] = {}
         self._form_chain(0)
+        first = self.missions.goal(1, 0)  # nearest rover first: it arrives first and takes the far side
+        for rid in sorted(self.goal_of, key=lambda r: (math.hypot(first.x - scenario.rovers[r - 1].x,
+                                                                  first.z - scenario.rovers[r - 1].z), r)):
+            self.direction_for(rid)
 
     @property
     def rover_ids(self) -> list[int]:
@@ -44,9 +50,36 @@ class MissionPlan:
         chain = self.chains.get(index)
         if chain and rover_id in chain.spots:
             (x, z), kind = chain.spots[rover_id], "relay"
+        station = self._station(rover_id, index) if kind == "waypoint" else None
         return m.MissionDirection(goal_index=index, goals_total=self.missions.final_index(rover_id) + 1,
                                   kind=kind, bearing_deg=round(bearing_deg(x, z), 6),
-                                  distance_m=round(math.hypot(x, z), 6))
+                                  distance_m=round(math.hypot(x, z), 6), station=station)
+
+    def _station(self, rover_id: int, index: int) -> tuple[float, float] | None:
+        """This rover's station at a waypoint it shares with others, handed out in the order rovers ask."""
+        goal = self.missions.goal(rover_id, index)
+        formation = self.scenario.formation
+        if goal.kind != "waypoint" or formation.shape == "none":
+            return None
+        team = [rid for rid, goals in self.missions.goals.items() if len(goals) > index and goals[index] == goal]
+        if len(team) < 2:
+            return None
+        taken = self.stations.setdefault((index, goal), {})
+        if rover_id not in taken:
+            offsets = station_offsets(len(team), formation.spacing_m, self._travel_bearing(rover_id, index),
+                                      formation.shape)
+            taken[rover_id] = offsets[len(taken) % len(offsets)]
+        return taken[rover_id]
+
+    def _travel_bearing(self, rover_id: int, index: int) -> float:
+        """From where the team comes to the goal: the previous goal, or the rovers' start."""
+        goal = self.missions.goal(rover_id, index)
+        if index > 0:
+            before = self.missions.goal(rover_id, index - 1)
+            return bearing_deg(goal.x - before.x, goal.z - before.z)
+        rovers = self.scenario.rovers
+        cx, cz = sum(r.x for r in rovers) / len(rovers), sum(r.z for r in rovers) / len(rovers)
+        return bearing_deg(goal.x - cx, goal.z - cz)
 
     def _form_chain(self, index: int) -> None:
         """A daisy chain for goal ``index`` if the lander's radio cannot reach where the rovers are going."""

@@ -121,14 +121,14 @@ class RoverAgent:
     def _on_mission_direction(self, msg: m.MissionDirection) -> list[Out]:
         rad = math.radians(msg.bearing_deg)
         goal = Goal(msg.goal_index, msg.goals_total, msg.kind, msg.distance_m * math.sin(rad),
-                    msg.distance_m * math.cos(rad))
+                    msg.distance_m * math.cos(rad), msg.station)
         current = self.goal
         if current is not None and goal.index < current.index:
             return []
         if self.finished_goal and goal.index <= self.finished_goal[0]:
             return []
         self.goal = goal
-        if current is None or goal.index != current.index or (goal.x, goal.z) != (current.x, current.z):
+        if current is None or goal.index != current.index or goal.target != current.target:
             self.finished_goal = None
             self.behaviour.start_goal(goal)
             return [self._status()]

@@ -42,10 +42,22 @@ WAYPOINT_CLOSE = 0.5
 already there block the way."""
 RELAY_CLOSE_M = 1.5
 """A relay holds its spot within this distance: the chain's spacing margin is for drift, not for slack."""
+STATION_CLOSE_M = 1.5
+STATION_CROWDED_M = 4.0
+"""A station (the rover's own spot at a shared waypoint) is reached within ``STATION_CLOSE_M``; when the
+rovers standing at theirs leave no way in, within ``STATION_CROWDED_M`` or with the waypoint in view."""
 MAX_BLOCKED_ROTATIONS = 12
+"""Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
+MAX_CROWD_WAIT_S = 90.0
+"""Seconds without progress among other rovers before giving up: rovers move on, rocks do not."""
+CROWD_LOOKS = 3
+"""While waiting in a crowd, every this many waits the rover rotates to look for another way."""
+RIGHT_OF_WAY_DEG = 10.0
+"""A rover ahead, or to the right of this many degrees left of ahead, has right of way (report 7.2.1)."""
 MAX_CREST_LOOKS = 3
-ROVER_GAP_CLIMBING = 0.5
-"""Metres kept between bodies on the rim, where rovers step 2 m at a time and those done stand still."""
+ROVER_GAP_CLOSE = 0.5
+"""Metres kept between bodies in close quarters, where rovers step 2 m at a time among others standing
+still: on a crater rim, and near the rover's station at a waypoint."""
 
 
 @dataclass(frozen=True)
@@ -62,10 +74,18 @@ class Goal:
     kind: str
     x: float  # lander frame
     z: float
+    station: tuple[float, float] | None = None  # this rover's spot at a shared waypoint, offset from it
 
     @property
     def final(self) -> bool:
         return self.index >= self.total - 1
+
+    @property
+    def target(self) -> tuple[float, float]:
+        """Where to walk: the goal, or this rover's station at it."""
+        if self.station is None:
+            return self.x, self.z
+        return self.x + self.station[0], self.z + self.station[1]
 
 
 @dataclass(frozen=True)
@@ -159,6 +179,9 @@ class DefaultBehaviour(BaseBehaviour):
     _odometer: float = 0.0
     _max_pitch: float = -90.0
     _blocked_rotations: int = 0
+    _crowd_since: float | None = None  # when the rover last stopped making progress among rovers
+    _crowd_waits: int = 0
+    _parking: bool = False  # walking the last metres to this rover's station at a shared waypoint
     _crest_looks: int = 0
     _rejected: list[float] = field(default_factory=list)
     _hold_until: float = 0.0
@@ -177,6 +200,8 @@ class DefaultBehaviour(BaseBehaviour):
         self._crater_seen_at = None
         self._max_pitch = -90.0
         self._blocked_rotations = 0
+        self._crowd_since, self._crowd_waits = None, 0
+        self._parking = False
         self._crest_looks = 0
         self._rejected.clear()
 
@@ -184,6 +209,7 @@ class DefaultBehaviour(BaseBehaviour):
         self._odometer += distance
         if distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
             self._blocked_rotations = 0
+            self._crowd_since, self._crowd_waits = None, 0
             self._rejected.clear()
 
     def rejected(self, relative_angle: float) -> None:
@@ -192,19 +218,28 @@ class DefaultBehaviour(BaseBehaviour):
 
     def cancelled(self, now: float) -> None:
         """A move was cancelled because another rover came close: give way for a moment."""
-        wait = self.params.behaviour.max_wait_time * (1 + self.rover_id % 3)
-        self._hold_until = now + wait
-        self._blocked_rotations += 1
+        self._hold_until = now + self._wait_time()
+        if self._crowd_since is None:
+            self._crowd_since = now
+
+    def _wait_time(self) -> float:
+        """Rovers wait for different times, so two that met do not set off again together."""
+        return self.params.behaviour.max_wait_time * (1 + self.rover_id % 3)
 
     # ---- decisions ----
 
     def should_cancel(self, view: View) -> bool:
-        """During a move: another rover close ahead means stop (report 6.2.2)."""
+        """During a move: stop for a rover close ahead that has right of way (report 6.2.2 and 7.2.1).
+
+        Traffic ahead or to the right has right of way; a rover ahead-left gives way to this one, which stops
+        for it only when a collision is close.
+        """
         b = self.params.behaviour
-        danger = b.collision_danger_dist
-        if self.state == "climbing":  # 2 m steps on a rim where finished rovers stand still
-            danger = min(danger, 2 * b.rover_radius + ROVER_GAP_CLIMBING)
-        return any(h.kind == "rover" and h.distance_m < danger and abs(h.angle_deg) < 45 for h in view.hits)
+        imminent = 2 * b.rover_radius + ROVER_GAP_CLOSE
+        danger = imminent if self._close_quarters else b.collision_danger_dist
+        return any(h.kind == "rover" and abs(h.angle_deg) < 45
+                   and h.distance_m < (danger if h.angle_deg >= -RIGHT_OF_WAY_DEG else imminent)
+                   for h in view.hits)
 
     def decide(self, view: View) -> Decision:
         if view.time < self._hold_until:
@@ -212,7 +247,7 @@ class DefaultBehaviour(BaseBehaviour):
         if self.state == "observing":
             return self._observe(view.goal)
         goal, pose = view.goal, view.pose
-        distance = math.hypot(goal.x - pose.x, goal.z - pose.z)
+        distance = math.hypot(goal.target[0] - pose.x, goal.target[1] - pose.z)
         if goal.kind == "waypoint" and self._waypoint_reached(view, distance):
             return Finish("reached")
         if goal.kind == "relay" and distance <= RELAY_CLOSE_M:
@@ -224,24 +259,39 @@ class DefaultBehaviour(BaseBehaviour):
                 return self._observe(goal)
             if decision:
                 return decision
-        return self._head_for(view, distance, self._climbing_step(view))
+        self._parking = goal.station is not None and distance <= self.params.perception.perception_radius
+        return self._head_for(view, distance, self._short_step(view))
 
-    def _climbing_step(self, view: View) -> float | None:
-        """Short steps on the rim, shorter still near the top, so the rover stops on the crest, not past it."""
+    @property
+    def _close_quarters(self) -> bool:
+        """On the rim or parking at a station: short steps, small gaps, stop only for imminent contact."""
+        return self.state == "climbing" or self._parking
+
+    def _short_step(self, view: View) -> float | None:
+        """Short steps on the rim, shorter still near the top, so the rover stops on the crest, not past it;
+        short steps too when parking among rovers standing at their stations."""
+        step = self.params.behaviour.min_move_size
+        if self._parking:
+            return step
         if self.state != "climbing":
             return None
-        step = self.params.behaviour.min_move_size
         near_top = self._max_pitch >= CLIMB_PITCH and view.pitch_deg < NEAR_CREST_PITCH
         return step / 2 if near_top else step
 
     def _waypoint_reached(self, view: View, distance: float) -> bool:
+        """``distance`` is to the rover's station if it has one, else to the waypoint."""
         radius = self.params.perception.perception_radius
-        if distance <= WAYPOINT_CLOSE * radius:
-            return True
-        if distance > WAYPOINT_IN_VIEW * radius:
-            return False
         pose, goal = view.pose, view.goal
-        to_goal = wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading)
+        in_view = math.hypot(goal.x - pose.x, goal.z - pose.z) <= WAYPOINT_IN_VIEW * radius
+        if goal.station is not None:
+            return distance <= STATION_CLOSE_M or (
+                (distance <= STATION_CROWDED_M or in_view) and self._crowded(view))
+        return distance <= WAYPOINT_CLOSE * radius or (in_view and self._crowded(view))
+
+    def _crowded(self, view: View) -> bool:
+        """Rovers in view leave no room for a step towards the goal."""
+        pose, (tx, tz) = view.pose, view.goal.target
+        to_goal = wrap_deg(bearing_deg(tx - pose.x, tz - pose.z) - pose.heading)
         rovers = tuple(h for h in view.hits if h.kind == "rover")
         return bool(rovers) and self._free_distance(to_goal, rovers) < self.params.behaviour.min_move_size
 
@@ -299,14 +349,14 @@ class DefaultBehaviour(BaseBehaviour):
             return None
         p = self.params
         clearance = p.behaviour.rover_radius + OBSTACLE_MARGIN + self._map.cell_m / 2
-        return next_waypoint(self._map, view.pose, (view.goal.x, view.goal.z), clearance,
+        return next_waypoint(self._map, view.pose, view.goal.target, clearance,
                              0.9 * p.perception.perception_radius)
 
     def _head_for(self, view: View, distance: float, step: float | None) -> Decision:
         p = self.params
         pose, goal = view.pose, view.goal
         self._remember(view)
-        tx, tz = self._route_point(view) or (goal.x, goal.z)
+        tx, tz = self._route_point(view) or goal.target
         to_goal = wrap_deg(bearing_deg(tx - pose.x, tz - pose.z) - pose.heading)
         window = min(p.perception.field_of_view_degrees / 2 - 5, p.behaviour.scanner_field_of_view / 2)
         if abs(to_goal) > window:
@@ -314,7 +364,7 @@ class DefaultBehaviour(BaseBehaviour):
             if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
                 return Finish("stuck")
             return Rotate(round(to_goal, 3))
-        on_route = (tx, tz) != (goal.x, goal.z)  # a corner of the route: walk to it, not past it
+        on_route = (tx, tz) != goal.target  # a corner of the route: walk to it, not past it
         want = min(0.9 * p.perception.perception_radius, step or math.inf,
                    math.hypot(tx - pose.x, tz - pose.z) if on_route or goal.kind != "crater" else math.inf)
         for angle in self._candidates(to_goal, window):
@@ -323,12 +373,35 @@ class DefaultBehaviour(BaseBehaviour):
                 length = min(free, want)
                 rad = math.radians(angle)
                 return MoveTo(round(length * math.sin(rad), 4), round(length * math.cos(rad), 4))
+        if self._blocked_by_rovers(view, to_goal, window, want):
+            return self._wait_in_crowd(view)
         self._blocked_rotations += 1
         if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
             return Finish("stuck")
         self._rejected.clear()
         self._routing = True
         return Rotate(p.behaviour.rotate_action)
+
+    def _blocked_by_rovers(self, view: View, to_goal: float, window: float, want: float) -> bool:
+        """Would the way be free if the rovers in view were not there?"""
+        still = tuple(h for h in view.hits if h.kind != "rover")
+        if len(still) == len(view.hits):
+            return False
+        need = min(want, self.params.behaviour.min_move_size)
+        return any(self._free_distance(a, still) >= need for a in self._candidates(to_goal, window))
+
+    def _wait_in_crowd(self, view: View) -> Decision:
+        """Rovers block the way: wait for them to move on, now and then turning to look for another way."""
+        if self._crowd_since is None:
+            self._crowd_since = view.time
+        if view.time - self._crowd_since > MAX_CROWD_WAIT_S:
+            return Finish("stuck")
+        self._crowd_waits += 1
+        if self._crowd_waits % CROWD_LOOKS == 0:
+            self._rejected.clear()
+            return Rotate(self.params.behaviour.rotate_action)
+        self._hold_until = view.time + self._wait_time()
+        return Hold(self._hold_until)
 
     def _candidates(self, to_goal: float, window: float) -> list[float]:
         """Directions to try, nearest the goal first, right before left."""
@@ -343,7 +416,7 @@ class DefaultBehaviour(BaseBehaviour):
         """How far the rover's body can go along ``angle`` before coming too close to a perceived thing."""
         b = self.params.behaviour
         free = 0.9 * self.params.perception.perception_radius
-        rover_gap = ROVER_GAP_CLIMBING if self.state == "climbing" else b.extra_distance_between_rovers
+        rover_gap = ROVER_GAP_CLOSE if self._close_quarters else b.extra_distance_between_rovers
         for h in hits:
             if h.kind not in SOLID_KINDS:
                 continue

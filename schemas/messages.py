@@ -123,7 +123,8 @@ class CommPartners(Message):
 class MissionDirection(Message):
     """Where the lander sends a rover now: bearing and distance from the lander (report 10.4.3).
 
-    Usually the rover's current mission goal; ``kind == "relay"`` sends it to hold a daisy-chain spot.
+    Usually the rover's current mission goal; ``kind == "relay"`` sends it to hold a daisy-chain spot. At a
+    waypoint the team shares, ``station`` is this rover's own spot there (``lander_agent.stations``).
     """
 
     goal_index: int = Field(ge=0)
@@ -131,6 +132,8 @@ class MissionDirection(Message):
     kind: DirectionKind
     bearing_deg: float
     distance_m: float = Field(ge=0)
+    station: tuple[float, float] | None = Field(
+        None, description="offset (x, z) in metres from the waypoint, lander axes, of this rover's spot at it")
 
 
 class Calibration(Message):

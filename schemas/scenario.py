@@ -129,6 +129,17 @@ class Goal(Spec):
     kind: Literal["crater", "waypoint"] = "waypoint"
 
 
+class Formation(Spec):
+    """How a team stands at a waypoint it shares (need N7): each rover gets its own station.
+
+    ``none`` is the report's rule (every rover heads for the waypoint and stops once it is in view),
+    which crowds the goal with more than a handful of rovers.
+    """
+
+    shape: Literal["disc", "line", "none"] = "disc"
+    spacing_m: float = Field(3.2, gt=0, description="between neighbouring stations")
+
+
 class Scenario(Spec):
     name: str = Field(min_length=1)
     seed: int = 0
@@ -140,6 +151,7 @@ class Scenario(Spec):
     mission: list[Goal] = Field(min_length=1)
     rover_params: RoverParams = RoverParams()
     spawn: SpawnParams | None = Field(None, description="Table 3; used by --rovers N")
+    formation: Formation = Formation()
     behaviour: str = "default"
 
     @model_validator(mode="after")
@@ -176,11 +188,14 @@ class Scenario(Spec):
         return TerrainSpec(origin=(lo_x, lo_z), size_m=(math.ceil(max(xs) + margin_m) - lo_x,
                                                          math.ceil(max(zs) + margin_m) - lo_z))
 
-    def with_overrides(self, seed: int | None = None, rovers: int | None = None) -> Scenario:
+    def with_overrides(self, seed: int | None = None, rovers: int | None = None,
+                       rover_params: RoverParams | None = None) -> Scenario:
         """Apply command-line overrides; ``rovers`` respawns N rovers in the Table 3 formation."""
         update: dict = {}
         if seed is not None:
             update["seed"] = seed
+        if rover_params is not None:
+            update["rover_params"] = rover_params
         if rovers is not None:
             if rovers < 1:
                 raise ScenarioError(f"--rovers must be at least 1, got {rovers}")

@@ -9,6 +9,8 @@ import pytest
 from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import (
     MAX_BLOCKED_ROTATIONS,
+    MAX_CROWD_WAIT_S,
+    STATION_CLOSE_M,
     WAYPOINT_CLOSE,
     WAYPOINT_IN_VIEW,
     DefaultBehaviour,
@@ -201,11 +203,65 @@ def test_after_a_cancel_the_rover_holds():
 def test_should_cancel_for_a_rover_close_ahead_only():
     b = _behaviour()
     assert b.should_cancel(_view(hits=[Hit(0.0, 2.0, "rover")]))
+    assert b.should_cancel(_view(hits=[Hit(30.0, 3.0, "rover")]))
     assert not b.should_cancel(_view(hits=[Hit(90.0, 2.0, "rover")]))
     assert not b.should_cancel(_view(hits=[Hit(-90.0, 2.0, "rover")]))
     assert not b.should_cancel(_view(hits=[Hit(0.0, 2.0, "obstacle")]))
     assert not b.should_cancel(_view(hits=[Hit(0.0, 6.0, "rover")]))
     assert not b.should_cancel(_view())
+
+
+def test_traffic_from_the_left_gives_way_to_this_rover_unless_contact_is_close():
+    """Report 7.2.1: traffic to the right has right of way; a rover ahead-left stops for this one."""
+    b = _behaviour()
+    assert not b.should_cancel(_view(hits=[Hit(-30.0, 3.0, "rover")]))
+    assert b.should_cancel(_view(hits=[Hit(-30.0, 1.2, "rover")]))
+
+
+# A ring of rovers 3 m away all round: the way is blocked by rovers, not by anything that stays.
+RINGED_BY_ROVERS = tuple(Hit(a, 3.0, "rover") for a in range(-105, 106, 5))
+
+
+def test_blocked_by_rovers_the_rover_waits_and_looks_about_rather_than_giving_up():
+    b = _behaviour()
+    decisions = [b.decide(_view(hits=RINGED_BY_ROVERS, time=t)) for t in range(60)]
+    assert Finish("stuck") not in decisions
+    assert any(isinstance(d, Hold) for d in decisions) and any(isinstance(d, Rotate) for d in decisions)
+    assert b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) == Finish("stuck")
+
+
+def test_progress_resets_the_wait_in_a_crowd():
+    b = _behaviour()
+    b.decide(_view(hits=RINGED_BY_ROVERS, time=0.0))
+    b.moved(2.0)
+    assert b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) != Finish("stuck")
+
+
+# ---- stations at a shared waypoint ----
+
+
+def _station_goal(station=(4.0, 0.0)) -> Goal:
+    return Goal(0, 1, "waypoint", 0.0, 20.0, station)
+
+
+def test_a_rover_walks_to_its_station_not_to_the_waypoint():
+    goal = _station_goal()
+    move = _behaviour(goal).decide(_view(goal, pose=Pose(4.0, 12.0, 0.0)))
+    assert move == MoveTo(0.0, 2.0)  # short steps when parking
+
+
+def test_the_station_is_reached_close_to_it_not_merely_in_view_of_the_waypoint():
+    goal = _station_goal()
+    assert _behaviour(goal).decide(_view(goal, pose=Pose(4.0, 20.0 - STATION_CLOSE_M, 0.0))) == Finish("reached")
+    assert isinstance(_behaviour(goal).decide(_view(goal, pose=Pose(4.0, 15.0, 0.0))), MoveTo)
+
+
+def test_a_station_walled_in_by_rovers_counts_as_reached_with_the_waypoint_in_view():
+    goal = _station_goal()
+    wall = [Hit(a, 1.6, "rover") for a in range(-60, 61, 5)]
+    assert _behaviour(goal).decide(_view(goal, pose=Pose(4.0, 14.0, 0.0), hits=wall)) == Finish("reached")
+    far = _station_goal((4.0, -15.0))  # the waypoint itself out of view: keep trying
+    assert _behaviour(far).decide(_view(far, pose=Pose(4.0, -3.0, 180.0), hits=wall)) != Finish("reached")
 
 
 # ---- crater climb ----
