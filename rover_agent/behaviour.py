@@ -50,6 +50,8 @@ MAX_BLOCKED_ROTATIONS = 12
 """Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
 MAX_CROWD_WAIT_S = 90.0
 """Seconds without progress among other rovers before giving up: rovers move on, rocks do not."""
+CROWD_SQUEEZE_S = 15.0
+"""After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
 CROWD_LOOKS = 3
 """While waiting in a crowd, every this many waits the rover rotates to look for another way."""
 RIGHT_OF_WAY_DEG = 10.0
@@ -182,6 +184,7 @@ class DefaultBehaviour(BaseBehaviour):
     _crowd_since: float | None = None  # when the rover last stopped making progress among rovers
     _crowd_waits: int = 0
     _parking: bool = False  # walking the last metres to this rover's station at a shared waypoint
+    _now: float = 0.0  # time of the latest view
     _crest_looks: int = 0
     _rejected: list[float] = field(default_factory=list)
     _hold_until: float = 0.0
@@ -234,6 +237,7 @@ class DefaultBehaviour(BaseBehaviour):
         Traffic ahead or to the right has right of way; a rover ahead-left gives way to this one, which stops
         for it only when a collision is close.
         """
+        self._now = view.time
         b = self.params.behaviour
         imminent = 2 * b.rover_radius + ROVER_GAP_CLOSE
         danger = imminent if self._close_quarters else b.collision_danger_dist
@@ -242,6 +246,7 @@ class DefaultBehaviour(BaseBehaviour):
                    for h in view.hits)
 
     def decide(self, view: View) -> Decision:
+        self._now = view.time
         if view.time < self._hold_until:
             return Hold(self._hold_until)
         if self.state == "observing":
@@ -264,14 +269,19 @@ class DefaultBehaviour(BaseBehaviour):
 
     @property
     def _close_quarters(self) -> bool:
-        """On the rim or parking at a station: short steps, small gaps, stop only for imminent contact."""
-        return self.state == "climbing" or self._parking
+        """On the rim, parking at a station or long stuck in a jam of rovers: short steps, small gaps, stop
+        only for imminent contact."""
+        return self.state == "climbing" or self._parking or self._squeezing
+
+    @property
+    def _squeezing(self) -> bool:
+        return self._crowd_since is not None and self._now - self._crowd_since > CROWD_SQUEEZE_S
 
     def _short_step(self, view: View) -> float | None:
         """Short steps on the rim, shorter still near the top, so the rover stops on the crest, not past it;
         short steps too when parking among rovers standing at their stations."""
         step = self.params.behaviour.min_move_size
-        if self._parking:
+        if self._parking or self._squeezing:
             return step
         if self.state != "climbing":
             return None
@@ -360,7 +370,8 @@ class DefaultBehaviour(BaseBehaviour):
         to_goal = wrap_deg(bearing_deg(tx - pose.x, tz - pose.z) - pose.heading)
         window = min(p.perception.field_of_view_degrees / 2 - 5, p.behaviour.scanner_field_of_view / 2)
         if abs(to_goal) > window:
-            self._blocked_rotations += 1  # turning without getting anywhere counts toward giving up
+            if self._crowd_since is None:  # turning without getting anywhere counts toward giving up...
+                self._blocked_rotations += 1  # ...except when waiting for rovers, which has its own limit
             if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
                 return Finish("stuck")
             return Rotate(round(to_goal, 3))
