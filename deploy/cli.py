@@ -22,6 +22,7 @@ COMMANDS = {
     "scenario": ("deploy.scenario_cli", "import, export and check scenarios"),
     "command": ("deploy.command_cli", "send a ground command to the lander: set-target, stop, return"),
     "check-behaviour": ("deploy.behaviour_check", "check that a rover behaviour keeps the contract"),
+    "record": ("deploy.session.record_cli", "record a world's traffic into an MCAP session file"),
 }
 
 

@@ -82,7 +82,9 @@ class Lander:
         return []
 
     def on_ground_command(self, command: m.GroundCommand) -> list[tuple[str, m.Message]]:
-        """Carry out a ground command and always answer it, with the reason when it is refused."""
+        """Carry out a mission command and always answer it, with the reason when it is refused."""
+        if command.command not in m.MISSION_COMMANDS:
+            return []  # a recorder's or a replay's, not the lander's
         try:
             rovers = self.plan.on_command(command)
         except CommandRefused as exc:

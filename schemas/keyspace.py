@@ -32,6 +32,11 @@ PHOTO_ACTION: Final = "photo_action"
 PHOTO: Final = "photo"
 STATUS: Final = "status"
 ACK: Final = "ack"
+CLOCK: Final = "clock"
+STATE: Final = "state"
+STATS: Final = "stats"
+COMMAND: Final = "command"
+COMMAND_RESULT: Final = "command_result"
 """Lockstep: an agent's acknowledgement that it has handled a clock tick (rover and lander keys)."""
 
 
@@ -78,23 +83,23 @@ class Keyspace:
 
     @property
     def ground_command(self) -> str:
-        return f"{self.prefix}/ground/command"
+        return f"{self.prefix}/ground/{COMMAND}"
 
     @property
     def ground_command_result(self) -> str:
-        return f"{self.prefix}/ground/command_result"
+        return f"{self.prefix}/ground/{COMMAND_RESULT}"
 
     @property
     def clock(self) -> str:
-        return f"{self.prefix}/world/clock"
+        return f"{self.prefix}/world/{CLOCK}"
 
     @property
     def state(self) -> str:
-        return f"{self.prefix}/world/state"
+        return f"{self.prefix}/world/{STATE}"
 
     @property
     def stats(self) -> str:
-        return f"{self.prefix}/world/stats"
+        return f"{self.prefix}/world/{STATS}"
 
     def alive_rover(self, rover_id: int) -> str:
         """Liveliness token a rover agent holds while it runs."""
@@ -107,6 +112,12 @@ class Keyspace:
     @property
     def alive_lander(self) -> str:
         return f"{self.prefix}/alive/lander"
+
+    def remap(self, key: str, other: Keyspace) -> str:
+        """The same key in another world (replaying a session beside a live one)."""
+        if not key.startswith(self.prefix + "/"):
+            raise ValueError(f"key {key!r} is not in world {self.world!r}")
+        return other.prefix + key[len(self.prefix):]
 
     def parse_rover_key(self, key: str) -> tuple[int, str]:
         """Split ``lunar/<w>/rover/<X>/<topic>`` into (X, topic); ValueError names the bad part."""

@@ -180,15 +180,27 @@ class LanderStatus(Message):
     relay_chain: list[int] = Field(default_factory=list)
 
 
+MISSION_COMMANDS = ("set_target", "stop", "return")
+"""Carried out by the lander (needs N5, N6)."""
+RECORDER_COMMANDS = ("snapshot",)
+"""Carried out by a recorder in snapshot mode: write the last N seconds."""
+PLAYBACK_COMMANDS = ("pause", "resume", "step", "seek")
+"""Carried out by a replay: ``step`` publishes the next sample, ``seek`` jumps to ``seconds`` in."""
+
+
 class GroundCommand(Message):
-    """From the ground station to the lander (needs N5, N6). Targets are in map (scenario) coordinates."""
+    """From the ground station. Mission commands go to the lander; targets are in map (scenario) coordinates.
+
+    Each process carries out the commands that are its own and ignores the rest.
+    """
 
     request_id: str = ""
-    command: Literal["set_target", "stop", "return"]
+    command: Literal["set_target", "stop", "return", "snapshot", "pause", "resume", "step", "seek"]
     rover_id: int | None = Field(None, description="None: every rover (set_target only)")
     x: float | None = None
     z: float | None = None
     kind: GoalKind = "waypoint"
+    seconds: float | None = Field(None, ge=0, description="seek: seconds from the start of the recording")
 
 
 class CommandResult(Message):
@@ -293,3 +305,24 @@ RADIO_CHANNEL_MODELS: dict[str, type[Message]] = {
     "calibration": Calibration,
 }
 """Radio channels other than comm_in carry an encoded message of a fixed type, checked by the radio."""
+
+LANDER_TOPIC_MODELS: dict[str, type[Message]] = {
+    ks.COMM_OUT: OutboundComm,
+    ks.COMM_IN: InboundComm,
+    ks.COMM_PARTNERS: CommPartners,
+    ks.STATUS: LanderStatus,
+    ks.ACK: Ack,
+}
+WORLD_TOPIC_MODELS: dict[str, type[Message]] = {ks.CLOCK: Clock, ks.STATE: WorldState, ks.STATS: WorldStats}
+GROUND_TOPIC_MODELS: dict[str, type[Message]] = {ks.COMMAND: GroundCommand, ks.COMMAND_RESULT: CommandResult}
+_AREA_MODELS = {"lander": LANDER_TOPIC_MODELS, "world": WORLD_TOPIC_MODELS, "ground": GROUND_TOPIC_MODELS}
+
+
+def model_for_key(key: str) -> type[Message] | None:
+    """The payload model of any key ``lunar/<world>/...``; None for keys that carry no message (liveliness)."""
+    parts = key.split("/")
+    if len(parts) == 5 and parts[0] == ks.ROOT and parts[2] == "rover":
+        return TOPIC_MODELS.get(parts[4])
+    if len(parts) == 4 and parts[0] == ks.ROOT:
+        return _AREA_MODELS.get(parts[2], {}).get(parts[3])
+    return None

@@ -214,6 +214,8 @@ class World:
 
     def _on_ground_command(self, command: m.GroundCommand) -> None:
         """Follow the ground's changes to the mission, so statistics judge each rover's real final goal."""
+        if command.command not in m.MISSION_COMMANDS:
+            return
         with contextlib.suppress(CommandRefused):  # the lander answers the ground; a refusal changes nothing
             self.missions.apply(command)
 
