@@ -19,6 +19,7 @@ from deploy import process
 from deploy.zenoh_config import DEFAULT_PORT
 
 START_TIMEOUT_S = 30.0
+SESSION_FILE = "session.mcap"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -38,6 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         f"on 127.0.0.1 (default {DEFAULT_PORT})")
     parser.add_argument("--connect", metavar="ENDPOINT", help="use a running router instead of starting one")
     parser.add_argument("--quiet", "-q", action="store_true", help="no live progress, only the summary")
+    parser.add_argument("--no-record", action="store_true", help="do not record the session (by default it "
+                        "goes to session.mcap in the run folder)")
 
 
 def run_from_args(args: argparse.Namespace) -> int:
@@ -107,6 +110,8 @@ class Mission:
             router = self.children.start("router", "deploy.router", "--listen", self.endpoint)
             if not wait_for_port("127.0.0.1", self.args.port, 10.0, router):
                 raise RuntimeError(f"the router did not start: {self.children.log_tail('router')}")
+        if not self.args.no_record:
+            self._start_recorder(common)
         world_args = [str(self.scenario_file), *common, "--time-scale", str(self.args.time_scale),
                       "--start-timeout", str(START_TIMEOUT_S), "--photos", str(self.out / "photos")]
         if self.args.max_sim_time is not None:
@@ -121,6 +126,16 @@ class Mission:
                                 "--params", str(self.scenario_file), "--behaviour", self.scenario.behaviour,
                                 "--state",
                                 str(self.out / "state" / f"rover{rover_id}.json"), *common)
+
+    def _start_recorder(self, common: list[str]) -> None:
+        """The recorder subscribes before the world starts, so the session is complete from the first tick."""
+        recorder = self.children.start("recorder", "deploy.cli", "record", "-o", str(self.out / SESSION_FILE),
+                                       "--scenario", str(self.scenario_file), *common)
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while "recording" not in self.children.log_tail("recorder", 1):
+            if recorder.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"the recorder did not start: {self.children.log_tail('recorder')}")
+            time.sleep(0.05)
 
     def _monitor(self, stop) -> tuple:
         """Follow the world's statistics until the final report; returns (report, interrupted)."""
@@ -173,6 +188,8 @@ class Mission:
                 self.console.print(f"[red]{name} exited with status {code}[/]: {self.children.log_tail(name, 2)}")
 
     def _shutdown(self) -> None:
-        agents = [n for n in self.children.procs if n != "router"]
+        """Agents first, then the recorder (it has heard everything by then), then the router."""
+        agents = [n for n in self.children.procs if n not in ("router", "recorder")]
         self.children.stop(agents)
+        self.children.stop(["recorder"], grace_s=30.0)  # it writes its index and drop counts on the way out
         self.children.stop(["router"])

@@ -83,3 +83,22 @@ def run_cli_mission(out: Path, *args: str, timeout: float = 240) -> tuple[dict, 
         proc.kill()
     assert proc.returncode == 0, f"exit {proc.returncode}\n{stdout}\n{stderr}"
     return json.loads((out / "report.json").read_text()), stdout
+
+
+def wait_for_output(proc: subprocess.Popen, text: str, timeout: float) -> str:
+    """Read ``proc``'s stdout until a line contains ``text``; fail after ``timeout`` seconds or at its exit."""
+    import threading
+
+    found: list[str] = []
+
+    def read() -> None:
+        for line in proc.stdout:
+            if text in line:
+                found.append(line)
+                return
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(timeout)
+    assert found, f"no line with {text!r} from the process within {timeout:g} s (exit code {proc.poll()})"
+    return found[0]

@@ -1,0 +1,145 @@
+"""Recording sessions to MCAP: the file format, splitting, snapshots, and a real run recorded and recovered."""
+
+from __future__ import annotations
+
+import json
+import signal
+from collections import Counter
+
+import pytest
+from mcap.reader import make_reader
+
+from deploy.session.format import (
+    DROPS_METADATA,
+    SESSION_METADATA,
+    Sample,
+    TopicFilter,
+    decode,
+    read_metadata,
+    read_samples,
+)
+from deploy.session.recorder import RollingBuffer
+from deploy.session.recover import NotARecording, recover
+from deploy.session.writer import SessionWriter, SplittingWriter
+from schemas import codec
+from schemas import messages as m
+from tests.procs import SCENARIOS, lunarsim, run_cli_mission, stop, wait_for_output
+
+
+def _clock(tick: int) -> bytes:
+    return codec.encode(m.Clock(tick=tick, sim_time=tick / 20, time_scale=1.0, running=True, lockstep=False))
+
+
+def _samples(n: int, world: str = "w") -> list[Sample]:
+    return [Sample(f"lunar/{world}/world/clock", _clock(i), 1_000_000_000 + i * 50_000_000, 999 + i)
+            for i in range(n)]
+
+
+def test_a_recording_keeps_keys_payloads_times_and_says_how_to_decode_them(tmp_path):
+    path = tmp_path / "s.mcap"
+    writer = SessionWriter(path, {"seed": "7"})
+    samples = [*_samples(3), Sample("lunar/w/alive/rover/1", b"", 2_000_000_000, 2_000_000_000)]
+    for sample in samples:
+        writer.write(sample)
+    writer.close(Counter({"lunar/w/rover/1/perception": 2}))
+    assert list(read_samples(path)) == samples
+    assert decode(samples[0]).tick == 0
+    meta = read_metadata(path)
+    assert meta[SESSION_METADATA] == {"seed": "7"}
+    assert meta[DROPS_METADATA]["total"] == "2"
+    assert json.loads(meta[DROPS_METADATA]["per_key"]) == {"lunar/w/rover/1/perception": 2}
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    encodings = {c.topic: (c.message_encoding, summary.schemas.get(c.schema_id)) for c in summary.channels.values()}
+    encoding, schema = encodings["lunar/w/world/clock"]
+    assert encoding == "msgpack" and schema.encoding == "jsonschema" and schema.name == "Clock"
+    described = json.loads(schema.data)  # the file decodes without our code: envelope and fields are described
+    assert described["prefixItems"][0]["const"] == codec.SCHEMA_VERSION
+    assert set(described["prefixItems"][1]["properties"]) == set(m.Clock.model_fields)
+    assert encodings["lunar/w/alive/rover/1"][1] is None  # liveliness carries no message: no schema
+
+
+def test_topic_filters_include_then_exclude():
+    keep = TopicFilter(["lunar/w/rover/*"], ["*/perception"])
+    assert keep("lunar/w/rover/1/gyroscope")
+    assert not keep("lunar/w/rover/1/perception")
+    assert not keep("lunar/w/world/state")
+    assert TopicFilter()("anything")
+
+
+def test_split_by_duration_and_size_makes_numbered_files_that_together_hold_everything(tmp_path):
+    samples = _samples(100)  # 5 s of clock at 20 Hz
+    writer = SplittingWriter(tmp_path / "s.mcap", split_duration_s=1.0)
+    for sample in samples:
+        writer.write(sample)
+    writer.close()
+    assert [p.name for p in writer.files] == [f"s-{i:03d}.mcap" for i in range(5)]
+    assert [s for p in writer.files for s in read_samples(p)] == samples
+    by_size = SplittingWriter(tmp_path / "b.mcap", split_size=1000)
+    for sample in samples:
+        by_size.write(sample)
+    by_size.close()
+    assert len(by_size.files) > 2 and sum(1 for p in by_size.files for _ in read_samples(p)) == 100
+
+
+def test_snapshot_keeps_only_the_last_seconds(tmp_path):
+    buffer = RollingBuffer(1.0, tmp_path / "s.mcap", {"world": "w"}, "lz4")
+    for sample in _samples(100):
+        buffer(sample)
+    path = buffer.snapshot()
+    kept = list(read_samples(path))
+    assert path.name == "s-snapshot-000.mcap"
+    assert len(kept) == 21 and kept[-1] == _samples(100)[-1]
+
+
+def test_recover_keeps_complete_chunks_of_a_cut_file_and_refuses_garbage(tmp_path):
+    path = tmp_path / "s.mcap"
+    writer = SessionWriter(path, chunk_size=2000)
+    samples = _samples(400)
+    for sample in samples:
+        writer.write(sample)
+    writer.close()
+    data = path.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])
+    result = recover(cut, tmp_path / "fixed.mcap")
+    kept = list(read_samples(tmp_path / "fixed.mcap"))
+    assert result.truncated and 0 < len(kept) == result.messages < 400
+    assert kept == samples[: len(kept)]
+    (tmp_path / "junk.mcap").write_bytes(b"not an mcap file at all")
+    with pytest.raises(NotARecording, match=r"junk\.mcap"):
+        recover(tmp_path / "junk.mcap", tmp_path / "out.mcap")
+
+
+@pytest.mark.e2e
+def test_lunarsim_run_records_the_session_and_a_killed_recorder_is_recovered(tmp_path, router):
+    killed = tmp_path / "killed.mcap"
+    recorder = lunarsim("record", "-o", str(killed), "--world", "rec", "--connect", router)
+    wait_for_output(recorder, "recording", 20)
+    report, _ = run_cli_mission(tmp_path / "run", str(SCENARIOS / "crater_observation.yaml"), "--lockstep",
+                                "--world", "rec", "--connect", router, "--quiet", "--max-sim-time", "40")
+    recorder.send_signal(signal.SIGKILL)
+    recorder.wait(timeout=10)
+    session = tmp_path / "run" / "session.mcap"  # lunarsim run records by default
+    samples = list(read_samples(session))
+    keys = {s.key for s in samples}
+    assert {"lunar/rec/world/state", "lunar/rec/world/clock", "lunar/rec/rover/1/perception",
+            "lunar/rec/rover/1/move_action", "lunar/rec/lander/comm_out"} <= keys
+    final = [decode(s) for s in samples if s.key == "lunar/rec/world/stats"][-1]
+    assert final.final and final.report.model_dump() == {**report, "wall_time_s": final.report.wall_time_s}
+    meta = read_metadata(session)
+    assert meta[SESSION_METADATA]["seed"] == str(report["seed"]) and "mission:" in meta[SESSION_METADATA]["scenario"]
+    assert meta[DROPS_METADATA]["total"] == "0"
+    fixed = tmp_path / "fixed.mcap"
+    proc = lunarsim("recover", str(killed), "-o", str(fixed))
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    recovered = list(read_samples(fixed))
+    assert len(recovered) > 100 and {s.key for s in recovered} & keys
+    stop(recorder)
+
+
+def test_recover_names_a_missing_file(tmp_path):
+    proc = lunarsim("recover", str(tmp_path / "nope.mcap"), "-o", str(tmp_path / "x.mcap"))
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2 and "nope.mcap" in err
