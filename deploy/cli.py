@@ -23,6 +23,7 @@ COMMANDS = {
     "command": ("deploy.command_cli", "send a ground command to the lander: set-target, stop, return"),
     "check-behaviour": ("deploy.behaviour_check", "check that a rover behaviour keeps the contract"),
     "record": ("deploy.session.record_cli", "record a world's traffic into an MCAP session file"),
+    "replay": ("deploy.session.replay_cli", "replay a recorded session onto Zenoh with its original timing"),
     "recover": ("deploy.session.recover_cli", "recover the readable part of a recording cut short"),
 }
 
