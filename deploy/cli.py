@@ -25,6 +25,7 @@ COMMANDS = {
     "record": ("deploy.session.record_cli", "record a world's traffic into an MCAP session file"),
     "replay": ("deploy.session.replay_cli", "replay a recorded session onto Zenoh with its original timing"),
     "recover": ("deploy.session.recover_cli", "recover the readable part of a recording cut short"),
+    "report": ("deploy.session.report_cli", "mission statistics and a trajectory plot from a recording alone"),
     "export-foxglove": ("deploy.session.export_cli",
                         "write Foxglove channels (3D scene, transforms, photos) for a recording"),
     "view": ("deploy.session.view_cli", "serve a live world to the Foxglove app over WebSocket"),

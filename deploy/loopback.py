@@ -35,6 +35,7 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
         while pending:
             key, message = pending.pop(0)
             pending += _deliver(key, codec.encode(message), world, lander, agents, keys)
+    world.observed_state()  # the final state, as the world service publishes it before its final report
     return world
 
 

@@ -238,11 +238,26 @@ class RoverTruth(Message):
     alive: bool
 
 
+class WorldCounters(Message):
+    """Events the world has counted since the start: ground truth a recording must carry for its statistics."""
+
+    rover_collisions: int = 0
+    obstacle_collisions: int = 0
+    rejected_messages: int = 0
+    radio_dropped: int = 0
+    radio_lost: int = 0
+
+
 class WorldState(Message):
+    """Ground truth at the perception rate; the mission statistics are computed from this stream alone
+    (``world_service.statistics.MissionStats``), live and from a recording alike."""
+
     stamp: float
     rovers: list[RoverTruth]
     comm_links: list[tuple[int, int]] = Field(default_factory=list)
     relays: list[int] = Field(default_factory=list, description="rovers relaying for others: the daisy chain")
+    counters: WorldCounters = WorldCounters()
+    completed_at: float | None = Field(None, description="when every rover had finished, if they have")
 
 
 class MissionReport(Message):

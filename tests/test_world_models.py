@@ -549,6 +549,7 @@ def test_driving_into_a_rock_is_a_collision():
     assert math.hypot(body.x - 0.8, body.z - 2.0) >= 1.0  # left where it was before touching
     assert results[0].z == pytest.approx(body.z) and results[0].x == pytest.approx(0.0, abs=1e-9)
     assert 0.0 < body.z < 2.0
+    world.observed_state()  # statistics follow the published state
     assert world.report().obstacle_collisions == 1
 
 

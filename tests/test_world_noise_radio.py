@@ -77,8 +77,8 @@ def test_radio_loss_drops_about_the_configured_share():
     world = _world(rovers=((0.0, 0.0, 0.0), (5.0, 0.0, 0.0)), communication={"loss_probability": 0.3})
     msg = codec.encode(m.OutboundComm(targets=[2], payload=b"x"))
     delivered = sum(len(world.receive(KEYS.rover(1, ks.COMM_OUT), msg)) for _ in range(2000))
-    assert world.links.lost + delivered == 2000
-    assert 0.25 < world.links.lost / 2000 < 0.35
+    assert world.radio_lost + delivered == 2000
+    assert 0.25 < world.radio_lost / 2000 < 0.35
 
 
 def test_a_low_wall_does_not_hide_a_rover_from_the_lander_mast_but_a_high_one_does():

@@ -175,8 +175,8 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
     finally:
         photographer.close()
+    bus.publish(world.keys.state, world.observed_state())  # the final state, then the report computed from it
     report = world.report()
-    bus.publish(world.keys.state, world.world_state())
     bus.publish(world.keys.stats, m.WorldStats(stamp=world.sim_time, report=report, final=True))
     return report
 

@@ -6,7 +6,6 @@ Keeping them apart lets the whole world be tested, and later stepped in lockstep
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import math
 from collections import Counter
@@ -18,7 +17,7 @@ import numpy as np
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.mission import CommandRefused, RoverMissions
+from schemas.mission import RoverMissions
 from schemas.scenario import Scenario
 from world_service import camera
 from world_service import navigation as nav
@@ -69,7 +68,8 @@ class World:
         self.tick = 0
         self.terrain = Heightmap.from_scenario(scenario, self.rng)
         self.scene = Scene.from_scenario(scenario)
-        self.missions = RoverMissions(scenario)
+        self.mission_stats = stats.MissionStats(scenario, RoverMissions(scenario))
+        self.missions = self.mission_stats.missions  # one bookkeeping of goals, followed with the ground's commands
         self.perceiver = Perceiver(self.scene, self.terrain, self.params)
         self.bodies = {i + 1: nav.RoverBody(i + 1, r.x, r.z, r.heading_deg % 360.0)
                        for i, r in enumerate(scenario.rovers)}
@@ -78,7 +78,8 @@ class World:
         self.rover_collisions = 0
         self.obstacle_collisions = 0
         self.rejected: Counter[str] = Counter()
-        self.links = stats.LinkStats()
+        self.radio_dropped = 0
+        self.radio_lost = 0
         self.photo_jobs: list[PhotoJob] = []
         self._in_flight_radio: list[tuple[int, Out]] = []  # (due tick, delivery) with latency
         self.completed_at: float | None = None
@@ -214,10 +215,7 @@ class World:
 
     def _on_ground_command(self, command: m.GroundCommand) -> None:
         """Follow the ground's changes to the mission, so statistics judge each rover's real final goal."""
-        if command.command not in m.MISSION_COMMANDS:
-            return
-        with contextlib.suppress(CommandRefused):  # the lander answers the ground; a refusal changes nothing
-            self.missions.apply(command)
+        self.mission_stats.command(command)
 
     def set_alive(self, rover_id: int, alive: bool) -> None:
         """Watchdog: a rover whose agent is gone stops where it is."""
@@ -239,11 +237,11 @@ class World:
                 self.rejected[f"radio target {target}"] += 1
                 continue
             if not self.graph.connected(sender, target):
-                self.links.dropped += 1
+                self.radio_dropped += 1
                 continue
             c = self.params.communication
             if c.loss_probability > 0 and self.rng.random() < c.loss_probability:
-                self.links.lost += 1
+                self.radio_lost += 1
                 continue
             delivery = self._deliver(sender, target, msg, inner)
             if c.latency_s > 0:
@@ -282,11 +280,6 @@ class World:
         points = np.array([(b.x, b.z) for b in self.bodies.values()])
         self.terrain.keep_near(points, self.activation_range)
 
-    def _track_links(self) -> None:
-        reach = self.graph.connected_to_lander()
-        connected = {int(rid): bool(ok) for rid, ok in zip(self.graph.ids[1:], reach[1:], strict=True)}
-        self.links.update(connected, len(self.graph.relays()), self.partners_period * self.dt)
-
     # ---- time ----
 
     def step(self) -> list[Out]:
@@ -297,7 +290,6 @@ class World:
         if self.tick % self.partners_period == 0:
             self._activate_terrain()
             self.graph = self._build_graph()
-            self._track_links()
         out += self._due_radio()
         out += self._sensors()
         self._check_complete()
@@ -375,7 +367,7 @@ class World:
                     for b in bodies]
             out.append((self.keys.lander(ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(ks.LANDER_ID))))
         if self.tick % self.perception_period == 0:
-            out.append((self.keys.state, self.world_state()))
+            out.append((self.keys.state, self.observed_state()))
         if self.tick % self.stats_period == 0:
             out.append((self.keys.stats, m.WorldStats(stamp=self.sim_time, report=self.report())))
         return out
@@ -431,20 +423,23 @@ class World:
                          distance_covered_m=round(b.distance_covered, 3), alive=self.alive[b.id])
             for b in self.bodies.values()
         ]
+        counters = m.WorldCounters(rover_collisions=self.rover_collisions, obstacle_collisions=self.obstacle_collisions,
+                                   rejected_messages=sum(self.rejected.values()), radio_dropped=self.radio_dropped,
+                                   radio_lost=self.radio_lost)
         return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links(),
-                            relays=self.graph.relays())
+                            relays=self.graph.relays(), counters=counters, completed_at=self.completed_at)
+
+    def observed_state(self) -> m.WorldState:
+        """The state to publish, counted into the statistics: they are computed from what is published."""
+        state = self.world_state()
+        self.mission_stats.observe(state)
+        return state
 
     @staticmethod
     def _action_name(body: nav.RoverBody) -> str:
         if isinstance(body.action, nav.Move):
             return "cancel" if body.action.cancelling else "move"
         return "rotate" if isinstance(body.action, nav.Rotate) else "idle"
-
-    def _reached_final(self, rid: int) -> bool:
-        status, final = self.status[rid], self.missions.final_index(rid)
-        body = self.bodies[rid]
-        return (status.state == "done" and status.goal_index == final
-                and stats.at_goal(self.scenario, self.missions.goal(rid, final), body.x, body.z))
 
     def _check_complete(self) -> None:
         finished = all(s.state in FINISHED_STATES for s in self.status.values())
@@ -456,15 +451,7 @@ class World:
         return self.completed_at is not None
 
     def report(self) -> m.MissionReport:
-        return stats.build_report(
-            self.scenario,
-            distances=[b.distance_covered for b in self.bodies.values()],
-            reached=sum(self._reached_final(rid) for rid in self.bodies),
-            stuck=sum(s.state == "stuck" for s in self.status.values()),
-            rover_collisions=self.rover_collisions,
-            obstacle_collisions=self.obstacle_collisions,
-            duration_s=self.completed_at if self.completed_at is not None else self.sim_time,
-            complete=self.complete,
-            rejected_messages=sum(self.rejected.values()),
-            links=self.links,
-        )
+        """Statistics as of the last published state (``lunarsim report`` gets the same from a recording)."""
+        if self.mission_stats.last is None:
+            self.observed_state()
+        return self.mission_stats.report()

@@ -1,5 +1,9 @@
 """Mission statistics of report 3.4.7, computed from ground truth.
 
+They are computed from the world's published ``world/state`` stream (and the ground's mission commands)
+and nothing else, by ``MissionStats``: the live world feeds it each state it publishes, ``lunarsim report``
+feeds it the states of a recording, so the two reports agree to the last digit.
+
 "Reached" follows the report: the rover finished its final goal *and* stands at the correct final
 location. For a crater goal that is on the rim: within ``RIM_TOLERANCE`` x radius of the crest. For a
 waypoint it is having the goal in view: within the perception radius.
@@ -7,11 +11,13 @@ waypoint it is having the goal in view: within the perception radius.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from schemas.messages import MissionReport
+from schemas.messages import MISSION_COMMANDS, GroundCommand, MissionReport, WorldState
+from schemas.mission import CommandRefused, RoverMissions
 from schemas.scenario import Goal, Scenario
 
 RIM_TOLERANCE = 0.15
@@ -126,3 +132,65 @@ class LinkStats:
                 "worst_rover_connected_fraction": round(connected, 4),
                 "max_rovers_in_daisy_chain": self.max_relays, "radio_dropped": self.dropped,
                 "radio_lost": self.lost}
+
+
+def lander_component(state: WorldState) -> set[int]:
+    """Node ids with a radio route to the lander (0), from the state's links."""
+    neighbours: dict[int, list[int]] = {}
+    for a, b in state.comm_links:
+        neighbours.setdefault(a, []).append(b)
+        neighbours.setdefault(b, []).append(a)
+    seen, frontier = {0}, [0]
+    while frontier:
+        frontier = [n for node in frontier for n in neighbours.get(node, ()) if n not in seen]
+        seen.update(frontier)
+    return seen
+
+
+@dataclass
+class MissionStats:
+    """Report 3.4.7 from the stream of world states: the one computation, live and replayed."""
+
+    scenario: Scenario
+    missions: RoverMissions
+    links: LinkStats = field(default_factory=LinkStats)
+    last: WorldState | None = None
+
+    def command(self, command: GroundCommand) -> None:
+        """Follow the ground's changes to the mission, so each rover is judged at its real final goal."""
+        if command.command in MISSION_COMMANDS:
+            with contextlib.suppress(CommandRefused):  # the lander answers the ground; a refusal changes nothing
+                self.missions.apply(command)
+
+    def observe(self, state: WorldState) -> None:
+        elapsed = state.stamp - self.last.stamp if self.last is not None else 0.0
+        reach = lander_component(state)
+        self.links.update({r.id: r.id in reach for r in state.rovers if r.alive}, len(state.relays), elapsed)
+        self.last = state
+
+    def reached(self, state: WorldState) -> int:
+        count = 0
+        for r in state.rovers:
+            final = self.missions.final_index(r.id)
+            count += (r.state == "done" and r.goal_index == final
+                      and at_goal(self.scenario, self.missions.goal(r.id, final), r.x, r.z))
+        return count
+
+    def report(self) -> MissionReport:
+        state = self.last
+        if state is None:
+            raise ValueError("no world state observed yet: nothing to report")
+        c = state.counters
+        self.links.dropped, self.links.lost = c.radio_dropped, c.radio_lost
+        return build_report(
+            self.scenario,
+            distances=[r.distance_covered_m for r in state.rovers],
+            reached=self.reached(state),
+            stuck=sum(r.state == "stuck" for r in state.rovers),
+            rover_collisions=c.rover_collisions,
+            obstacle_collisions=c.obstacle_collisions,
+            duration_s=state.completed_at if state.completed_at is not None else state.stamp,
+            complete=state.completed_at is not None,
+            rejected_messages=c.rejected_messages,
+            links=self.links,
+        )
