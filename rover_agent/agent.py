@@ -141,8 +141,10 @@ class RoverAgent:
     def _on_comm_in(self, msg: m.InboundComm) -> list[Out]:
         message = radio.unpack(msg.payload)
         if isinstance(message, radio.PhotoAck):
+            pending = len(self.photo_outbox)
             for label in message.labels:
                 self.photo_outbox.pop(label, None)
+            return [self._status()] if len(self.photo_outbox) != pending else []
         elif isinstance(message, radio.CraterFound):
             self.craters_found.add(message.goal_index)
         elif isinstance(message, radio.StopCommand) and msg.sender == ks.LANDER_ID:
@@ -245,7 +247,7 @@ class RoverAgent:
         index = self.goal.index if self.goal else -1
         detail = "another rover found the crater" if index in self.craters_found else ""
         return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(stamp=self.now, state=self.state, goal_index=index,
-                                                                  detail=detail)
+                                                                  detail=detail, photos_pending=len(self.photo_outbox))
 
     # ---- navigation feedback ----
 

@@ -170,6 +170,7 @@ class RoverStatus(Message):
     state: RoverState
     goal_index: int = -1
     detail: str = ""
+    photos_pending: int = Field(0, ge=0, description="photos taken but not yet acknowledged by the lander")
 
 
 class LanderStatus(Message):

@@ -442,7 +442,11 @@ class World:
         return "rotate" if isinstance(body.action, nav.Rotate) else "idle"
 
     def _check_complete(self) -> None:
-        finished = all(s.state in FINISHED_STATES for s in self.status.values())
+        """Every rover finished, none moving, and no photo still on its way to a lander it can reach."""
+        reach = self.graph.connected_to_lander()
+        reachable = {int(i) for i, ok in zip(self.graph.ids, reach, strict=True) if ok}
+        finished = all(s.state in FINISHED_STATES and not (s.photos_pending and rid in reachable)
+                       for rid, s in self.status.items())
         if self.completed_at is None and finished and not any(b.busy for b in self.bodies.values()):
             self.completed_at = self.sim_time
 
