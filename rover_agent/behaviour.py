@@ -50,6 +50,9 @@ MAX_BLOCKED_ROTATIONS = 12
 """Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
 MAX_CROWD_WAIT_S = 90.0
 """Seconds without progress among other rovers before giving up: rovers move on, rocks do not."""
+NO_PROGRESS_WALK_M = 300.0
+"""Metres walked without getting any closer to the goal before giving up: a rover pacing between two
+spots (a livelock) moves all the time, so the blocked counts alone never stop it."""
 CROWD_SQUEEZE_S = 15.0
 """After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
 CROWD_LOOKS = 3
@@ -185,6 +188,7 @@ class DefaultBehaviour(BaseBehaviour):
     _crowd_waits: int = 0
     _parking: bool = False  # walking the last metres to this rover's station at a shared waypoint
     _now: float = 0.0  # time of the latest view
+    _closest: tuple[float, float] = (math.inf, 0.0)  # (nearest the goal has been, odometer then)
     _crest_looks: int = 0
     _rejected: list[float] = field(default_factory=list)
     _hold_until: float = 0.0
@@ -205,6 +209,7 @@ class DefaultBehaviour(BaseBehaviour):
         self._blocked_rotations = 0
         self._crowd_since, self._crowd_waits = None, 0
         self._parking = False
+        self._closest = (math.inf, self._odometer)
         self._crest_looks = 0
         self._rejected.clear()
 
@@ -265,7 +270,15 @@ class DefaultBehaviour(BaseBehaviour):
             if decision:
                 return decision
         self._parking = goal.station is not None and distance <= self.params.perception.perception_radius
+        if self._pacing(distance):
+            return Finish("stuck")
         return self._head_for(view, distance, self._short_step(view))
+
+    def _pacing(self, distance: float) -> bool:
+        """Walking on without ever getting closer (climbing a rim is judged by the climb rules instead)."""
+        if distance < self._closest[0] - 0.5:
+            self._closest = (distance, self._odometer)
+        return self.state != "climbing" and self._odometer - self._closest[1] > NO_PROGRESS_WALK_M
 
     @property
     def _close_quarters(self) -> bool:

@@ -10,6 +10,7 @@ from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import (
     MAX_BLOCKED_ROTATIONS,
     MAX_CROWD_WAIT_S,
+    NO_PROGRESS_WALK_M,
     STATION_CLOSE_M,
     WAYPOINT_CLOSE,
     WAYPOINT_IN_VIEW,
@@ -235,6 +236,20 @@ def test_progress_resets_the_wait_in_a_crowd():
     b.decide(_view(hits=RINGED_BY_ROVERS, time=0.0))
     b.moved(2.0)
     assert b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) != Finish("stuck")
+
+
+def test_a_rover_pacing_without_getting_closer_gives_up():
+    b = _behaviour()
+    assert isinstance(b.decide(_view()), MoveTo)  # 50 m from the goal
+    walked = 0.0
+    while walked <= NO_PROGRESS_WALK_M:
+        b.moved(9.0)
+        walked += 9.0
+        pose = Pose(0.0, -5.0 if int(walked) % 2 else 0.0, 0.0)  # back and forth, never nearer
+        decision = b.decide(_view(pose=pose))
+        if walked <= NO_PROGRESS_WALK_M:
+            assert decision != Finish("stuck")
+    assert decision == Finish("stuck")
 
 
 # ---- stations at a shared waypoint ----
