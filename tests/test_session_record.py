@@ -149,3 +149,22 @@ def test_recover_names_a_missing_file(tmp_path):
     proc = lunarsim("recover", str(tmp_path / "nope.mcap"), "-o", str(tmp_path / "x.mcap"))
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2 and "nope.mcap" in err
+
+
+@pytest.mark.e2e
+def test_snapshot_mode_writes_on_a_ground_command_and_on_sigusr1(tmp_path, router):
+    base = tmp_path / "snap.mcap"
+    recorder = lunarsim("record", "-o", str(base), "--snapshot", "30", "--world", "snap", "--connect", router)
+    try:
+        wait_for_output(recorder, "recording", 20)
+        sent = lunarsim("command", "snapshot", "--world", "snap", "--connect", router)
+        assert sent.wait(timeout=60) == 0
+        first = wait_for_output(recorder, "snapshot written", 20)
+        recorder.send_signal(signal.SIGUSR1)
+        second = wait_for_output(recorder, "snapshot written", 20)
+    finally:
+        stop(recorder)
+    assert "snap-snapshot-000.mcap" in first and "snap-snapshot-001.mcap" in second
+    commands = [decode(s) for s in read_samples(tmp_path / "snap-snapshot-000.mcap")
+                if s.key == "lunar/snap/ground/command"]
+    assert [c.command for c in commands] == ["snapshot"]
