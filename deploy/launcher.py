@@ -23,7 +23,10 @@ SESSION_FILE = "session.mcap"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario YAML (see scenarios/)")
+    parser.add_argument("scenario", type=Path, nargs="?", help="scenario YAML (see scenarios/)")
+    parser.add_argument("--from", dest="from_recording", type=Path, metavar="FILE.mcap",
+                        help="re-run the scenario and seed a recording was made with (use --lockstep to get the "
+                        "same message sequence again)")
     parser.add_argument("--out", type=Path, metavar="DIR", help="run folder (default runs/<scenario>-<timestamp>)")
     parser.add_argument("--max-sim-time", type=float, metavar="S", help="stop after S simulated seconds")
     parser.add_argument("--seed", type=int, help="override the scenario's seed")
@@ -46,12 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run_from_args(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from schemas.scenario import dump_scenario, load_rover_params, load_scenario
+    from schemas.scenario import dump_scenario, load_rover_params
 
     if args.time_scale <= 0:
         raise process.UsageError(f"--time-scale must be positive for a live run, got {args.time_scale}")
     params = load_rover_params(args.params) if args.params else None
-    scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers, rover_params=params)
+    scenario = _base_scenario(args).with_overrides(seed=args.seed, rovers=args.rovers, rover_params=params)
     out = args.out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
     out.mkdir(parents=True, exist_ok=True)
     scenario_file = out / "scenario.yaml"
@@ -60,6 +63,24 @@ def run_from_args(args: argparse.Namespace) -> int:
     console.print(f"[bold]{scenario.name}[/]: {len(scenario.rovers)} rovers, seed {scenario.seed}, "
                   f"run folder {out}")
     return Mission(args, scenario, scenario_file, out, console).run()
+
+
+def _base_scenario(args: argparse.Namespace):
+    """The scenario file, or the one a recording embeds (``--from``): it holds the recorded seed too."""
+    from schemas.scenario import load_scenario
+
+    if (args.scenario is None) == (args.from_recording is None):
+        raise process.UsageError("give a scenario file or --from FILE.mcap (one of them)")
+    if args.scenario is not None:
+        return load_scenario(args.scenario)
+    from deploy.session.export_cli import scenario_for
+
+    if not args.from_recording.is_file():
+        raise process.UsageError(f"{args.from_recording}: no such file")
+    scenario = scenario_for(args.from_recording, None)
+    if scenario is None:
+        raise process.UsageError(f"{args.from_recording} embeds no scenario: it cannot be re-run")
+    return scenario
 
 
 class Mission:

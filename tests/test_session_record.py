@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import signal
 from collections import Counter
+from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
@@ -23,7 +24,7 @@ from deploy.session.recover import NotARecording, recover
 from deploy.session.writer import SessionWriter, SplittingWriter
 from schemas import codec
 from schemas import messages as m
-from tests.procs import SCENARIOS, lunarsim, run_cli_mission, stop, wait_for_output
+from tests.procs import SCENARIOS, free_port, lunarsim, run_cli_mission, stop, wait_for_output
 
 
 def _clock(tick: int) -> bytes:
@@ -168,3 +169,27 @@ def test_snapshot_mode_writes_on_a_ground_command_and_on_sigusr1(tmp_path, route
     commands = [decode(s) for s in read_samples(tmp_path / "snap-snapshot-000.mcap")
                 if s.key == "lunar/snap/ground/command"]
     assert [c.command for c in commands] == ["snapshot"]
+
+
+def _per_key(path: Path) -> dict[str, list[bytes]]:
+    """Each key's payloads in order, repeats in a row folded (the final report repeats until shutdown)."""
+    sequences: dict[str, list[bytes]] = {}
+    for sample in read_samples(path):
+        seq = sequences.setdefault(sample.key, [])
+        if not seq or seq[-1] != sample.payload:
+            seq.append(sample.payload)
+    return sequences
+
+
+@pytest.mark.e2e
+def test_a_lockstep_rerun_from_a_recording_repeats_its_message_sequence(tmp_path):
+    first, second = tmp_path / "first", tmp_path / "again"
+    common = ("--lockstep", "--quiet", "--max-sim-time", "25")
+    run_cli_mission(first, str(SCENARIOS / "crater_observation.yaml"), "--seed", "5", "--port",
+                    str(free_port()), *common)
+    report, _ = run_cli_mission(second, "--from", str(first / "session.mcap"), "--port", str(free_port()), *common)
+    assert report["seed"] == 5
+    old, new = _per_key(first / "session.mcap"), _per_key(second / "session.mcap")
+    assert set(old) == set(new) and len(old) > 40
+    differing = [key for key in old if old[key] != new[key]]
+    assert differing == [], f"{len(differing)} keys differ, e.g. {differing[:3]}"
