@@ -50,9 +50,12 @@ MAX_BLOCKED_ROTATIONS = 12
 """Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
 MAX_CROWD_WAIT_S = 90.0
 """Seconds without progress among other rovers before giving up: rovers move on, rocks do not."""
+NO_PROGRESS_ROUTE_M = 40.0
+"""Metres walked without getting any closer to the goal before the rover plans a route on its map: the
+greedy scan can pace along a long wall (turn to the goal, slide right, turn, slide left...) without ever
+being blocked everywhere in view, which is what otherwise switches routing on."""
 NO_PROGRESS_WALK_M = 300.0
-"""Metres walked without getting any closer to the goal before giving up: a rover pacing between two
-spots (a livelock) moves all the time, so the blocked counts alone never stop it."""
+"""Metres walked without getting any closer to the goal, routing or not, before giving up."""
 CROWD_SQUEEZE_S = 15.0
 """After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
 CROWD_LOOKS = 3
@@ -270,15 +273,17 @@ class DefaultBehaviour(BaseBehaviour):
             if decision:
                 return decision
         self._parking = goal.station is not None and distance <= self.params.perception.perception_radius
-        if self._pacing(distance):
+        if self._pacing(distance, NO_PROGRESS_WALK_M):
             return Finish("stuck")
+        if not self._routing and self._pacing(distance, NO_PROGRESS_ROUTE_M):
+            self._routing = True
         return self._head_for(view, distance, self._short_step(view))
 
-    def _pacing(self, distance: float) -> bool:
-        """Walking on without ever getting closer (climbing a rim is judged by the climb rules instead)."""
+    def _pacing(self, distance: float, limit_m: float) -> bool:
+        """Walked ``limit_m`` without getting closer (climbing a rim is judged by the climb rules instead)."""
         if distance < self._closest[0] - 0.5:
             self._closest = (distance, self._odometer)
-        return self.state != "climbing" and self._odometer - self._closest[1] > NO_PROGRESS_WALK_M
+        return self.state != "climbing" and self._odometer - self._closest[1] > limit_m
 
     @property
     def _close_quarters(self) -> bool:

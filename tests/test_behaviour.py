@@ -10,6 +10,7 @@ from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import (
     MAX_BLOCKED_ROTATIONS,
     MAX_CROWD_WAIT_S,
+    NO_PROGRESS_ROUTE_M,
     NO_PROGRESS_WALK_M,
     STATION_CLOSE_M,
     WAYPOINT_CLOSE,
@@ -250,6 +251,17 @@ def test_a_rover_pacing_without_getting_closer_gives_up():
         if walked <= NO_PROGRESS_WALK_M:
             assert decision != Finish("stuck")
     assert decision == Finish("stuck")
+
+
+def test_a_rover_pacing_along_a_wall_starts_routing_before_it_gives_up():
+    b = _behaviour()
+    b.decide(_view())
+    walked = 0.0
+    while not b._routing and walked < NO_PROGRESS_WALK_M:
+        b.moved(9.0)
+        walked += 9.0
+        assert b.decide(_view(pose=Pose(0.0, -5.0 if int(walked) % 2 else 0.0, 0.0))) != Finish("stuck")
+    assert NO_PROGRESS_ROUTE_M < walked <= NO_PROGRESS_ROUTE_M + 9.0
 
 
 # ---- stations at a shared waypoint ----
