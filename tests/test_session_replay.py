@@ -331,3 +331,24 @@ def _line_seen(proc: subprocess.Popen, text: str) -> bool:
     line = proc.stdout.readline() if proc.stdout else ""
     return text in line
 
+
+
+def test_prefetch_yields_everything_in_order_passes_errors_on_and_stops_its_reader_when_closed():
+    from deploy.session.replay import prefetch
+
+    samples = [Sample(f"lunar/w/k{i}", b"x", i, i) for i in range(1000)]
+    assert list(prefetch(iter(samples), size=7)) == samples
+
+    def broken():
+        yield samples[0]
+        raise ValueError("chunk cut short")
+
+    reader = prefetch(broken())
+    assert next(reader) == samples[0]
+    with pytest.raises(ValueError, match="cut short"):
+        next(reader)
+    partial = prefetch(iter(samples), size=3)
+    assert next(partial) == samples[0]
+    partial.close()  # a seek: the reader thread must not stay blocked on its full buffer
+    wait_for(lambda: not any(t.name == "replay-read-ahead" for t in threading.enumerate()), 5,
+             "the read-ahead thread to stop")

@@ -69,6 +69,45 @@ def world_remapper(recorded: str, target: str) -> Callable[[str], str]:
     return remap
 
 
+def prefetch(samples: Iterable[Sample], size: int = 20_000) -> Iterator[Sample]:
+    """Read ahead on a thread: decompressing and parsing a dense recording costs more per sample than the
+    gaps between samples, so reading in line with playback made replays run late. Closing the iterator
+    (a seek or the end) stops the reader."""
+    buffer: queue.Queue = queue.Queue(maxsize=size)
+    stop = threading.Event()
+    done = object()
+
+    def read() -> None:
+        try:
+            for sample in samples:
+                while not stop.is_set():
+                    try:
+                        buffer.put(sample, timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+            item: object = done
+        except Exception as exc:  # handed to the consumer, which raises it where it reads
+            item = exc
+        while not stop.is_set():
+            try:
+                buffer.put(item, timeout=0.1)
+                return
+            except queue.Full:
+                continue
+
+    threading.Thread(target=read, name="replay-read-ahead", daemon=True).start()
+    try:
+        while (item := buffer.get()) is not done:
+            if isinstance(item, Exception):
+                raise item
+            yield item
+    finally:
+        stop.set()
+
+
 class RealWaiter:
     """The real ``wait``: sleeps up to ``timeout`` seconds but wakes at once when a control arrives."""
 

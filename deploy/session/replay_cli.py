@@ -84,7 +84,7 @@ def open_recording(path: Path) -> Recording:
 
 def run_from_args(args: argparse.Namespace) -> int:
     from deploy.session.format import TopicFilter, read_samples
-    from deploy.session.replay import CLOCK_GLOB, Player, world_remapper
+    from deploy.session.replay import CLOCK_GLOB, Player, prefetch, world_remapper
     from schemas.keyspace import check_world_name
 
     if args.rate <= 0:
@@ -105,8 +105,8 @@ def run_from_args(args: argparse.Namespace) -> int:
     world = target or recording.world or "default"
     remap = world_remapper(recording.world, target) if target and recording.world else None
     return _play(args, recording, world, lambda publish: Player(
-        lambda start_ns: read_samples(recording.path, keep, start_ns), publish, rate=args.rate, loop=args.loop,
-        start_offset_s=args.start_offset, paused=args.start_paused, remap=remap,
+        lambda start_ns: prefetch(read_samples(recording.path, keep, start_ns)), publish, rate=args.rate,
+        loop=args.loop, start_offset_s=args.start_offset, paused=args.start_paused, remap=remap,
         first_ns=recording.first_ns, last_ns=recording.last_ns))
 
 
