@@ -1,17 +1,18 @@
 """Foxglove export, trajectory plot and live view, checked on a small recording (no router needed).
 
-The exported messages are decoded with the schemas the foxglove SDK wrote into the file, by a small
-protobuf reader below (the protobuf runtime is not a dependency): what Foxglove will read is what we check.
+The exported messages are decoded with the protobuf runtime from the schemas (FileDescriptorSets) the
+foxglove SDK wrote into the file, not from compiled classes: what Foxglove will read is what we check.
 """
 
 from __future__ import annotations
 
-import io
+import functools
 import socket
-import struct
 from pathlib import Path
 
 import pytest
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from google.protobuf.message import Message
 from procs import SCENARIOS, free_port
 
 from deploy import cli
@@ -28,119 +29,20 @@ T0 = 1_700_000_000_000_000_000
 PNG = b"\x89PNG\r\n\x1a\n" + bytes(range(64))
 
 
-# ---- a minimal schema-driven protobuf reader ----
-
-SCALAR_WIRE = {1: 1, 2: 5, 3: 0, 4: 0, 5: 0, 6: 1, 7: 5, 8: 0, 13: 0, 14: 0, 15: 5, 16: 1, 17: 0, 18: 0}
+# ---- decoding with the schemas in the file ----
 
 
-def _varint(data: bytes, i: int) -> tuple[int, int]:
-    value = shift = 0
-    while True:
-        byte = data[i]
-        i += 1
-        value |= (byte & 0x7F) << shift
-        shift += 7
-        if not byte & 0x80:
-            return value, i
+@functools.cache
+def message_class(schema_data: bytes, name: str) -> type[Message]:
+    """The class of message ``name`` in a FileDescriptorSet (the ``protobuf`` schema data of an MCAP channel).
+
+    Each schema gets its own descriptor pool, so files that several schemas share register cleanly.
+    """
+    files = descriptor_pb2.FileDescriptorSet.FromString(schema_data).file
+    return message_factory.GetMessages(files, pool=descriptor_pool.DescriptorPool())[name]
 
 
-def _fields(data: bytes):
-    """(field number, wire type, raw value) of each field in a protobuf message."""
-    i = 0
-    while i < len(data):
-        key, i = _varint(data, i)
-        number, wire = key >> 3, key & 7
-        if wire == 0:
-            value, i = _varint(data, i)
-        elif wire == 1:
-            value, i = data[i:i + 8], i + 8
-        elif wire == 5:
-            value, i = data[i:i + 4], i + 4
-        elif wire == 2:
-            size, i = _varint(data, i)
-            value, i = data[i:i + size], i + size
-        else:
-            raise ValueError(f"wire type {wire}")
-        yield number, wire, value
-
-
-def _scalar(kind: int, wire: int, raw):
-    if kind == 1:
-        return struct.unpack("<d", raw)[0]
-    if kind == 2:
-        return struct.unpack("<f", raw)[0]
-    if kind == 8:
-        return bool(raw)
-    return raw
-
-
-class Schemas:
-    """Message types of a FileDescriptorSet (the ``protobuf`` schema data of an MCAP channel)."""
-
-    def __init__(self, descriptor_set: bytes) -> None:
-        self.types: dict[str, dict[int, tuple[str, int, int, str]]] = {}
-        for number, _, file in _fields(descriptor_set):
-            if number == 1:
-                package = next((v.decode() for n, _, v in _fields(file) if n == 2), "")
-                for n, _, message in _fields(file):
-                    if n == 4:
-                        self._add(package, message)
-
-    def _add(self, scope: str, message: bytes) -> None:
-        name = next(v.decode() for n, _, v in _fields(message) if n == 1)
-        full = f"{scope}.{name}"
-        fields = {}
-        for n, _, value in _fields(message):
-            if n == 2:
-                f = {k: v for k, _, v in _fields(value)}
-                fields[f[3]] = (f[1].decode(), f.get(4, 1), f[5], f.get(6, b"").decode().lstrip("."))
-            elif n == 3:
-                self._add(full, value)
-        self.types[full] = fields
-
-    def decode(self, type_name: str, data: bytes) -> dict:
-        out: dict = {}
-        fields = self.types[type_name]
-        for name, label, *_ in fields.values():
-            if label == 3:
-                out[name] = []
-        for number, wire, raw in _fields(data):
-            if number not in fields:
-                continue
-            name, label, kind, sub = fields[number]
-            if kind == 11:
-                values = [self.decode(sub, raw)]
-            elif kind in (9, 12):
-                values = [raw.decode() if kind == 9 else raw]
-            elif wire == 2 and kind in SCALAR_WIRE:  # packed repeated scalars
-                values = []
-                for _, w, r in _fields(_packed_as_fields(raw, SCALAR_WIRE[kind])):
-                    values.append(_scalar(kind, w, r))
-            else:
-                values = [_scalar(kind, wire, raw)]
-            if label == 3:
-                out[name].extend(values)
-            else:
-                out[name] = values[0]
-        return out
-
-
-def _packed_as_fields(raw: bytes, wire: int) -> bytes:
-    """Re-tag packed values as field 1 of the given wire type, so ``_fields`` can split them."""
-    out = io.BytesIO()
-    i = 0
-    while i < len(raw):
-        out.write(bytes([(1 << 3) | wire]))
-        if wire == 0:
-            _, j = _varint(raw, i)
-        else:
-            j = i + (8 if wire == 1 else 4)
-        out.write(raw[i:j])
-        i = j
-    return out.getvalue()
-
-
-def read_foxglove(path: Path) -> dict[str, list[tuple[int, str, dict | bytes]]]:
+def read_foxglove(path: Path) -> dict[str, list[tuple[int, str, Message | bytes]]]:
     """topic -> [(log time, encoding, decoded message or raw payload)] of an MCAP file."""
     from mcap.reader import make_reader
 
@@ -148,7 +50,8 @@ def read_foxglove(path: Path) -> dict[str, list[tuple[int, str, dict | bytes]]]:
     with open(path, "rb") as stream:
         for schema, channel, message in make_reader(stream).iter_messages(log_time_order=True):
             if channel.message_encoding == "protobuf":
-                decoded = Schemas(schema.data).decode(schema.name, message.data)
+                assert schema.encoding == "protobuf"
+                decoded = message_class(schema.data, schema.name).FromString(message.data)
             else:
                 decoded = message.data
             out.setdefault(channel.topic, []).append((message.log_time, channel.message_encoding, decoded))
@@ -181,14 +84,14 @@ def recording(tmp_path: Path) -> Path:
     return path
 
 
-def _ns(stamp: dict) -> int:
+def _ns(stamp: Message) -> int:
     """google.protobuf.Timestamp, as the foxglove schemas carry it."""
-    return stamp.get("seconds", 0) * 1_000_000_000 + stamp.get("nanos", 0)
+    return stamp.seconds * 1_000_000_000 + stamp.nanos
 
 
-def _pos(pose: dict) -> tuple[float, float, float]:
-    p = pose["position"]
-    return p.get("x", 0.0), p.get("y", 0.0), p.get("z", 0.0)
+def _pos(pose: Message) -> tuple[float, float, float]:
+    p = pose.position
+    return p.x, p.y, p.z
 
 
 # ---- export ----
@@ -202,34 +105,34 @@ def test_export_writes_scene_transforms_and_photos(recording: Path, tmp_path: Pa
 
     scene = topics["/scene"]
     assert len(scene) == 1 + 3  # static, then one update per world state
-    static = {e["id"]: e for e in scene[0][2]["entities"]}
+    static = {e.id: e for e in scene[0][2].entities}
     assert {"terrain", "craters", "rocks", "walls", "lander", "goals"} <= set(static)
-    assert len(static["rocks"]["cylinders"]) == 9
-    terrain = static["terrain"]["triangles"][0]
-    assert len(terrain["points"]) > 100 and len(terrain["indices"]) % 3 == 0
-    lander = static["lander"]["cylinders"][0]
-    assert _pos(lander["pose"])[:2] == (-560.0, 50.0)
+    assert len(static["rocks"].cylinders) == 9
+    terrain = static["terrain"].triangles[0]
+    assert len(terrain.points) > 100 and len(terrain.indices) % 3 == 0
+    lander = static["lander"].cylinders[0]
+    assert _pos(lander.pose)[:2] == (-560.0, 50.0)
 
     for i, (log_time, _, update) in enumerate(scene[1:]):
         assert log_time == T0 + i * 1_000_000_000
-        entities = {e["id"]: e for e in update["entities"]}
-        cubes = entities["rovers"]["cubes"]
+        entities = {e.id: e for e in update.entities}
+        cubes = entities["rovers"].cubes
         assert len(cubes) == 2
-        assert [_pos(c["pose"])[:2] for c in cubes] == [(-510.0, 100.0 - 2 * i), (-500.0, 100.0 - 3 * i)]
-        assert _ns(entities["rovers"]["timestamp"]) == log_time
-        chain = entities["links"]["lines"]
-        assert sum(len(line["points"]) for line in chain) == 4  # two links, two ends each
+        assert [_pos(c.pose)[:2] for c in cubes] == [(-510.0, 100.0 - 2 * i), (-500.0, 100.0 - 3 * i)]
+        assert _ns(entities["rovers"].timestamp) == log_time
+        chain = entities["links"].lines
+        assert sum(len(line.points) for line in chain) == 4  # two links, two ends each
 
     tf = topics["/tf"]
     assert len(tf) == 6
-    last = {t["child_frame_id"]: t for _, _, t in tf[-2:]}
+    last = {t.child_frame_id: t for _, _, t in tf[-2:]}
     assert set(last) == {"rover_1", "rover_2"}
-    assert last["rover_2"]["parent_frame_id"] == "world"
-    assert (last["rover_2"]["translation"]["x"], last["rover_2"]["translation"]["y"]) == (-500.0, 94.0)
+    assert last["rover_2"].parent_frame_id == "world"
+    assert (last["rover_2"].translation.x, last["rover_2"].translation.y) == (-500.0, 94.0)
 
     (log_time, _, photo), = topics["/rover_2/photo"]
-    assert photo["data"] == PNG and photo["format"] == "png" and photo["frame_id"] == "rover_2"
-    assert _ns(photo["timestamp"]) == log_time == T0 + 2_500_000_000
+    assert photo.data == PNG and photo.format == "png" and photo.frame_id == "rover_2"
+    assert _ns(photo.timestamp) == log_time == T0 + 2_500_000_000
 
 
 def test_heading_points_rover_x_along_the_heading():
@@ -238,8 +141,10 @@ def test_heading_points_rover_x_along_the_heading():
     for heading, (fx, fy) in ((0.0, (0.0, 1.0)), (90.0, (1.0, 0.0)), (180.0, (0.0, -1.0))):
         q = heading_quaternion(heading)
         # The SDK keeps its fields to itself: read them back through the encoding.
-        z, w = (Schemas(type(q).get_schema().data).decode("foxglove.Quaternion", q.encode()).get(k, 0.0)
-                for k in ("z", "w"))
+        schema = type(q).get_schema()
+        decoded = message_class(schema.data, schema.name).FromString(q.encode())
+        assert schema.name == "foxglove.Quaternion"
+        z, w = decoded.z, decoded.w
         yaw_x, yaw_y = 1 - 2 * z * z, 2 * z * w  # rotated +x for a rotation about z
         assert (yaw_x, yaw_y) == pytest.approx((fx, fy), abs=1e-9)
 
@@ -322,4 +227,4 @@ def test_live_view_serves_and_stops(tmp_path: Path):
     topics = read_foxglove(capture)
     assert len(topics["/scene"]) == 2  # static first, then the state
     assert len(topics["/tf"]) == 2
-    assert topics["/rover_2/photo"][0][2]["data"] == PNG
+    assert topics["/rover_2/photo"][0][2].data == PNG
