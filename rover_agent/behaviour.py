@@ -8,7 +8,13 @@ first such block on, it aims along a route planned on its own map of the obstacl
 stops on the crest only after having climbed and walked at least the perception radius since first
 seeing crater terrain (the report's 7.2.2 fix for stopping on a local optimum), then photographs the
 crater once round. A waypoint is reached once close, or in view with rovers crowding it (6.6); a relay
-spot of the daisy chain once the rover stands on it.
+spot of the daisy chain once the rover stands on it; a station (the rover's own spot at a waypoint the
+team shares, from the lander) once on it, in short steps with close-quarters gaps.
+
+Among rovers it follows the report's traffic rule (7.2.1: traffic to the right has right of way), waits
+when only rovers block the way (they move on; rocks do not), squeezes by with small gaps when a jam
+lasts, and gives up only after a long time. A rover that walks on without getting any closer to its goal
+(pacing along a wall) switches to routing, and in the end gives up rather than pace for ever.
 
 No I/O here: the runtime feeds a ``View`` and sends what ``decide`` returns, so this is tested with
 scripted sensor data and no router.
