@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Callable
 
 from lander_agent.daisy_chain import Chain, plan_chain
 from lander_agent.stations import station_offsets
@@ -18,6 +19,9 @@ from schemas.frames import bearing_deg
 from schemas.mission import RoverMissions
 from schemas.radio import GoalReport
 from schemas.scenario import Goal, Scenario
+
+OBSTACLE_GAP_M = 1.0
+"""Metres kept between a station and the lander's body."""
 
 
 class MissionPlan:
@@ -67,9 +71,16 @@ class MissionPlan:
         taken = self.stations.setdefault((index, goal), {})
         if rover_id not in taken:
             offsets = station_offsets(len(team), formation.spacing_m, self._travel_bearing(rover_id, index),
-                                      formation.shape)
+                                      formation.shape, self._clear_of_lander(goal))
             taken[rover_id] = offsets[len(taken) % len(offsets)]
         return taken[rover_id]
+
+    def _clear_of_lander(self, goal: Goal) -> Callable[[tuple[float, float]], bool]:
+        """Stations a rover can stand on: a waypoint at the lander (``return``) must not put one inside it."""
+        lander = self.scenario.lander
+        lx, lz = lander.x - goal.x, lander.z - goal.z
+        clear = lander.radius_m + self.scenario.rover_params.behaviour.rover_radius + OBSTACLE_GAP_M
+        return lambda o: math.hypot(o[0] - lx, o[1] - lz) > clear
 
     def _travel_bearing(self, rover_id: int, index: int) -> float:
         """From where the team comes to the goal: the previous goal, or the rovers' start."""

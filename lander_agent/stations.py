@@ -11,26 +11,36 @@ already standing. Pure logic: offsets in metres from the waypoint, in the lander
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Literal
 
 Shape = Literal["disc", "line"]
 
 
-def station_offsets(count: int, spacing: float, travel_bearing_deg: float,
-                    shape: Shape = "disc") -> list[tuple[float, float]]:
-    """``count`` offsets ``spacing`` apart, far side (along the direction of travel) first."""
+def station_offsets(count: int, spacing: float, travel_bearing_deg: float, shape: Shape = "disc",
+                    allowed: Callable[[tuple[float, float]], bool] | None = None) -> list[tuple[float, float]]:
+    """``count`` offsets ``spacing`` apart, far side (along the direction of travel) first.
+
+    ``allowed`` rules offsets out (one on the lander's body, say); the disc then takes the next nearest.
+    """
     if count <= 0:
         return []
-    lattice = _line(count) if shape == "line" else _hex_disc(count)
-    rows = sorted(lattice, key=lambda p: (-round(p[1], 6), abs(p[0]), p[0]))
     rad = math.radians(travel_bearing_deg)
     fx, fz = math.sin(rad), math.cos(rad)  # forward: the direction of travel
     rx, rz = fz, -fx  # right of it
-    return [(round(spacing * (a * rx + f * fx), 3), round(spacing * (a * rz + f * fz), 3)) for a, f in rows]
+
+    def world(p: tuple[float, float]) -> tuple[float, float]:
+        a, f = p
+        return round(spacing * (a * rx + f * fx), 3), round(spacing * (a * rz + f * fz), 3)
+
+    lattice = _line(count) if shape == "line" else _hex_disc(count + 16)
+    chosen = [p for p in lattice if allowed is None or allowed(world(p))][:count]
+    rows = sorted(chosen, key=lambda p: (-round(p[1], 6), abs(p[0]), p[0]))
+    return [world(p) for p in rows]
 
 
 def _hex_disc(count: int) -> list[tuple[float, float]]:
-    """The ``count`` points of a unit hexagonal lattice nearest its centre, as (across, along)."""
+    """The ``count`` points of a unit hexagonal lattice nearest its centre, nearest first, as (across, along)."""
     rings = math.ceil(math.sqrt(count)) + 1
     row = math.sqrt(3) / 2
     points = [(i + (j % 2) / 2, j * row) for j in range(-rings, rings + 1) for i in range(-rings, rings + 1)]

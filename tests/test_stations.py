@@ -10,6 +10,7 @@ import pytest
 
 from lander_agent.mission import MissionPlan
 from lander_agent.stations import station_offsets
+from schemas import messages as m
 from schemas.radio import GoalReport
 from schemas.scenario import load_scenario
 
@@ -68,3 +69,16 @@ def test_a_rover_alone_at_a_waypoint_gets_no_station():
     plan = MissionPlan(scenario)
     plan.on_report(1, GoalReport(goal_index=0, outcome="reached"))
     assert plan.direction_for(1).station is None
+
+
+def test_no_station_is_placed_on_the_lander_when_every_rover_returns():
+    scenario = _twenty_rover_return()
+    plan = MissionPlan(scenario)
+    lander = scenario.lander
+    plan.on_command(m.GroundCommand(command="set_target", x=lander.x, z=lander.z))
+    for rid in plan.rover_ids:
+        direction = plan.direction_for(rid)
+        assert direction.station is not None
+        gap = math.hypot(*direction.station) - lander.radius_m - scenario.rover_params.behaviour.rover_radius
+        assert gap > 0.9
+    assert len({plan.direction_for(r).station for r in plan.rover_ids}) == 20
