@@ -73,7 +73,7 @@ def _base_scenario(args: argparse.Namespace):
         raise process.UsageError("give a scenario file or --from FILE.mcap (one of them)")
     if args.scenario is not None:
         return load_scenario(args.scenario)
-    from deploy.session.export_cli import scenario_for
+    from deploy.session.format import scenario_for
 
     if not args.from_recording.is_file():
         raise process.UsageError(f"{args.from_recording}: no such file")

@@ -36,6 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
+    from deploy.session.format import scenario_for
+
     check_paths(args.input, args.output)
     scenario = scenario_for(args.input, args.scenario)
     if scenario is None:
@@ -68,28 +70,6 @@ def check_paths(source: Path, target: Path) -> None:
         raise process.UsageError(f"{source}: cannot read: {exc.strerror or exc}") from None
     if magic != b"\x89MCAP0\r\n":
         raise process.UsageError(f"{source}: not an MCAP file")
-
-
-def scenario_for(recording: Path, override: Path | None):
-    """The scenario to draw: ``--scenario``, else the YAML the recorder embedded, else None."""
-    import yaml
-
-    from deploy.session.format import SESSION_METADATA, read_metadata
-    from schemas.scenario import load_scenario, parse_scenario
-
-    if override is not None:
-        return load_scenario(override)
-    try:
-        text = read_metadata(recording).get(SESSION_METADATA, {}).get("scenario")
-    except Exception as exc:  # the mcap reader raises many kinds; all mean an unreadable recording
-        raise process.UsageError(f"{recording}: not a readable MCAP recording ({exc})") from None
-    if not text:
-        return None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise process.UsageError(f"{recording}: the embedded scenario is not valid YAML: {exc}") from None
-    return parse_scenario(data, f"{recording} (embedded scenario)")
 
 
 class FoxgloveFile:

@@ -17,10 +17,13 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from fnmatch import fnmatchcase
 from pathlib import Path
-from typing import BinaryIO
+from typing import TYPE_CHECKING, BinaryIO
 
 from schemas import codec
 from schemas.messages import Message, model_for_key
+
+if TYPE_CHECKING:
+    from schemas.scenario import Scenario
 
 PROFILE = "lunarsim"
 MESSAGE_ENCODING = "msgpack"
@@ -99,6 +102,30 @@ def time_range(path: str | Path) -> tuple[int, int]:
     if stats is None or stats.message_count == 0:
         return 0, 0
     return stats.message_start_time, stats.message_end_time
+
+
+def scenario_for(recording: str | Path, override: str | Path | None = None) -> Scenario | None:
+    """The scenario of a recording: ``override`` (a file), else the YAML the recorder embedded, else None.
+
+    Raises ``ScenarioError`` naming the recording when it cannot be read or its scenario is broken.
+    """
+    import yaml
+
+    from schemas.scenario import ScenarioError, load_scenario, parse_scenario
+
+    if override is not None:
+        return load_scenario(override)
+    try:
+        text = read_metadata(recording).get(SESSION_METADATA, {}).get("scenario")
+    except Exception as exc:  # the mcap reader raises many kinds; all mean an unreadable recording
+        raise ScenarioError(f"{recording}: not a readable MCAP recording ({exc})") from None
+    if not text:
+        return None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"{recording}: the embedded scenario is not valid YAML: {exc}") from None
+    return parse_scenario(data, f"{recording} (embedded scenario)")
 
 
 def decode(sample: Sample) -> Message | None:

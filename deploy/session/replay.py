@@ -77,26 +77,25 @@ def prefetch(samples: Iterable[Sample], size: int = 20_000) -> Iterator[Sample]:
     stop = threading.Event()
     done = object()
 
+    def put(item: object) -> bool:
+        """Wait for room, unless the consumer has gone; False once it has."""
+        while not stop.is_set():
+            try:
+                buffer.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
     def read() -> None:
         try:
             for sample in samples:
-                while not stop.is_set():
-                    try:
-                        buffer.put(sample, timeout=0.1)
-                        break
-                    except queue.Full:
-                        continue
-                if stop.is_set():
+                if not put(sample):
                     return
             item: object = done
         except Exception as exc:  # handed to the consumer, which raises it where it reads
             item = exc
-        while not stop.is_set():
-            try:
-                buffer.put(item, timeout=0.1)
-                return
-            except queue.Full:
-                continue
+        put(item)
 
     threading.Thread(target=read, name="replay-read-ahead", daemon=True).start()
     try:

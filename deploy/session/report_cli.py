@@ -27,8 +27,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from deploy.progress import summary_table
-    from deploy.session.export_cli import scenario_for
-    from deploy.session.format import SESSION_METADATA, read_metadata, read_samples
+    from deploy.session.format import SESSION_METADATA, read_metadata, read_samples, scenario_for
     from deploy.session.report import NothingToReport, report_from_samples
 
     if not args.input.is_file():
