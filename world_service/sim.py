@@ -443,12 +443,16 @@ class World:
 
     def _check_complete(self) -> None:
         """Every rover finished, none moving, and no photo still on its way to a lander it can reach."""
-        reach = self.graph.connected_to_lander()
-        reachable = {int(i) for i, ok in zip(self.graph.ids, reach, strict=True) if ok}
-        finished = all(s.state in FINISHED_STATES and not (s.photos_pending and rid in reachable)
-                       for rid, s in self.status.items())
-        if self.completed_at is None and finished and not any(b.busy for b in self.bodies.values()):
-            self.completed_at = self.sim_time
+        if self.completed_at is not None or not all(s.state in FINISHED_STATES for s in self.status.values()):
+            return
+        if any(b.busy for b in self.bodies.values()):
+            return
+        pending = [rid for rid, s in self.status.items() if s.photos_pending]
+        if pending:  # rare: only then is the graph consulted
+            reach = dict(zip(self.graph.ids.tolist(), self.graph.connected_to_lander().tolist(), strict=True))
+            if any(reach.get(rid, False) for rid in pending):
+                return
+        self.completed_at = self.sim_time
 
     @property
     def complete(self) -> bool:
