@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
+from procs import SCENARIOS, free_port, lunarsim, run_cli_mission, stop, wait_for_output
 
 from deploy.session.format import (
     DROPS_METADATA,
@@ -24,7 +25,6 @@ from deploy.session.recover import NotARecording, recover
 from deploy.session.writer import SessionWriter, SplittingWriter
 from schemas import codec
 from schemas import messages as m
-from tests.procs import SCENARIOS, free_port, lunarsim, run_cli_mission, stop, wait_for_output
 
 
 def _clock(tick: int) -> bytes:
