@@ -172,12 +172,13 @@ def test_snapshot_mode_writes_on_a_ground_command_and_on_sigusr1(tmp_path, route
 
 
 def _per_key(path: Path) -> dict[str, list[bytes]]:
-    """Each key's payloads in order, repeats in a row folded (the final report repeats until shutdown)."""
+    """Each key's payloads in order up to the world's final report; after it, processes are being shut down
+    and how many acks and statuses they still send depends on wall-clock timing, not on the simulation."""
     sequences: dict[str, list[bytes]] = {}
     for sample in read_samples(path):
-        seq = sequences.setdefault(sample.key, [])
-        if not seq or seq[-1] != sample.payload:
-            seq.append(sample.payload)
+        sequences.setdefault(sample.key, []).append(sample.payload)
+        if sample.key.endswith("/world/stats") and decode(sample).final:
+            break
     return sequences
 
 
@@ -191,5 +192,9 @@ def test_a_lockstep_rerun_from_a_recording_repeats_its_message_sequence(tmp_path
     assert report["seed"] == 5
     old, new = _per_key(first / "session.mcap"), _per_key(second / "session.mcap")
     assert set(old) == set(new) and len(old) > 40
-    differing = [key for key in old if old[key] != new[key]]
+    # An agent's answer to the very last tick races the world's final report to the recorder: a key may
+    # hold one sample more in one recording. Everything both recorded must be the same, in the same order.
+    differing = [key for key in old if abs(len(old[key]) - len(new[key])) > 1
+                 or old[key][:len(new[key])] != new[key][:len(old[key])]]
     assert differing == [], f"{len(differing)} keys differ, e.g. {differing[:3]}"
+    assert sum(map(len, old.values())) > 5000
