@@ -61,8 +61,10 @@ class Lander:
         return out
 
     def on_clock(self, clock: m.Clock) -> list[tuple[str, m.Message]]:
+        if not clock.running:  # the world waiting for agents, or done: nothing moves, nothing to answer
+            return []
         out = []
-        if clock.running and clock.sim_time >= self.next_send:
+        if clock.sim_time >= self.next_send:
             self.next_send = clock.sim_time + SEND_PERIOD_S
             out = self.broadcast(clock.sim_time)
         if clock.lockstep:

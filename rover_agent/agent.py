@@ -93,6 +93,8 @@ class RoverAgent:
             return []
 
     def on_clock(self, clock: m.Clock) -> list[Out]:
+        if not clock.running:  # the world waiting for agents, or done: nothing moves, nothing to answer
+            return []
         self.now = max(self.now, clock.sim_time)
         out: list[Out] = []
         reporting = self.finished_goal is not None and self.finished_goal[1] != "stopped"
