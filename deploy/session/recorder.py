@@ -19,7 +19,7 @@ from pathlib import Path
 import zenoh
 
 from deploy.session.format import Sample, TopicFilter
-from deploy.session.writer import SessionWriter, SplittingWriter
+from deploy.session.writer import SessionWriter
 
 log = logging.getLogger("lunarsim.record")
 QUEUE_SAMPLES = 200_000
@@ -95,6 +95,3 @@ class RollingBuffer:
         writer.close()
         self.snapshots.append(path)
         return path
-
-
-__all__ = ["Recorder", "RollingBuffer", "SplittingWriter"]
