@@ -80,6 +80,8 @@ def build_report(
     complete: bool,
     rejected_messages: int = 0,
     links: LinkStats | None = None,
+    radio_dropped: int = 0,
+    radio_lost: int = 0,
 ) -> MissionReport:
     total = float(sum(distances))
     average = total / len(distances) if distances else 0.0
@@ -99,6 +101,8 @@ def build_report(
         mission_duration_s=round(duration_s, 4),
         complete=complete,
         rejected_messages=rejected_messages,
+        radio_dropped=radio_dropped,
+        radio_lost=radio_lost,
         **(links.as_fields() if links else {}),
     )
 
@@ -113,8 +117,6 @@ class LinkStats:
     disconnected_by_rover: dict[int, float] = field(default_factory=dict)
     elapsed_s: float = 0.0
     max_relays: int = 0
-    dropped: int = 0
-    lost: int = 0
 
     def update(self, connected: dict[int, bool], relays: int, elapsed_s: float) -> None:
         self.losses += sum(1 for rid, now in connected.items() if self.connected.get(rid, True) and not now)
@@ -130,8 +132,7 @@ class LinkStats:
         connected = 1.0 - worst / self.elapsed_s if self.elapsed_s > 0 else 1.0
         return {"lander_connection_losses": self.losses, "disconnected_time_s": round(self.disconnected_s, 4),
                 "worst_rover_connected_fraction": round(connected, 4),
-                "max_rovers_in_daisy_chain": self.max_relays, "radio_dropped": self.dropped,
-                "radio_lost": self.lost}
+                "max_rovers_in_daisy_chain": self.max_relays}
 
 
 def lander_component(state: WorldState) -> set[int]:
@@ -181,7 +182,6 @@ class MissionStats:
         if state is None:
             raise ValueError("no world state observed yet: nothing to report")
         c = state.counters
-        self.links.dropped, self.links.lost = c.radio_dropped, c.radio_lost
         return build_report(
             self.scenario,
             distances=[r.distance_covered_m for r in state.rovers],
@@ -193,4 +193,6 @@ class MissionStats:
             complete=state.completed_at is not None,
             rejected_messages=c.rejected_messages,
             links=self.links,
+            radio_dropped=c.radio_dropped,
+            radio_lost=c.radio_lost,
         )
