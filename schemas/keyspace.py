@@ -37,6 +37,10 @@ STATE: Final = "state"
 STATS: Final = "stats"
 COMMAND: Final = "command"
 COMMAND_RESULT: Final = "command_result"
+TELEMETRY: Final = "telemetry"
+"""A real rover's own pose estimate, from its hardware driver bridge to the world service in twin mode."""
+ROVER_IDS: Final = "rover_ids"
+"""The world's queryable that hands a rover agent started with ``--id auto`` a free rover id."""
 """Lockstep: an agent's acknowledgement that it has handled a clock tick (rover and lander keys)."""
 
 
@@ -100,6 +104,10 @@ class Keyspace:
     @property
     def stats(self) -> str:
         return f"{self.prefix}/world/{STATS}"
+
+    @property
+    def rover_ids(self) -> str:
+        return f"{self.prefix}/world/{ROVER_IDS}"
 
     def alive_rover(self, rover_id: int) -> str:
         """Liveliness token a rover agent holds while it runs."""

@@ -218,6 +218,26 @@ class Clock(Message):
     lockstep: bool = False
 
 
+class Telemetry(Message):
+    """A real rover's own estimate of its pose (wheel odometry and IMU heading), relative to where its driver
+    started: the driver bridge publishes it and the world service in twin mode places it on the map from the
+    scenario's start pose. Rover agents never read it: they dead-reckon, as in simulation."""
+
+    stamp: float
+    x: float
+    z: float
+    heading_deg: float
+    pitch_deg: float = 0.0
+    moving: bool = False
+
+
+class RoverIdGrant(Message):
+    """The world's answer to ``--id auto``: the lowest scenario rover id no running agent holds, or why none."""
+
+    id: int | None
+    detail: str = ""
+
+
 class Ack(Message):
     """Lockstep: everything up to and including this tick has been handled (and answered)."""
 
@@ -313,6 +333,7 @@ TOPIC_MODELS: dict[str, type[Message]] = {
     ks.PHOTO: Photo,
     ks.STATUS: RoverStatus,
     ks.ACK: Ack,
+    ks.TELEMETRY: Telemetry,
 }
 """Rover topic -> payload model: the one table that says which type travels on which key."""
 
@@ -329,7 +350,8 @@ LANDER_TOPIC_MODELS: dict[str, type[Message]] = {
     ks.STATUS: LanderStatus,
     ks.ACK: Ack,
 }
-WORLD_TOPIC_MODELS: dict[str, type[Message]] = {ks.CLOCK: Clock, ks.STATE: WorldState, ks.STATS: WorldStats}
+WORLD_TOPIC_MODELS: dict[str, type[Message]] = {ks.CLOCK: Clock, ks.STATE: WorldState, ks.STATS: WorldStats,
+                                                 ks.ROVER_IDS: RoverIdGrant}
 GROUND_TOPIC_MODELS: dict[str, type[Message]] = {ks.COMMAND: GroundCommand, ks.COMMAND_RESULT: CommandResult}
 _AREA_MODELS = {"lander": LANDER_TOPIC_MODELS, "world": WORLD_TOPIC_MODELS, "ground": GROUND_TOPIC_MODELS}
 
