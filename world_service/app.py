@@ -28,6 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="exit after the mission instead of serving the final statistics")
     parser.add_argument("--report", type=Path, metavar="FILE", help="also write the final report.json here")
     parser.add_argument("--photos", type=Path, metavar="DIR", help="also save every rover photo (PNG) here")
+    parser.add_argument("--twin", action="store_true",
+                        help="follow real rovers (poses from their drivers' telemetry) instead of simulating "
+                             "them; real time only")
     add_zenoh_arguments(parser)
 
 
@@ -41,12 +44,19 @@ def run_from_args(args: argparse.Namespace) -> int:
     if args.time_scale < 0:
         raise process.UsageError(f"--time-scale must be 0 or more, got {args.time_scale}")
     scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers)
-    world = World(scenario, Keyspace(args.world))
+    if args.twin:
+        from world_service import twin_service
+        from world_service.twin import TwinWorld
+
+        twin_service.check_settings(args.lockstep, args.time_scale, args.photos)
+        world, declare_io = TwinWorld(scenario, Keyspace(args.world)), twin_service.declare_io
+    else:
+        world, declare_io = World(scenario, Keyspace(args.world)), service.declare_io
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
                                      lockstep=args.lockstep, photo_dir=args.photos)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="world")
     with Bus(session) as bus, process.stop_on_signals() as stop:
-        service.declare_io(bus, world.keys)
+        declare_io(bus, world.keys)
         report = service.run(world, bus, settings, stop)
         if args.report:
             args.report.write_text(json.dumps(report.model_dump(), indent=2) + "\n")

@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -18,6 +19,7 @@ from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.mission import RoverMissions
+from schemas.params import RoverParams
 from schemas.scenario import Scenario
 from world_service import camera
 from world_service import navigation as nav
@@ -34,6 +36,31 @@ FINISHED_STATES = ("done", "stuck", "stopped", "relay")
 KIND_NAMES = np.array(m.HIT_KINDS)
 PHOTO_TILT_DEG = 8.0
 """Photos look slightly down, so a crater seen from its rim fills the frame."""
+
+
+def tick_length(params: RoverParams) -> float:
+    """The world's tick: the period of its fastest publication, so every rate is a whole number of ticks."""
+    p = params
+    return 1.0 / max(p.perception.publish_frequency, p.perception.gyroscope_frequency, p.navigation.publish_frequency)
+
+
+def ticks_per_period(rate_hz: float, dt: float) -> int:
+    return max(1, round(1.0 / (rate_hz * dt)))
+
+
+def all_finished(status: dict[int, m.RoverStatus], moving: Iterable[bool],
+                 reaches_lander: Callable[[], dict[int, bool]]) -> bool:
+    """Every rover finished, none moving, and no photo still on its way to a lander it can reach.
+
+    ``reaches_lander`` (rover id -> has a radio route to the lander) is asked only when a photo is pending.
+    """
+    if not all(s.state in FINISHED_STATES for s in status.values()) or any(moving):
+        return False
+    pending = [rid for rid, s in status.items() if s.photos_pending]
+    if not pending:
+        return True
+    reach = reaches_lander()
+    return not any(reach.get(rid, False) for rid in pending)
 
 
 @dataclass(frozen=True)
@@ -57,8 +84,7 @@ class World:
         self.params = scenario.rover_params
         self.rng = np.random.default_rng(scenario.seed)
         p = self.params
-        rates = (p.perception.publish_frequency, p.perception.gyroscope_frequency, p.navigation.publish_frequency)
-        self.dt = 1.0 / max(rates)
+        self.dt = tick_length(p)
         self.perception_period = self._period(p.perception.publish_frequency)
         self.gyroscope_period = self._period(p.perception.gyroscope_frequency)
         self.status_period = self._period(p.navigation.publish_frequency)
@@ -89,7 +115,7 @@ class World:
         self.graph = self._build_graph()
 
     def _period(self, rate_hz: float) -> int:
-        return max(1, round(1.0 / (rate_hz * self.dt)))
+        return ticks_per_period(rate_hz, self.dt)
 
     @property
     def sim_time(self) -> float:
@@ -442,17 +468,12 @@ class World:
         return "rotate" if isinstance(body.action, nav.Rotate) else "idle"
 
     def _check_complete(self) -> None:
-        """Every rover finished, none moving, and no photo still on its way to a lander it can reach."""
-        if self.completed_at is not None or not all(s.state in FINISHED_STATES for s in self.status.values()):
-            return
-        if any(b.busy for b in self.bodies.values()):
-            return
-        pending = [rid for rid, s in self.status.items() if s.photos_pending]
-        if pending:  # rare: only then is the graph consulted
-            reach = dict(zip(self.graph.ids.tolist(), self.graph.connected_to_lander().tolist(), strict=True))
-            if any(reach.get(rid, False) for rid in pending):
-                return
-        self.completed_at = self.sim_time
+        if self.completed_at is None and all_finished(self.status, (b.busy for b in self.bodies.values()),
+                                                      self._reaches_lander):
+            self.completed_at = self.sim_time
+
+    def _reaches_lander(self) -> dict[int, bool]:
+        return dict(zip(self.graph.ids.tolist(), self.graph.connected_to_lander().tolist(), strict=True))
 
     @property
     def complete(self) -> bool:
