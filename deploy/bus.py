@@ -10,6 +10,7 @@ before it), which costs the agent a perception period. Kept light: the rover age
 from __future__ import annotations
 
 import queue
+from collections.abc import Callable
 from typing import NamedTuple
 
 import zenoh
@@ -39,6 +40,15 @@ class Bus:
         handler = zenoh.handlers.Callback(self._on_liveliness, indirect=False)
         sub = self.session.liveliness().declare_subscriber(key_expr, handler, history=True)
         self._declared.append(sub)
+
+    def serve(self, key_expr: str, answer: Callable[[bytes], bytes]) -> None:
+        """Answer queries on ``key_expr``. ``answer`` runs on Zenoh's thread: it must be quick and thread-safe."""
+
+        def _on_query(query: zenoh.Query) -> None:
+            request = query.payload.to_bytes() if query.payload is not None else b""
+            query.reply(query.key_expr, answer(request))
+
+        self._declared.append(self.session.declare_queryable(key_expr, _on_query))
 
     def declare_token(self, key: str) -> None:
         self._declared.append(self.session.liveliness().declare_token(key))

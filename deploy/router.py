@@ -17,7 +17,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     import zenoh
 
     listen = args.listen or ([] if args.config else [DEFAULT_ENDPOINT])
-    conf = build_config("router", args.config, args.connect, listen)
+    conf = build_config("router", args.config, args.connect, listen, scouting=args.scouting)
     where = ", ".join(listen) or f"the endpoints of {args.config}"
     try:
         session = zenoh.open(conf)

@@ -25,7 +25,9 @@ class RouterUnreachable(RuntimeError):
     """No Zenoh router (or peer) answered at the configured endpoints."""
 
 
-def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False) -> None:
+def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False, agent: bool = False) -> None:
+    """Zenoh flags of every process. Agents (``agent=True``: world, lander, rovers, recorder, bridges) wait for
+    their router for as long as it takes, so a deployment may start in any order; one-shot tools give up."""
     group = parser.add_argument_group("zenoh")
     group.add_argument("--connect", "-e", action="append", metavar="ENDPOINT",
                        help=f"router endpoint to connect to (default {DEFAULT_ENDPOINT}); repeatable")
@@ -33,12 +35,19 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False) -
         group.add_argument("--listen", "-l", action="append", metavar="ENDPOINT",
                            help="endpoint to listen on; repeatable")
     group.add_argument("--config", "-c", metavar="FILE", help="Zenoh json5 config file (else $ZENOH_CONFIG)")
-    group.add_argument("--router-timeout", type=float, default=10.0, metavar="S",
-                       help="seconds to keep trying to reach the router before giving up (default 10)")
+    group.add_argument("--scouting", action="store_true",
+                       help="switch multicast scouting on (off by default: it fails in most containers)")
+    if agent:
+        group.add_argument("--router-timeout", type=float, default=None, metavar="S",
+                           help="give up after S seconds without a router (default: wait for it, saying so)")
+    else:
+        group.add_argument("--router-timeout", type=float, default=10.0, metavar="S",
+                           help="seconds to keep trying to reach the router before giving up (default 10)")
 
 
 def build_config(mode: str = "client", config_file: str | None = None, connect: Sequence[str] | None = None,
-                 listen: Sequence[str] | None = None, environ: dict[str, str] | None = None) -> zenoh.Config:
+                 listen: Sequence[str] | None = None, environ: dict[str, str] | None = None,
+                 scouting: bool = False) -> zenoh.Config:
     environ = os.environ if environ is None else environ
     path = config_file or environ.get("ZENOH_CONFIG")
     conf = zenoh.Config.from_file(path) if path else zenoh.Config()
@@ -51,11 +60,14 @@ def build_config(mode: str = "client", config_file: str | None = None, connect: 
         conf.insert_json5("connect/endpoints", json.dumps([DEFAULT_ENDPOINT]))
     if listen:
         conf.insert_json5("listen/endpoints", json.dumps(list(listen)))
+    if scouting:
+        conf.insert_json5("scouting/multicast/enabled", "true")
     return conf
 
 
 def config_from_args(args: argparse.Namespace, mode: str = "client") -> zenoh.Config:
-    return build_config(mode, args.config, args.connect, getattr(args, "listen", None))
+    return build_config(mode, args.config, args.connect, getattr(args, "listen", None),
+                        scouting=getattr(args, "scouting", False))
 
 
 def describe_endpoints(args: argparse.Namespace) -> str:
@@ -66,20 +78,31 @@ def describe_endpoints(args: argparse.Namespace) -> str:
     return DEFAULT_ENDPOINT
 
 
-def open_session(conf: zenoh.Config, where: str, timeout_s: float = 10.0, who: str = "lunarsim") -> zenoh.Session:
-    """Open a session, retrying until ``timeout_s``; say plainly on stderr that we are waiting, then give up."""
-    deadline = time.monotonic() + timeout_s
-    warned = False
+WAIT_REMINDER_S = 30.0
+
+
+def open_session(conf: zenoh.Config, where: str, timeout_s: float | None = 10.0,
+                 who: str = "lunarsim") -> zenoh.Session:
+    """Open a session, retrying until ``timeout_s`` (None: for ever); say plainly on stderr that we are waiting,
+    and again every half minute, so a process started before its router is not mistaken for a hung one."""
+    start = time.monotonic()
+    next_notice = start
     while True:
         try:
-            return zenoh.open(conf)
+            session = zenoh.open(conf)
         except zenoh.ZError as exc:
-            if time.monotonic() >= deadline:
+            now = time.monotonic()
+            if timeout_s is not None and now - start >= timeout_s:
                 raise RouterUnreachable(
                     f"{who}: no Zenoh router reachable at {where} after {timeout_s:g} s ({exc}). "
                     "Start one with 'lunarsim router' or point --connect at a running one."
                 ) from None
-            if not warned:
-                print(f"{who}: waiting for a Zenoh router at {where} ...", file=sys.stderr, flush=True)
-                warned = True
+            if now >= next_notice:
+                waited = f" (waiting {now - start:.0f} s)" if now > start else ""
+                print(f"{who}: waiting for a Zenoh router at {where} ...{waited}", file=sys.stderr, flush=True)
+                next_notice = now + WAIT_REMINDER_S
             time.sleep(0.5)
+            continue
+        if next_notice > start:
+            print(f"{who}: connected to the Zenoh router at {where}", file=sys.stderr, flush=True)
+        return session

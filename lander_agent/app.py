@@ -13,7 +13,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, help="scenario YAML: the lander takes its mission plan from it")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--archive", type=Path, metavar="DIR", help="archive received photos here (PNG + index)")
-    add_zenoh_arguments(parser)
+    add_zenoh_arguments(parser, agent=True)
 
 
 def run_from_args(args: argparse.Namespace) -> int:

@@ -9,6 +9,7 @@ import threading
 from pathlib import Path
 
 from deploy.bus import Bus
+from deploy.world_watch import ClockWatch
 from lander_agent.mission import MissionPlan
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -126,8 +127,12 @@ def run(lander: Lander, bus: Bus, stop: threading.Event) -> None:
     for key in (keys.clock, keys.lander(ks.COMM_IN), keys.lander(ks.COMM_PARTNERS), keys.ground_command):
         bus.subscribe(key)
     bus.declare_token(keys.alive_lander)
+    watch = ClockWatch("lander", keys.clock)
     while not stop.is_set():
         item = bus.receive(timeout=0.2)
+        watch.check()
         if item is not None:
+            if item.key == keys.clock:
+                watch.heard()
             for key, message in lander.handle(item.key, item.payload):
                 bus.publish(key, message)

@@ -6,6 +6,7 @@ import logging
 import threading
 
 from deploy.bus import Bus
+from deploy.world_watch import ClockWatch
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
 from schemas import codec
 from schemas import messages as m
@@ -20,11 +21,14 @@ def run(agent: RoverAgent, bus: Bus, stop: threading.Event) -> None:
         bus.subscribe(keys.rover(agent.id, topic))
     bus.subscribe(keys.clock)
     bus.declare_token(keys.alive_rover(agent.id))
+    watch = ClockWatch(f"rover {agent.id}", keys.clock)
     while not stop.is_set():
         item = bus.receive(timeout=0.2)
+        watch.check()
         if item is None:
             continue
         if item.key == keys.clock:
+            watch.heard()
             out = _on_clock(agent, item.payload)
         else:
             out = agent.handle(item.key[len(prefix):], item.payload)

@@ -31,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--twin", action="store_true",
                         help="follow real rovers (poses from their drivers' telemetry) instead of simulating "
                              "them; real time only")
-    add_zenoh_arguments(parser)
+    add_zenoh_arguments(parser, agent=True)
 
 
 def run_from_args(args: argparse.Namespace) -> int:

@@ -24,6 +24,7 @@ from deploy.bus import Bus, Received
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from world_service.rover_ids import IdDesk
 from world_service.sim import World
 
 log = logging.getLogger("lunarsim.world")
@@ -86,6 +87,7 @@ class Agents:
     keys: ks.Keyspace
     present: set[str] = field(default_factory=set)
     acked: set[str] = field(default_factory=set)
+    desk: IdDesk | None = None
 
     def ack_key_of(self, alive_key: str) -> str:
         if alive_key == self.keys.alive_lander:
@@ -111,9 +113,13 @@ def note_liveliness(world: World, agents: Agents, item: Received) -> None:
     (agents.present.add if item.alive else agents.present.discard)(item.key)
     if item.key != world.keys.alive_lander:
         try:
-            world.set_alive(world.keys.parse_alive_key(item.key), item.alive)
+            rover_id = world.keys.parse_alive_key(item.key)
         except ValueError as exc:
             log.warning("ignored liveliness token: %s", exc)
+            return
+        world.set_alive(rover_id, item.alive)
+        if agents.desk is not None:
+            agents.desk.note_alive(rover_id, item.alive)
 
 
 def handle(world: World, bus: Bus, item: Received, agents: Agents) -> None:
@@ -137,7 +143,8 @@ def _note_ack(world: World, agents: Agents, item: Received) -> None:
 
 def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> Agents:
     keys = world.keys
-    agents = Agents(keys)
+    agents = Agents(keys, desk=IdDesk(world.bodies))
+    bus.serve(keys.rover_ids, lambda requester: codec.encode(agents.desk.grant(requester.decode(errors="replace"))))
     wanted = {keys.alive_rover(rid) for rid in world.bodies}
     if settings.wait_for_lander:
         wanted.add(keys.alive_lander)

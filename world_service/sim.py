@@ -35,6 +35,7 @@ Out = tuple[str, m.Message]
 FINISHED_STATES = ("done", "stuck", "stopped", "relay")
 KIND_NAMES = np.array(m.HIT_KINDS)
 PHOTO_TILT_DEG = 8.0
+ACTION_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.PHOTO_ACTION})
 """Photos look slightly down, so a crater seen from its rim fills the frame."""
 
 
@@ -101,6 +102,8 @@ class World:
                        for i, r in enumerate(scenario.rovers)}
         self.status = {rid: m.RoverStatus(stamp=0.0, state="waiting") for rid in self.bodies}
         self.alive = dict.fromkeys(self.bodies, True)
+        self.unheard: dict[int, list[Out]] = {}  # endings published while the rover's agent was away
+        self._resend_at: dict[int, int] = {}
         self.rover_collisions = 0
         self.obstacle_collisions = 0
         self.rejected: Counter[str] = Counter()
@@ -138,6 +141,8 @@ class World:
             handler = self._handlers.get(topic)
             if handler is None:
                 raise ValueError(f"topic {topic!r} is not an input of the world")
+            if topic in ACTION_TOPICS:
+                self.unheard.pop(rover_id, None)  # the agent has moved on
             return handler(self, rover_id, codec.decode(m.TOPIC_MODELS[topic], payload))
         except (codec.DecodeError, ValueError) as exc:
             self.rejected[key] += 1
@@ -244,11 +249,24 @@ class World:
         self.mission_stats.command(command)
 
     def set_alive(self, rover_id: int, alive: bool) -> None:
-        """Watchdog: a rover whose agent is gone stops where it is."""
-        if rover_id in self.bodies:
-            self.alive[rover_id] = alive
-            if not alive:
-                self.bodies[rover_id].cancel()
+        """Watchdog: a rover whose agent is gone stops where it is. An agent that comes back (its router
+        restarted, its link returned) is told again, once, how its action ended while it was away: without
+        that it would wait for ever for the end of an action that is over."""
+        if rover_id not in self.bodies:
+            return
+        was_alive, self.alive[rover_id] = self.alive[rover_id], alive
+        if not alive:
+            self.bodies[rover_id].cancel()
+        elif not was_alive and rover_id in self.unheard:
+            self._resend_at[rover_id] = self.tick + self._period(1.0)  # its subscriptions are back by then
+
+    def _resend_unheard(self) -> list[Out]:
+        out: list[Out] = []
+        for rover_id in [rid for rid, due in self._resend_at.items() if self.tick >= due]:
+            del self._resend_at[rover_id]
+            if self.alive[rover_id]:
+                out += self.unheard.pop(rover_id, [])
+        return out
 
     # ---- radio ----
 
@@ -317,6 +335,7 @@ class World:
             self._activate_terrain()
             self.graph = self._build_graph()
         out += self._due_radio()
+        out += self._resend_unheard()
         out += self._sensors()
         self._check_complete()
         out.append((self.keys.clock, self.clock()))
@@ -377,6 +396,8 @@ class World:
             x, z, angle = body.relative_to_start(ended.start)
             out.append((self.keys.rover(rid, ks.CANCEL_RESULT),
                         m.CancelResult(x=x, z=z, angle_deg=angle, reason=ended.outcome)))
+        if not self.alive[rid]:
+            self.unheard[rid] = out
         return out
 
     def _sensors(self) -> list[Out]:

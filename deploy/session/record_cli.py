@@ -33,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", type=Path, metavar="FILE", help="scenario to embed in the metadata, so "
                         "the recording says how to reproduce itself")
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
-    add_zenoh_arguments(parser)
+    add_zenoh_arguments(parser, agent=True)
 
 
 def _size(text: str) -> int:

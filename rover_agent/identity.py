@@ -1,0 +1,65 @@
+"""Which rover an agent drives: a number given on the command line (or in ``LUNARSIM_ROVER_ID``), the ordinal
+of a Kubernetes StatefulSet pod (``rover-0`` drives rover 1), or an id the world service hands out
+(``auto``, for containers scaled with ``docker compose --scale rover=N``, which have no ordinal)."""
+
+from __future__ import annotations
+
+import logging
+import re
+import socket
+import sys
+import threading
+
+import zenoh
+
+from deploy.process import UsageError
+from schemas import codec
+from schemas import messages as m
+from schemas.keyspace import Keyspace
+
+log = logging.getLogger("lunarsim.rover")
+ID_MODES = ("auto", "ordinal")
+ASK_PERIOD_S = 2.0
+_ORDINAL = re.compile(r"-(\d+)$")
+
+
+def parse_id(text: str) -> int | str:
+    """``--id`` as given: a rover id from 1, or one of ``ID_MODES``."""
+    text = text.strip()
+    if text in ID_MODES:
+        return text
+    if text.isascii() and text.isdigit() and int(text) >= 1:
+        return int(text)
+    raise ValueError(f"rover id must be a number from 1 (rover ids start at 1), 'auto' or 'ordinal'; got {text!r}")
+
+
+def id_from_hostname(hostname: str | None = None) -> int:
+    """StatefulSet pods are named ``<set>-<ordinal>`` from 0; rovers are numbered from 1 as in the report."""
+    hostname = hostname or socket.gethostname()
+    found = _ORDINAL.search(hostname.split(".")[0])
+    if found is None:
+        raise ValueError(f"--id ordinal needs a host name ending in -<number> (a StatefulSet pod), got {hostname!r}")
+    return int(found.group(1)) + 1
+
+
+def ask_world(session: zenoh.Session, keys: Keyspace, stop: threading.Event) -> int | None:
+    """Ask the world service for a free rover id, waiting (and saying so) until one answers; None if stopped."""
+    requester = str(session.info.zid())
+    waited = False
+    while not stop.is_set():
+        for reply in session.get(keys.rover_ids, payload=requester.encode(), timeout=ASK_PERIOD_S):
+            if reply.ok is None:
+                continue
+            try:
+                grant = codec.decode(m.RoverIdGrant, reply.ok.payload.to_bytes())
+            except codec.DecodeError as exc:
+                log.warning("rejected rover id grant: %s", exc)
+                continue
+            if grant.id is not None:
+                return grant.id
+            raise UsageError(f"the world service has no rover id left: {grant.detail}")
+        if not waited:
+            print(f"rover (id auto): waiting for the world service to hand out a rover id on {keys.rover_ids}",
+                  file=sys.stderr, flush=True)
+            waited = True
+    return None

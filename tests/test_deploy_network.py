@@ -1,0 +1,236 @@
+"""Deployment on a network: rover ids without hand-editing, start-up in any order, the Zenoh config files,
+and the world telling an agent that comes back how its action ended while it was away."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import pytest
+import yaml
+import zenoh
+from procs import REPO, SCENARIOS, free_port, module, stop, wait_for, wait_for_output
+
+from deploy.children import wait_for_port
+from deploy.world_watch import ClockWatch
+from deploy.zenoh_config import build_config
+from rover_agent.identity import id_from_hostname, parse_id
+from schemas import codec
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.keyspace import Keyspace
+from schemas.scenario import load_scenario
+from world_service.rover_ids import RESERVE_S, IdDesk
+from world_service.sim import World
+
+ZENOH_DIR = REPO / "deploy" / "zenoh"
+
+
+# ---- rover ids ----
+
+
+@pytest.mark.parametrize(("text", "expected"), [("3", 3), (" 12 ", 12), ("auto", "auto"), ("ordinal", "ordinal")])
+def test_parse_id_accepts_numbers_from_one_and_the_two_modes(text, expected):
+    assert parse_id(text) == expected
+
+
+@pytest.mark.parametrize("text", ["0", "-1", "two", "", "1.5", "٣"])
+def test_parse_id_refuses_anything_else_naming_it(text):
+    with pytest.raises(ValueError, match="rover id must be"):
+        parse_id(text)
+
+
+@pytest.mark.parametrize(("host", "rover"), [("rover-0", 1), ("rover-11", 12), ("lunar-rover-3.rovers.ns.svc", 4)])
+def test_statefulset_ordinal_counts_rovers_from_one(host, rover):
+    assert id_from_hostname(host) == rover
+
+
+def test_ordinal_needs_a_numbered_host_name():
+    with pytest.raises(ValueError, match="StatefulSet"):
+        id_from_hostname("3f2a9c1b7d")
+
+
+def test_id_desk_hands_out_the_lowest_free_id_once_and_again_to_the_same_requester():
+    now = [0.0]
+    desk = IdDesk([1, 2, 3], clock=lambda: now[0])
+    desk.note_alive(1, True)  # an agent started with an explicit --id 1
+    assert desk.grant("a").id == 2
+    assert desk.grant("b").id == 3
+    assert desk.grant("a").id == 2  # asked again (its reply was lost): the same id
+    refused = desk.grant("c")
+    assert refused.id is None and "all 3 rovers" in refused.detail
+    desk.note_alive(2, True)
+    desk.note_alive(2, False)  # rover 2's agent died: its id is free again
+    assert desk.grant("c").id == 2
+
+
+def test_id_desk_frees_a_grant_whose_agent_never_came():
+    now = [0.0]
+    desk = IdDesk([1], clock=lambda: now[0])
+    assert desk.grant("a").id == 1
+    assert desk.grant("b").id is None
+    now[0] = RESERVE_S + 1
+    assert desk.grant("b").id == 1
+
+
+# ---- the world and an agent that comes back ----
+
+
+def _one_rover_world() -> World:
+    return World(load_scenario(SCENARIOS / "crater_observation.yaml").with_overrides(rovers=1), Keyspace("t"))
+
+
+def _published(out, topic: str) -> list:
+    return [msg for key, msg in out if key == Keyspace("t").rover(1, topic)]
+
+
+def test_world_tells_a_returning_agent_once_how_its_action_ended():
+    world = _one_rover_world()
+    world.receive(world.keys.rover(1, ks.ROTATE_ACTION), codec.encode(m.RotateAction(degrees=90)))
+    world.step()
+    world.set_alive(1, False)  # the router went away: the watchdog stops the rover
+    away = [world.step() for _ in range(5)]
+    assert any(_published(out, ks.CANCEL_RESULT) for out in away)  # published, but the agent was not there
+    world.set_alive(1, True)
+    back = [world.step() for _ in range(3 * world._period(1.0))]
+    resent = [msg for out in back for msg in _published(out, ks.CANCEL_RESULT)]
+    assert len(resent) == 1 and resent[0].reason == "cancelled"
+    ends = [msg for out in back for msg in _published(out, ks.NAVIGATION_STATUS) if msg.remaining == 0.0]
+    assert len(ends) == 1
+
+
+def test_world_resends_nothing_once_the_agent_has_moved_on():
+    world = _one_rover_world()
+    world.receive(world.keys.rover(1, ks.ROTATE_ACTION), codec.encode(m.RotateAction(degrees=90)))
+    world.step()
+    world.set_alive(1, False)
+    for _ in range(5):
+        world.step()
+    world.set_alive(1, True)
+    world.receive(world.keys.rover(1, ks.ROTATE_ACTION), codec.encode(m.RotateAction(degrees=-10)))
+    back = [world.step() for _ in range(3 * world._period(1.0))]
+    assert not any(_published(out, ks.CANCEL_RESULT) for out in back)
+
+
+def test_clock_watch_says_when_it_waits_finds_and_loses_the_world(capsys):
+    now = [0.0]
+    watch = ClockWatch("rover 4", "lunar/w/world/clock", now=lambda: now[0])
+    watch.check()
+    assert capsys.readouterr().err == ""
+    now[0] = 3.5
+    watch.check()
+    watch.check()
+    assert capsys.readouterr().err.count("rover 4: waiting for the world service") == 1
+    watch.heard()
+    assert "world service found" in capsys.readouterr().err
+    now[0] = 9.0
+    watch.check()
+    assert "lost the world service" in capsys.readouterr().err
+    watch.heard()
+    assert "found" in capsys.readouterr().err
+
+
+# ---- Zenoh config files ----
+
+
+def _exchange(a: zenoh.Session, b: zenoh.Session, key: str) -> None:
+    got: list[bytes] = []
+    sub = b.declare_subscriber(key, lambda s: got.append(s.payload.to_bytes()))
+    pub = a.declare_publisher(key)
+    wait_for(lambda: pub.put(b"hello") or got, 10, f"a sample on {key} between the two sessions", interval=0.2)
+    sub.undeclare()
+
+
+def test_router_and_client_config_files_work_with_only_the_endpoints_changed():
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    router = module("deploy.router", "--config", str(ZENOH_DIR / "router.json5"), "--listen", endpoint)
+    try:
+        assert wait_for_port("127.0.0.1", port, 15, router)
+        conf = lambda: build_config(config_file=str(ZENOH_DIR / "client.json5"), connect=[endpoint])  # noqa: E731
+        with zenoh.open(conf()) as a, zenoh.open(conf()) as b:
+            assert json.loads(conf().get_json("scouting/multicast/enabled")) is False
+            _exchange(a, b, "lunar/cfg/test")
+    finally:
+        stop(router)
+
+
+def test_peer_config_files_talk_without_a_router():
+    port = free_port()
+    first = build_config(config_file=str(ZENOH_DIR / "peer.json5"), listen=[f"tcp/127.0.0.1:{port}"])
+    second = build_config(config_file=str(ZENOH_DIR / "peer.json5"), listen=[f"tcp/127.0.0.1:{free_port()}"],
+                          connect=[f"tcp/127.0.0.1:{port}"])
+    with zenoh.open(first) as a, zenoh.open(second) as b:
+        _exchange(a, b, "lunar/peer/test")
+
+
+def test_scouting_is_off_unless_asked_for():
+    assert json.loads(build_config().get_json("scouting/multicast/enabled")) is False
+    assert json.loads(build_config(scouting=True).get_json("scouting/multicast/enabled")) is True
+
+
+# ---- processes ----
+
+
+def _two_rover_scenario(tmp_path):
+    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
+    data["rovers"] = data["rovers"][:2]
+    path = tmp_path / "two.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.e2e
+def test_rovers_started_with_id_auto_get_distinct_ids_and_a_surplus_one_is_refused(router, tmp_path):
+    keys = Keyspace("autoid")
+    common = ["--world", keys.world, "--connect", router]
+    scenario = _two_rover_scenario(tmp_path)
+    rovers = [module("rover_agent", "--id", "auto", *common) for _ in range(2)]  # before the world: they wait
+    world = module("world_service", str(scenario), *common, "--no-lander", "--max-sim-time", "20",
+                   "--time-scale", "2")
+    states: list[m.WorldState] = []
+    try:
+        granted = sorted(int(wait_for_output(r, "id handed out", 40).split("rover ")[1].split(":")[0])
+                         for r in rovers)
+        assert granted == [1, 2]
+        with zenoh.open(build_config(connect=[router])) as session:
+            session.declare_subscriber(keys.state, lambda s: states.append(codec.decode(m.WorldState,
+                                                                                          s.payload.to_bytes())))
+            wait_for(lambda: states and all(r.alive for r in states[-1].rovers), 20, "both rovers alive")
+        surplus = module("rover_agent", "--id", "auto", *common)
+        out, _ = surplus.communicate(timeout=30)
+        assert surplus.returncode == 2 and "no rover id left" in out, out
+    finally:
+        stop(world, *rovers)
+
+
+@pytest.mark.e2e
+def test_an_agent_started_first_waits_for_the_router_then_for_the_world(tmp_path):
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    common = ["--world", "order", "--connect", endpoint]
+    rover = module("rover_agent", "--id", "1", *common)
+    router = world = None
+    try:
+        wait_for_output(rover, "waiting for a Zenoh router", 20)
+        router = module("deploy.router", "--listen", endpoint)
+        wait_for_output(rover, "connected to the Zenoh router", 30)
+        wait_for_output(rover, "waiting for the world service", 20)
+        world = module("world_service", str(_two_rover_scenario(tmp_path)), *common, "--no-lander")
+        wait_for_output(rover, "world service found", 30)
+        assert rover.poll() is None
+    finally:
+        stop(*[p for p in (rover, world, router) if p is not None])
+
+
+def test_a_one_shot_tool_still_gives_up_without_a_router():
+    proc = subprocess.run([*module_argv("deploy.cli"), "command", "stop", "--rover", "1", "--connect",
+                           f"tcp/127.0.0.1:{free_port()}", "--router-timeout", "1"],
+                          cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 3 and "no Zenoh router reachable" in proc.stderr
+
+
+def module_argv(name: str) -> list[str]:
+    import sys
+
+    return [sys.executable, "-m", name]
