@@ -29,6 +29,9 @@ COMMANDS = {
     "export-foxglove": ("deploy.session.export_cli",
                         "write Foxglove channels (3D scene, transforms, photos) for a recording"),
     "view": ("deploy.session.view_cli", "serve a live world to the Foxglove app over WebSocket"),
+    "bridge": ("deploy.hardware.bridge_app", "put one real rover (a hardware driver) on a rover's keys"),
+    "emulate-device": ("deploy.hardware.emulator", "an emulated serial rover base on a pseudo-terminal"),
+    "check-driver": ("deploy.hardware.check", "drive a hardware driver through the interface, list violations"),
 }
 
 
