@@ -15,15 +15,21 @@ import re
 import shlex
 import shutil
 import subprocess
+import sys
 import tomllib
 from pathlib import Path, PurePosixPath
 
 import pytest
 import yaml
-from procs import REPO
+import zenoh
+from mcap.reader import make_reader
+from procs import REPO, free_port, stop, wait_for
 
+from deploy.children import wait_for_port
 from deploy.cli import build_parser
+from deploy.zenoh_config import build_config
 from rover_agent.identity import id_from_hostname, parse_id
+from schemas.keyspace import PERCEPTION, Keyspace
 from schemas.scenario import load_scenario
 
 DEPLOY = REPO / "deploy"
@@ -415,6 +421,67 @@ def test_compose_rovers_get_ids_from_the_world_and_match_its_count(env, shim):
     expected = int(option(world_args, "--rovers") or scenario_rovers(world_args[1]))
     assert int(services[rover]["deploy"]["replicas"]) == expected
     assert ("--rovers" in world_args) == ("ROVERS" in env)
+
+
+def on_loopback(args: list[str], router: str, port: int, mounts: dict[str, Path]) -> list[str]:
+    """A container's arguments for a process on this machine: router host, image files and volumes mapped."""
+    mapped = []
+    for arg in args:
+        arg = re.sub(rf"tcp/({re.escape(router)}|0\.0\.0\.0):\d+", f"tcp/127.0.0.1:{port}", arg)
+        mount = next((m for m in mounts if arg.startswith(m + "/")), None)
+        if mount is not None:
+            arg = str(mounts[mount] / arg[len(mount) + 1:])
+        elif arg.startswith("/"):
+            arg = str(repo_path_in_image(arg) or arg)
+        mapped.append(arg)
+    return mapped
+
+
+def start_service(name: str, args: list[str], logs: Path, copy: int = 0) -> subprocess.Popen:
+    log = (logs / f"{name}-{copy}.log").open("w")
+    return subprocess.Popen([sys.executable, "-m", "deploy.cli", *args], cwd=logs, stdout=log,
+                            stderr=subprocess.STDOUT, text=True)
+
+
+def rovers_heard(session: zenoh.Session, keys: Keyspace) -> set[int]:
+    """Rover ids the world has started to send perception to (its clock runs only once every agent is in)."""
+    heard: set[int] = set()
+    session.declare_subscriber(keys.rovers(PERCEPTION), lambda s: heard.add(keys.parse_rover_key(str(s.key_expr))[0]))
+    return heard
+
+
+@pytest.mark.e2e
+def test_compose_services_run_as_processes_give_every_rover_its_own_id(shim, tmp_path):
+    """The compose commands themselves, started as processes on loopback (one per rover replica, all with
+    --id auto): the world hands out ids 1..N, starts the mission, and the recorder's file holds every rover."""
+    services, commands = compose_services({}), compose_commands({}, shim)
+    names = {role_of(args): name for name, args in commands.items()}
+    port, data = free_port(), tmp_path / "volumes"
+    procs: list[subprocess.Popen] = []
+
+    def launch(role: str, copies: int = 1) -> None:
+        name = names[role]
+        mounts = {v.split(":")[1]: data / v.split(":")[0] for v in services[name].get("volumes", [])}
+        args = on_loopback(commands[name], names["router"], port, mounts)
+        procs.extend(start_service(name, args, tmp_path, i) for i in range(copies))
+
+    try:
+        launch("router")
+        assert wait_for_port("127.0.0.1", port, 15, procs[0]), "the router did not listen"
+        for role in ("recorder", "world", "lander"):
+            launch(role)
+        replicas = int(services[names["rover"]]["deploy"]["replicas"])
+        launch("rover", replicas)
+        with zenoh.open(build_config(connect=[f"tcp/127.0.0.1:{port}"])) as session:
+            heard = rovers_heard(session, Keyspace())
+            wait_for(lambda: len(heard) == replicas, 60, f"perception for {replicas} rovers")
+        assert heard == set(range(1, replicas + 1))
+    finally:
+        stop(*reversed(procs))
+    (session_file,) = (data / "recordings").glob("session-*.mcap")
+    with session_file.open("rb") as stream:
+        topics = {c.topic for c in make_reader(stream).get_summary().channels.values()}
+    assert {Keyspace().rover(i, PERCEPTION) for i in heard} <= topics
 
 
 def test_compose_recorder_and_batch_write_into_named_volumes(shim):
