@@ -32,6 +32,7 @@ COMMANDS = {
     "bridge": ("deploy.hardware.bridge_app", "put one real rover (a hardware driver) on a rover's keys"),
     "emulate-device": ("deploy.hardware.emulator", "an emulated serial rover base on a pseudo-terminal"),
     "check-driver": ("deploy.hardware.check", "drive a hardware driver through the interface, list violations"),
+    "acl": ("deploy.security.acl_cli", "secured router config: TLS, mTLS, passwords, access control per role"),
 }
 
 

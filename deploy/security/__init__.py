@@ -1,0 +1,1 @@
+"""Locking a LunarSim keyspace down: TLS with mutual authentication, user/password auth, access control."""

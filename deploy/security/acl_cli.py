@@ -1,0 +1,105 @@
+"""``lunarsim acl``: the secured router's config, with access control generated from a scenario.
+
+    deploy/security/make-dev-certs.sh secure/certs 5             # a development CA and per-role certs
+    lunarsim acl scenarios/crater_observation.yaml -o secure/router.json5
+    lunarsim router --config secure/router.json5
+    lunarsim rover --id 1 --config secure/clients/rover-1.json5 ...
+
+Writes the router config (TLS with mutual authentication, user/password auth, and an ``access_control``
+section that gives each role only its own keys: see ``deploy.security.acl``), the router's user/password
+dictionary (``credentials.txt`` beside it; passwords already there are kept) and one client config per
+role (``world``, ``lander``, ``ground``, ``recorder``, ``rover-<id>``) in ``--clients``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from deploy import process
+
+DEFAULT_LISTEN = "tls/0.0.0.0:7447"
+DEFAULT_CONNECT = "tls/localhost:7447"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path, help="scenario file: its rovers get a role each (rover-1 ...)")
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FILE",
+                        help="the router's json5 config to write (access control included)")
+    parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
+    parser.add_argument("--rovers", type=int, metavar="N", help="N rovers instead of the scenario's (as run --rovers)")
+    parser.add_argument("--certs", type=Path, metavar="DIR",
+                        help="folder made by make-dev-certs.sh (default: certs/ beside the output)")
+    parser.add_argument("--credentials", type=Path, metavar="FILE",
+                        help="user:password dictionary to write (default: credentials.txt beside the output)")
+    parser.add_argument("--clients", type=Path, metavar="DIR",
+                        help="folder for the per-role client configs (default: clients/ beside the output)")
+    parser.add_argument("--listen", action="append", metavar="ENDPOINT",
+                        help=f"router endpoint, tls/ only (default {DEFAULT_LISTEN}); repeatable")
+    parser.add_argument("--connect", action="append", metavar="ENDPOINT",
+                        help=f"endpoint in the client configs (default {DEFAULT_CONNECT}); its host must be one "
+                             "the router's certificate names; repeatable")
+
+
+def _rover_ids(args: argparse.Namespace) -> list[int]:
+    from schemas.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    if args.rovers is not None:
+        if args.rovers < 1:
+            raise process.UsageError(f"--rovers must be 1 or more, got {args.rovers}")
+        return list(range(1, args.rovers + 1))
+    return list(range(1, len(scenario.rovers) + 1))
+
+
+def _endpoints(given: list[str] | None, default: str, flag: str) -> list[str]:
+    endpoints = given or [default]
+    for endpoint in endpoints:
+        if not endpoint.startswith("tls/"):
+            raise process.UsageError(f"{flag} {endpoint}: a secured router speaks only TLS (use tls/HOST:PORT)")
+    return endpoints
+
+
+def _write(path: Path, text: str, secret: bool) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    if secret:
+        os.chmod(path, 0o600)
+    print(f"wrote {path}")
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    from deploy.security import acl, configs
+    from schemas.keyspace import Keyspace
+
+    try:
+        keys = Keyspace(args.world)
+    except ValueError as exc:
+        raise process.UsageError(str(exc)) from None
+    listen = _endpoints(args.listen, DEFAULT_LISTEN, "--listen")
+    connect = _endpoints(args.connect, DEFAULT_CONNECT, "--connect")
+    base = args.output.parent
+    certs, credentials = args.certs or base / "certs", args.credentials or base / "credentials.txt"
+    clients = args.clients or base / "clients"
+    rover_ids = _rover_ids(args)
+    roles = acl.roles(keys, rover_ids)
+    names = [r.name for r in roles]
+    missing = configs.missing_cert_files(certs, [configs.ROUTER, *names])
+    if missing:
+        raise process.UsageError(f"{len(missing)} certificate file(s) missing in {certs}, first {missing[0]}: make "
+                                 f"them with deploy/security/make-dev-certs.sh {certs} {len(rover_ids)}")
+    try:
+        existing = configs.parse_credentials(credentials.read_text(encoding="utf-8")) if credentials.exists() else {}
+    except ValueError as exc:
+        raise process.UsageError(f"{credentials}: {exc}") from None
+    passwords = configs.passwords_for(names, existing)
+    header = f"Written by: lunarsim acl {args.scenario} (world {args.world!r}, {len(rover_ids)} rovers)"
+    router = configs.router_config(certs, credentials, listen, acl.access_control(roles, keys))
+    _write(args.output, configs.json5_text(router, header), secret=False)
+    _write(credentials, configs.credentials_text(passwords), secret=True)
+    for name in names:
+        client = configs.client_config(name, passwords[name], certs, connect)
+        _write(clients / f"{name}.json5", configs.json5_text(client, f"{header}\nRole: {name}"), secret=True)
+    print(f"roles: {', '.join(names)}; start the router with: lunarsim router --config {args.output}")
+    return 0
