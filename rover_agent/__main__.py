@@ -1,3 +1,3 @@
-from deploy.process import main_for
+from rover_agent.app import main
 
-main_for("rover", "rover_agent.app")
+main()

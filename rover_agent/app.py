@@ -56,3 +56,8 @@ def run_from_args(args: argparse.Namespace) -> int:
         agent = RoverAgent(rover_id, keys, params, behaviour_class(rover_id, params), state_file=args.state)
         runtime.run(agent, bus, stop)
     return 0
+
+
+def main() -> None:
+    """``lunarsim-rover``: the flight computer's entry (the wheel there has no ``lunarsim`` command)."""
+    process.main_for("rover", "rover_agent.app")

@@ -93,5 +93,10 @@ def run(bridge, bus, stop: threading.Event) -> None:
             bus.publish(key, message)
 
 
-if __name__ == "__main__":
+def main() -> None:
+    """``lunarsim-bridge``: the flight computer's entry (the wheel there has no ``lunarsim`` command)."""
     process.main_for("bridge", "deploy.hardware.bridge_app")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""Building what a rover flight computer installs."""
