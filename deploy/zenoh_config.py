@@ -50,7 +50,7 @@ def build_config(mode: str = "client", config_file: str | None = None, connect: 
                  scouting: bool = False) -> zenoh.Config:
     environ = os.environ if environ is None else environ
     path = config_file or environ.get("ZENOH_CONFIG")
-    conf = zenoh.Config.from_file(path) if path else zenoh.Config()
+    conf = _load(path, "--config" if config_file else "ZENOH_CONFIG") if path else zenoh.Config()
     if not path:
         conf.insert_json5("mode", json.dumps(mode))
         conf.insert_json5("scouting/multicast/enabled", "false")
@@ -63,6 +63,17 @@ def build_config(mode: str = "client", config_file: str | None = None, connect: 
     if scouting:
         conf.insert_json5("scouting/multicast/enabled", "true")
     return conf
+
+
+def _load(path: str, origin: str) -> zenoh.Config:
+    from deploy.process import UsageError
+
+    if not os.path.isfile(path):
+        raise UsageError(f"Zenoh config file {path!r} (from {origin}) does not exist")
+    try:
+        return zenoh.Config.from_file(path)
+    except zenoh.ZError as exc:
+        raise UsageError(f"Zenoh config file {path!r} (from {origin}) is not valid: {exc}") from None
 
 
 def config_from_args(args: argparse.Namespace, mode: str = "client") -> zenoh.Config:

@@ -164,6 +164,19 @@ def test_peer_config_files_talk_without_a_router():
         _exchange(a, b, "lunar/peer/test")
 
 
+def test_a_missing_or_broken_config_file_is_named(tmp_path):
+    from deploy.process import UsageError
+
+    with pytest.raises(UsageError, match="does not exist"):
+        build_config(config_file=str(tmp_path / "nope.json5"))
+    broken = tmp_path / "broken.json5"
+    broken.write_text("{ mode: 'client', connect: { endpoints: [ }")
+    with pytest.raises(UsageError, match=r"broken\.json5.*not valid"):
+        build_config(config_file=str(broken))
+    with pytest.raises(UsageError, match="ZENOH_CONFIG"):
+        build_config(environ={"ZENOH_CONFIG": str(tmp_path / "gone.json5")})
+
+
 def test_scouting_is_off_unless_asked_for():
     assert json.loads(build_config().get_json("scouting/multicast/enabled")) is False
     assert json.loads(build_config(scouting=True).get_json("scouting/multicast/enabled")) is True
