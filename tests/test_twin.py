@@ -10,6 +10,7 @@ import itertools
 import json
 import logging
 import math
+import re
 import subprocess
 import sys
 
@@ -30,9 +31,9 @@ STARTS = [{"x": -510.0, "z": 100.0, "heading_deg": 180.0}, {"x": -500.0, "z": 10
 """Two rovers: one facing -z (odometry (x, z) lands at start - (x, z)), one facing +x (at start + (z, -x))."""
 
 
-def two_rover_scenario(tmp_path):
+def two_rover_scenario(tmp_path, starts: list[dict] = STARTS):
     data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
-    data["rovers"] = STARTS
+    data["rovers"] = starts
     path = tmp_path / "twin.yaml"
     path.write_text(yaml.safe_dump(data))
     return path
@@ -275,3 +276,37 @@ def test_twin_follows_driver_processes_and_the_recording_reports_their_drive(rou
     assert recorded["total_distance_covered_m"] == pytest.approx(12.0, abs=1e-3)
     assert recorded["average_distance_covered_m"] == pytest.approx(6.0, abs=1e-3)
     assert recorded["complete"] and recorded["rejected_messages"] == live["rejected_messages"]
+
+
+@pytest.mark.e2e
+def test_twin_follows_a_rover_driven_through_the_driver_bridge_on_an_emulated_device(router, tmp_path):
+    """The real chain: emulated serial device -> serial driver -> ``lunarsim bridge`` -> telemetry -> the twin."""
+    (start,) = starts = [STARTS[1]]  # facing +x: odometry (x, z) lands at start + (z, -x)
+    scenario, keys = two_rover_scenario(tmp_path, starts), Keyspace("bench")
+    common = ["--world", "bench", "--connect", router]
+    device = lunarsim("emulate-device", "--rocks", "none")
+    world = bridge = None
+    try:
+        port = wait_for_output(device, "emulated device on", 20).split()[-1]
+        world = lunarsim("world", str(scenario), "--twin", "--no-lander", "--start-timeout", "1", *common)
+        bridge = lunarsim("bridge", "--id", "1", "--driver", f"serial://{port}", *common)
+        with zenoh.open(build_config(connect=[router])) as session:
+            states: list[m.WorldState] = []
+            sub = session.declare_subscriber(keys.state, lambda s: states.append(
+                codec.decode(m.WorldState, s.payload.to_bytes())))
+            wait_for(lambda: states and states[-1].comm_links == [(0, 1)], 30,
+                     "the twin to show the radio link the emulated device reports")
+            session.put(keys.rover(1, "move_action"), codec.encode(m.MoveAction(x=0.0, z=4.0)))  # as an agent would
+            wait_for(lambda: any(s.rovers[0].action == "move" for s in states), 10, "the twin to see the move")
+            wait_for(lambda: states[-1].rovers[0].action == "idle", 20, "the move to end")
+            sub.undeclare()
+    finally:
+        stop(*(p for p in (bridge, world) if p), device)
+    final = re.search(r"final pose x=(\S+) z=(\S+) heading=(\S+)", device.stdout.read())
+    assert final, "the emulated device did not say where it ended"
+    x, z, heading = map(float, final.groups())
+    assert z == pytest.approx(4.0, abs=0.2) and abs(x) < 0.05  # the device really drove
+    truth = states[-1].rovers[0]
+    assert (truth.x, truth.z) == pytest.approx((start["x"] + z, start["z"] - x), abs=0.02)
+    assert truth.heading_deg == pytest.approx((90.0 + heading) % 360.0, abs=0.5)
+    assert truth.distance_covered_m == pytest.approx(math.hypot(x, z), abs=0.05)
