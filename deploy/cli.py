@@ -31,7 +31,7 @@ COMMANDS = {
     "view": ("deploy.session.view_cli", "serve a live world to the Foxglove app over WebSocket"),
     "bridge": ("deploy.hardware.bridge_app", "put one real rover (a hardware driver) on a rover's keys"),
     "emulate-device": ("deploy.hardware.emulator", "an emulated serial rover base on a pseudo-terminal"),
-    "check-driver": ("deploy.hardware.check", "drive a hardware driver through the interface, list violations"),
+    "check-driver": ("deploy.hardware.check_cli", "drive a hardware driver through the interface, list violations"),
     "acl": ("deploy.security.acl_cli", "secured router config: TLS, mTLS, passwords, access control per role"),
 }
 

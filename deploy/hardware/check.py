@@ -1,4 +1,4 @@
-"""``lunarsim check-driver URL``: drive a hardware driver through the interface and list what it violates.
+"""The driver contract checker: drive a hardware driver through the interface and list what it violates.
 
 The rules are the driver interface's (``deploy.hardware.driver``), checked on the rover itself: readings
 have valid values and increasing stamps; speed levels 1..3 are accepted and others refused; a move straight
@@ -7,12 +7,11 @@ where odometry says; level 1 is slower than level 3; a rotate turns by what was 
 ``cancelled`` where its status and odometry agree; a move behind is refused; the radio echoes (with
 ``--radio-echo ID``); the camera gives a PNG. Every call must return within the driver's time bound.
 The rover walks about 5 m straight ahead and turns on the spot: give it clear ground.
-Each violated rule is printed with what was seen; the exit status is 1 if there is any.
+Each violated rule is printed with what was seen (``check_cli`` is the command line).
 """
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 import os
@@ -21,7 +20,6 @@ import time
 from collections.abc import Callable
 from typing import TypeVar
 
-from deploy import process
 from deploy.hardware.driver import (
     ActionRefused,
     ActionStatus,
@@ -316,33 +314,3 @@ class Checker:
         ok = isinstance(png, bytes) and png[:8] == b"\x89PNG\r\n\x1a\n" and png[12:16] == b"IHDR"
         size = struct.unpack(">II", png[16:24]) if ok and len(png) >= 24 else (0, 0)
         self.rule(ok and min(size) > 0, "the camera gives a PNG", f"{png[:16]!r}... size {size}")
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("driver", metavar="URL", help="serial:///dev/ttyUSB0?baud=115200, or package.module:Class")
-    parser.add_argument("--radio-echo", type=int, metavar="ID",
-                        help="a radio partner that echoes comm_in transmissions back (the emulator's do)")
-
-
-def run_from_args(args: argparse.Namespace) -> int:
-    from deploy.hardware.driver import UnknownDriver, load_driver
-
-    try:
-        driver = load_driver(args.driver)
-    except (UnknownDriver, InvalidCommand) as exc:
-        raise process.UsageError(f"{exc}") from None
-    except DriverError as exc:
-        print(f"violation: the driver opens: saw {type(exc).__name__}: {exc}")
-        return 1
-    try:
-        checker = Checker(driver, args.radio_echo)
-        violations = checker.run()
-    finally:
-        driver.close()
-    print(f"driver contract: ok ({checker.passed} rules)" if not violations
-          else f"driver contract: {len(violations)} violation(s), {checker.passed} rules kept")
-    return 1 if violations else 0
-
-
-if __name__ == "__main__":
-    process.main_for("check-driver", "deploy.hardware.check")
