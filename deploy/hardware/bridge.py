@@ -11,7 +11,9 @@ token goes away (the world's watchdog). Like ``RoverAgent`` it returns (key, mes
 so ``bridge_app`` only moves bytes.
 
 A driver that fails (``DriverError``) is logged and counted, never fatal; an action whose status the driver
-cannot give for ``ACTION_LOST_S`` is cancelled and ended, so the agent never waits for nothing.
+cannot give for ``ACTION_LOST_S`` is cancelled and ended, so the agent never waits for nothing. Sensors are
+published only while the clock runs (agents act on a running clock only); telemetry always. A photo is taken
+in line: the loop waits for it, up to the driver's ``photo_timeout_s``.
 """
 
 from __future__ import annotations
