@@ -18,6 +18,8 @@ SAMPLES: dict[type, m.Message] = {
     m.NavigationStatus: m.NavigationStatus(stamp=3.0, action="rotate", remaining=12.5, outcome="cancelled"),
     m.CancelAction: m.CancelAction(),
     m.Ack: m.Ack(tick=42),
+    m.Telemetry: m.Telemetry(stamp=1.5, x=0.25, z=3.0, heading_deg=12.5, pitch_deg=-2.0, moving=True),
+    m.RoverIdGrant: m.RoverIdGrant(id=3),
     m.CancelResult: m.CancelResult(x=0.25, z=3.5, angle_deg=-4.0, reason="collided"),
     m.SpeedAction: m.SpeedAction(level=2),
     m.ActionRejected: m.ActionRejected(action="move", reason="blocked", detail="rock"),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import re
+import select
 import signal
 import threading
 import time
@@ -275,6 +276,7 @@ def test_the_line_client_skips_garbled_lines_and_late_answers(pty_pair):
     reply = client.request("IMU?")
     assert reply == p.Reply(1, True, ("42",))
     assert (client.garbled, client.stale) == (2, 1)
+    assert select.select([master], [], [], 5.0)[0], "the request never reached the device end"
     assert os.read(master, 100) == b"1 IMU?\n"
 
 
