@@ -24,6 +24,8 @@ from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_
 
 EXIT_REFUSED = 1
 EXIT_NO_ANSWER = 4
+RESEND_S = 1.0
+"""Unanswered mission commands go again this often (the lander answers a repeat without acting twice)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -65,8 +67,12 @@ def run_from_args(args: argparse.Namespace) -> int:
             print(f"sent {args.command} to world {args.world!r} (recorders and replays do not answer)")
             return 0
         deadline = time.monotonic() + args.timeout
+        next_send = time.monotonic() + RESEND_S
         while time.monotonic() < deadline:
             item = bus.receive(timeout=0.2)
+            if time.monotonic() >= next_send:  # a lander that started after us, or a lost sample
+                bus.publish(keys.ground_command, command)
+                next_send += RESEND_S
             if item is None:
                 continue
             result = codec.decode(m.CommandResult, item.payload)

@@ -18,6 +18,7 @@ class RoverMissions:
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario
         self.goals: dict[int, list[Goal]] = {i + 1: list(scenario.mission) for i in range(len(scenario.rovers))}
+        self.outcomes: dict[str, list[int] | CommandRefused] = {}  # request id -> what applying it gave
 
     def final_index(self, rover_id: int) -> int:
         return len(self.goals[rover_id]) - 1
@@ -27,7 +28,23 @@ class RoverMissions:
         return goals[min(max(index, 0), len(goals) - 1)]
 
     def apply(self, command: GroundCommand) -> list[int]:
-        """Carry out a command; returns the rovers whose mission changed. Raises CommandRefused."""
+        """Carry out a command; returns the rovers whose mission changed. Raises CommandRefused.
+
+        The ground sends a command again until it hears the answer, so a repeat (same request id) gives the
+        first outcome again and changes nothing. A command without a request id is always carried out."""
+        if not command.request_id:
+            return self._apply(command)
+        if command.request_id not in self.outcomes:
+            try:
+                self.outcomes[command.request_id] = self._apply(command)
+            except CommandRefused as exc:
+                self.outcomes[command.request_id] = exc
+        outcome = self.outcomes[command.request_id]
+        if isinstance(outcome, CommandRefused):
+            raise outcome
+        return list(outcome)
+
+    def _apply(self, command: GroundCommand) -> list[int]:
         rovers = self._rovers(command)
         if command.command == "stop":
             return rovers

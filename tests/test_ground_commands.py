@@ -108,3 +108,16 @@ def test_the_command_line_reaches_the_lander_and_reports_refusals(router, tmp_pa
         assert missing.returncode == 4 and "no lander answered" in err
     finally:
         stop(lander)
+
+
+def test_a_repeated_command_is_answered_again_but_carried_out_once():
+    plan = MissionPlan(load_scenario(SCENARIOS / "crater_observation.yaml"))
+    command = m.GroundCommand(request_id="r7", command="return", rover_id=2)
+    before = len(plan.missions.goals[2])
+    assert plan.on_command(command) == [2]
+    assert plan.on_command(command) == [2]  # the ground did not hear the first answer and sent it again
+    assert len(plan.missions.goals[2]) == before + 1
+    refused = m.GroundCommand(request_id="r8", command="stop", rover_id=9)
+    for _ in range(2):
+        with pytest.raises(CommandRefused, match="no rover 9"):
+            plan.on_command(refused)
