@@ -257,6 +257,8 @@ class RoverTruth(Message):
     distance_to_goal_m: float
     distance_covered_m: float
     alive: bool
+    telemetry_stale: bool = Field(False, description="twin mode: the rover's driver has gone quiet; this is its "
+                                                     "last known pose")
 
 
 class WorldCounters(Message):

@@ -184,9 +184,10 @@ def test_stale_telemetry_is_marked_and_logged_once_per_gap(twin, caplog):
             steps(twin, 0.2)
         assert twin.bodies[2].stale and not twin.bodies[1].stale
         assert twin.world_state().rovers[1].action == "idle"  # its last sample said moving: no longer believed
+        assert [r.telemetry_stale for r in twin.world_state().rovers] == [False, True]  # viewers see it too
         twin.receive(keys.rover(2, "telemetry"), telemetry(0.0, 2.0))
         steps(twin, 0.2)
-    assert not twin.bodies[2].stale
+    assert not twin.bodies[2].stale and not twin.world_state().rovers[1].telemetry_stale
     assert caplog.text.count("rover 2: no telemetry") == 1 and "rover 1: no telemetry" not in caplog.text
     assert "rover 2: telemetry again" in caplog.text
 

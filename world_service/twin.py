@@ -95,7 +95,8 @@ def rover_truth(rover: TwinRover, status: m.RoverStatus, goal_distance_m: float,
     return m.RoverTruth(id=rover.id, x=round(pose.x, 4), z=round(pose.z, 4), heading_deg=round(pose.heading_deg, 3),
                         action="move" if rover.in_motion else "idle", state=status.state,
                         goal_index=status.goal_index, distance_to_goal_m=round(goal_distance_m, 3),
-                        distance_covered_m=round(rover.distance_covered, 3), alive=alive)
+                        distance_covered_m=round(rover.distance_covered, 3), alive=alive,
+                        telemetry_stale=rover.stale)
 
 
 def radio_links(partners: dict[int, list[int]]) -> list[tuple[int, int]]:
