@@ -1,15 +1,21 @@
 """Who may do what on a world's keyspace, and the router's Zenoh ``access_control`` section that enforces it.
 
-Each process of a deployment has a role: ``world``, ``lander``, ``ground``, ``recorder`` and one
-``rover-<id>`` per rover. A role is the set of keys it publishes, subscribes to, holds liveliness tokens on,
-watches tokens on, answers queries on and queries, taken from what the programs do:
+Each process of a deployment has a role: ``world``, ``lander``, ``ground``, ``recorder``, one ``rover-<id>``
+per rover agent and one ``bridge-<id>`` per real rover's driver bridge. A role is the set of keys it
+publishes, subscribes to, holds liveliness tokens on, watches tokens on, answers queries on and queries,
+taken from what the programs do:
 
-- a rover publishes only its own inputs to the world (``World.INPUT_TOPICS``: actions, radio output,
-  status), its lockstep ``ack`` and its driver's ``telemetry``, and subscribes only to its own sensors and
-  radio input (the agent's ``SUBSCRIBED_TOPICS``) and the clock; it holds ``alive/rover/<id>`` and may
-  ask the world for a free id;
-- the world alone publishes sensors (every rover's ``SUBSCRIBED_TOPICS``, the lander's radio input), the
-  clock, ``world/state`` and ``world/stats``;
+- a rover agent publishes only its own inputs to the world (``World.INPUT_TOPICS``: actions, radio output,
+  status) and its lockstep ``ack``, and subscribes only to its own sensors and radio input (the agent's
+  ``SUBSCRIBED_TOPICS``) and the clock; it holds ``alive/rover/<id>`` and may ask the world for a free id;
+- the world publishes the sensors of the simulated rovers (every rover's ``SUBSCRIBED_TOPICS``, the lander's
+  radio input), the clock, ``world/state`` and ``world/stats``;
+- a real rover's bridge (``deploy.hardware.bridge``) takes the world's place for that rover only: it alone
+  publishes the rover's sensors and its driver's ``telemetry``, subscribes to the rover's actions and radio
+  output (``AGENT_TOPICS``, ``comm_out``) and the clock, and watches its own agent's token. The world keeps
+  no right to publish a bridged rover's sensors; it follows the bridged rovers as a twin instead
+  (``TwinWorld.INPUT_TOPICS``, as ``twin_service.declare_io`` subscribes). On a bench without a world one
+  bridge may be the clock (``bridge_clock``);
 - the ground alone publishes ``ground/command``; the lander answers it on ``ground/command_result``;
 - the recorder reads the whole world and writes nothing.
 
@@ -36,6 +42,11 @@ def rover_role(rover_id: int) -> str:
     return f"rover-{rover_id}"
 
 
+def bridge_role(rover_id: int) -> str:
+    """The role name of one real rover's driver bridge (``lunarsim bridge --id <id>``)."""
+    return f"bridge-{rover_id}"
+
+
 @dataclass(frozen=True)
 class Role:
     """What one process may do, as key expressions per kind of operation."""
@@ -53,26 +64,60 @@ class Role:
 
 
 def _rover_inputs() -> tuple[str, ...]:
-    """Topics a rover sends: what the world accepts from rovers, plus lockstep acks and driver telemetry."""
+    """Topics a rover agent sends: what the world accepts from rovers, plus lockstep acks."""
     from world_service.sim import World
 
-    return (*World.INPUT_TOPICS, ks.ACK, ks.TELEMETRY)
+    return (*World.INPUT_TOPICS, ks.ACK)
 
 
 def _rover_sensors() -> tuple[str, ...]:
-    """Topics a rover receives: its sensors and radio input, all of them published by the world."""
+    """Topics a rover receives: its sensors and radio input, published by the world or by the rover's bridge."""
     from rover_agent.agent import SUBSCRIBED_TOPICS
 
     return tuple(SUBSCRIBED_TOPICS)
 
 
-def world_role(keys: ks.Keyspace) -> Role:
+def _bridge_inputs() -> tuple[str, ...]:
+    """Topics a bridge takes from its agent (``bridge.input_topics`` with a radio)."""
+    from deploy.hardware.bridge import AGENT_TOPICS
+
+    return (*AGENT_TOPICS, ks.COMM_OUT)
+
+
+def _bridge_outputs() -> tuple[str, ...]:
+    """Topics a bridge publishes: every sensor its agent reads, in the world's place, and the driver's pose."""
+    return (*_rover_sensors(), ks.TELEMETRY)
+
+
+def _twin_inputs() -> tuple[str, ...]:
+    """Rover topics the world follows in twin mode (``twin_service.declare_io``)."""
+    from world_service.twin import TwinWorld
+
+    return TwinWorld.INPUT_TOPICS
+
+
+def world_role(keys: ks.Keyspace, simulated: Iterable[int] | None = None, bridged: Iterable[int] = (),
+               clock: bool = True) -> Role:
+    """The world simulating ``simulated`` (None: every rover, by wildcard) and following ``bridged`` as a twin.
+
+    It may publish the sensors of the simulated rovers only (and the lander's radio input while it simulates
+    any), so it cannot speak for a real rover; it publishes the clock unless a bridge is the clock (a bench).
+    """
+    bridged = tuple(bridged)
+    sensors = [keys.rovers(t) for t in _rover_sensors()] if simulated is None else [
+        keys.rover(rid, t) for rid in simulated for t in _rover_sensors()]
+    publishes: list[str] = []
+    subscribes: list[str] = []
+    if sensors:
+        publishes += [*sensors, keys.lander(ks.COMM_IN), keys.lander(ks.COMM_PARTNERS)]
+        subscribes += [*(keys.rovers(t) for t in _rover_inputs()), keys.lander(ks.COMM_OUT), keys.lander(ks.ACK)]
+    if bridged:
+        subscribes += [*(keys.rovers(t) for t in _twin_inputs()), keys.lander(ks.COMM_PARTNERS)]
+    publishes += [keys.clock] if clock else []
     return Role(
         WORLD,
-        publishes=(*(keys.rovers(t) for t in _rover_sensors()), keys.lander(ks.COMM_IN), keys.lander(ks.COMM_PARTNERS),
-                   keys.clock, keys.state, keys.stats),
-        subscribes=(*(keys.rovers(t) for t in _rover_inputs()), keys.lander(ks.COMM_OUT), keys.lander(ks.ACK),
-                    keys.ground_command),
+        publishes=(*publishes, keys.state, keys.stats),
+        subscribes=(*dict.fromkeys(subscribes), keys.ground_command),
         watches=(keys.alive_rovers, keys.alive_lander),
         serves=(keys.rover_ids,),
     )
@@ -106,13 +151,39 @@ def rover_agent_role(keys: ks.Keyspace, rover_id: int) -> Role:
     )
 
 
-def roles(keys: ks.Keyspace, rover_ids: Iterable[int]) -> list[Role]:
-    """Every role of a world with these rovers."""
+def driver_bridge_role(keys: ks.Keyspace, rover_id: int, clock: bool = False) -> Role:
+    """A real rover's bridge: that rover's sensors and telemetry out, its actions and radio output in, its agent's
+    token watched (to stop the rover without it); the clock read, or published with ``clock`` (``--clock``)."""
+    return Role(
+        bridge_role(rover_id),
+        publishes=(*(keys.rover(rover_id, t) for t in _bridge_outputs()), *((keys.clock,) if clock else ())),
+        subscribes=(*(keys.rover(rover_id, t) for t in _bridge_inputs()), *(() if clock else (keys.clock,))),
+        watches=(keys.alive_rover(rover_id),),
+    )
+
+
+def roles(keys: ks.Keyspace, rover_ids: Iterable[int], bridged: Iterable[int] = (),
+          bridge_clock: bool = False) -> list[Role]:
+    """Every role of a world with these rovers, of which ``bridged`` are real ones behind a driver bridge.
+
+    ``bridge_clock``: the one bridge publishes the clock (``lunarsim bridge --clock``, a bench without a world)
+    and the world may not.
+    """
     ids = sorted(set(rover_ids))
     if not ids or ids[0] < 1:
         raise ValueError(f"rover ids must be 1 or more (as rover1, rover2 in the report), got {ids}")
-    fixed = [world_role(keys), lander_role(keys), ground_role(keys), recorder_role(keys)]
-    return fixed + [rover_agent_role(keys, rid) for rid in ids]
+    real = sorted(set(bridged))
+    strangers = [rid for rid in real if rid not in ids]
+    if strangers:
+        raise ValueError(f"bridged rovers {strangers} are not rovers of this world (its rovers: "
+                         f"{', '.join(map(str, ids))})")
+    if bridge_clock and len(real) != 1:
+        raise ValueError(f"the clock can be one bridge's only (one rover on a bench, no world), got bridges {real}")
+    simulated = None if not real else [rid for rid in ids if rid not in real]
+    fixed = [world_role(keys, simulated, real, clock=not bridge_clock), lander_role(keys), ground_role(keys),
+             recorder_role(keys)]
+    return (fixed + [rover_agent_role(keys, rid) for rid in ids]
+            + [driver_bridge_role(keys, rid, bridge_clock) for rid in real])
 
 
 def _rule(rule_id: str, messages: Iterable[str], flow: str, key_exprs: Iterable[str]) -> dict:

@@ -5,10 +5,13 @@
     lunarsim router --config secure/router.json5
     lunarsim rover --id 1 --config secure/clients/rover-1.json5 ...
 
+Real rovers: ``make-dev-certs.sh --bridges all ...`` and ``lunarsim acl ... --bridges all`` (or ids, ``1,3``)
+add a ``bridge-<id>`` role per real rover, for ``lunarsim bridge --id <id> --config clients/bridge-<id>.json5``.
+
 Writes the router config (TLS with mutual authentication, user/password auth, and an ``access_control``
 section that gives each role only its own keys: see ``deploy.security.acl``), the router's user/password
 dictionary (``credentials.txt`` beside it; passwords already there are kept) and one client config per
-role (``world``, ``lander``, ``ground``, ``recorder``, ``rover-<id>``) in ``--clients``.
+role (``world``, ``lander``, ``ground``, ``recorder``, ``rover-<id>``, ``bridge-<id>``) in ``--clients``.
 """
 
 from __future__ import annotations
@@ -29,6 +32,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the router's json5 config to write (access control included)")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--rovers", type=int, metavar="N", help="N rovers instead of the scenario's (as run --rovers)")
+    parser.add_argument("--bridges", metavar="IDS",
+                        help="real rovers, each behind lunarsim bridge: 'all' or ids such as 1,3 (default none). "
+                             "Each gets a bridge-<id> role that alone publishes its sensors and telemetry; the "
+                             "world may then publish none of them and follows them as a twin")
+    parser.add_argument("--bridge-clock", action="store_true",
+                        help="the one bridge publishes the clock (lunarsim bridge --clock: a bench, no world) "
+                             "instead of the world")
     parser.add_argument("--certs", type=Path, metavar="DIR",
                         help="folder made by make-dev-certs.sh (default: certs/ beside the output)")
     parser.add_argument("--credentials", type=Path, metavar="FILE",
@@ -51,6 +61,18 @@ def _rover_ids(args: argparse.Namespace) -> list[int]:
             raise process.UsageError(f"--rovers must be 1 or more, got {args.rovers}")
         return list(range(1, args.rovers + 1))
     return list(range(1, len(scenario.rovers) + 1))
+
+
+def _bridged(given: str | None, rover_ids: list[int]) -> list[int]:
+    """The rover ids of ``--bridges``: none, ``all`` or a comma-separated list."""
+    if given is None:
+        return []
+    if given.strip() == "all":
+        return rover_ids
+    try:
+        return [int(part) for part in given.split(",")]
+    except ValueError:
+        raise process.UsageError(f"--bridges {given}: expected 'all' or rover ids separated by commas (1,3)") from None
 
 
 def _endpoints(given: list[str] | None, default: str, flag: str) -> list[str]:
@@ -83,18 +105,27 @@ def run_from_args(args: argparse.Namespace) -> int:
     certs, credentials = args.certs or base / "certs", args.credentials or base / "credentials.txt"
     clients = args.clients or base / "clients"
     rover_ids = _rover_ids(args)
-    roles = acl.roles(keys, rover_ids)
+    bridged = _bridged(args.bridges, rover_ids)
+    if args.bridge_clock and len(bridged) != 1:
+        raise process.UsageError(f"--bridge-clock needs exactly one bridge (--bridges ID: one rover on a bench), got "
+                                 f"{len(bridged)}")
+    try:
+        roles = acl.roles(keys, rover_ids, bridged, args.bridge_clock)
+    except ValueError as exc:
+        raise process.UsageError(f"--bridges: {exc}") from None
     names = [r.name for r in roles]
     missing = configs.missing_cert_files(certs, [configs.ROUTER, *names])
     if missing:
+        bridges = f"--bridges {args.bridges} " if bridged else ""
         raise process.UsageError(f"{len(missing)} certificate file(s) missing in {certs}, first {missing[0]}: make "
-                                 f"them with deploy/security/make-dev-certs.sh {certs} {len(rover_ids)}")
+                                 f"them with deploy/security/make-dev-certs.sh {bridges}{certs} {len(rover_ids)}")
     try:
         existing = configs.parse_credentials(credentials.read_text(encoding="utf-8")) if credentials.exists() else {}
     except ValueError as exc:
         raise process.UsageError(f"{credentials}: {exc}") from None
     passwords = configs.passwords_for(names, existing)
-    header = f"Written by: lunarsim acl {args.scenario} (world {args.world!r}, {len(rover_ids)} rovers)"
+    real = f", real rovers behind bridges: {', '.join(map(str, bridged))}" if bridged else ""
+    header = f"Written by: lunarsim acl {args.scenario} (world {args.world!r}, {len(rover_ids)} rovers{real})"
     router = configs.router_config(certs, credentials, listen, acl.access_control(roles, keys))
     _write(args.output, configs.json5_text(router, header), secret=False)
     _write(credentials, configs.credentials_text(passwords), secret=True)

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Development certificates for a LunarSim deployment over Zenoh TLS with mutual authentication.
 #
-#   deploy/security/make-dev-certs.sh OUT_DIR ROVERS [ROUTER_HOST ...]
+#   deploy/security/make-dev-certs.sh [--bridges all|ID,ID...] OUT_DIR ROVERS [ROUTER_HOST ...]
 #
 # Makes, in OUT_DIR: a development CA (ca.pem, ca.key) and, signed by it, a key and certificate per
-# role: router, world, lander, ground, recorder and rover-1 .. rover-ROVERS (<role>.key, <role>.pem).
+# role: router, world, lander, ground, recorder and rover-1 .. rover-ROVERS (<role>.key, <role>.pem),
+# and with --bridges a bridge-<id> for each real rover's driver bridge (all: bridge-1 .. bridge-ROVERS).
 # Each certificate's common name is its role: the router's access control matches clients by it.
 # The router's certificate names localhost, 127.0.0.1 and every ROUTER_HOST (a host name or an IP
 # address) as subject alternative names: clients check the name they connect to against them.
@@ -17,15 +18,30 @@ DAYS=825
 OPENSSL=${OPENSSL:-openssl}
 
 usage() {
-    echo "usage: $0 OUT_DIR ROVERS [ROUTER_HOST ...]   (ROVERS: number of rover certificates, 1 or more)" >&2
+    echo "usage: $0 [--bridges all|ID,ID...] OUT_DIR ROVERS [ROUTER_HOST ...]   (ROVERS: number of rover" \
+        "certificates, 1 or more; --bridges: real rovers whose driver bridge gets a bridge-<id> certificate)" >&2
     exit 2
 }
 
+BRIDGES=""
+case "${1:-}" in
+    --bridges) [ $# -ge 2 ] || usage; BRIDGES=$2; shift 2 ;;
+    --bridges=*) BRIDGES=${1#--bridges=}; shift ;;
+    -*) echo "error: unknown option '$1'" >&2; usage ;;
+esac
 [ $# -ge 2 ] || usage
 OUT=$1
 ROVERS=$2
 shift 2
 [[ "$ROVERS" =~ ^[0-9]+$ ]] && [ "$ROVERS" -ge 1 ] || { echo "error: ROVERS must be a whole number >= 1, got '$ROVERS'" >&2; exit 2; }
+if [ "$BRIDGES" = all ]; then
+    BRIDGES=$(seq -s, 1 "$ROVERS")
+fi
+IFS=, read -r -a BRIDGE_IDS <<<"$BRIDGES"
+for id in ${BRIDGE_IDS[@]+"${BRIDGE_IDS[@]}"}; do
+    [[ "$id" =~ ^[0-9]+$ ]] && [ "$id" -ge 1 ] && [ "$id" -le "$ROVERS" ] ||
+        { echo "error: --bridges takes 'all' or rover ids 1..$ROVERS separated by commas, got '$id'" >&2; exit 2; }
+done
 command -v "$OPENSSL" >/dev/null || { echo "error: openssl not found (set OPENSSL=/path/to/openssl)" >&2; exit 2; }
 
 mkdir -p "$OUT"
@@ -93,6 +109,9 @@ for role in world lander ground recorder; do
 done
 for ((i = 1; i <= ROVERS; i++)); do
     make_cert "rover-$i"
+done
+for id in ${BRIDGE_IDS[@]+"${BRIDGE_IDS[@]}"}; do
+    make_cert "bridge-$((10#$id))"
 done
 chmod 644 "$OUT"/*.pem
 echo "certificates in $OUT: give each process its <role>.pem and <role>.key, and ca.pem to all"
