@@ -13,18 +13,22 @@ from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    env_id = os.environ.get("LUNARSIM_ROVER_ID")
-    parser.add_argument("--id", default=env_id, required=env_id is None,
-                        help="rover id (1..N, as rover1, rover2 in the report); 'ordinal': from a StatefulSet pod's "
-                             "host name (rover-0 is rover 1); 'auto': the world hands out a free one "
-                             "(default: $LUNARSIM_ROVER_ID)")
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument("--id", default=os.environ.get("LUNARSIM_ROVER_ID"),
+                       help="rover id (1..N, as rover1, rover2 in the report); 'ordinal': from a StatefulSet pod's "
+                            "host name (rover-0 is rover 1); 'auto': the world hands out a free one "
+                            "(default: $LUNARSIM_ROVER_ID)")
+    which.add_argument("--ids", metavar="IDS",
+                       help="run several agents in this one process, e.g. 1-250 or 1,3,7-9: each keeps its own "
+                            "keys and liveliness token, as separate processes would (for very large runs)")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--params", type=Path, metavar="FILE",
                         help="YAML of rover parameters (report tables 4-8); a scenario file works too")
     parser.add_argument("--behaviour", default="default", metavar="NAME",
                         help="behaviour by name: default, straight, an installed plugin, or package.module:Class")
     parser.add_argument("--state", type=Path, metavar="FILE",
-                        help="keep the dead-reckoned pose here, so a restarted agent takes its rover again")
+                        help="keep the dead-reckoned pose here, so a restarted agent takes its rover again "
+                             "(with --ids: a folder, one rover<N>.json per agent)")
     add_zenoh_arguments(parser, agent=True)
 
 
@@ -36,26 +40,40 @@ def run_from_args(args: argparse.Namespace) -> int:
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_rover_params
 
+    if args.id is None and args.ids is None:
+        raise process.UsageError("give the rover's --id (or set LUNARSIM_ROVER_ID), or --ids for several agents")
     try:
-        spec = identity.parse_id(args.id)
-        rover_id = identity.id_from_hostname() if spec == "ordinal" else spec
+        if args.ids is not None:
+            rover_ids: list[int | str] = list(identity.parse_ids(args.ids))
+        else:
+            spec = identity.parse_id(args.id)
+            rover_ids = [identity.id_from_hostname() if spec == "ordinal" else spec]
         behaviour_class = load_behaviour(args.behaviour)
     except (ValueError, UnknownBehaviour) as exc:
         raise process.UsageError(str(exc)) from None
     params = load_rover_params(args.params)
     keys = Keyspace(args.world)
-    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
-                           who=f"rover {rover_id}")
+    who = f"rover {rover_ids[0]}" if len(rover_ids) == 1 else f"rovers {args.ids}"
+    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who=who)
     with Bus(session) as bus, process.stop_on_signals() as stop:
-        if rover_id == "auto":
-            rover_id = identity.ask_world(session, keys, stop)
-            if rover_id is None:
+        if rover_ids == ["auto"]:
+            granted = identity.ask_world(session, keys, stop)
+            if granted is None:
                 return process.EXIT_INTERRUPTED
-            print(f"rover {rover_id}: id handed out by the world service", file=sys.stderr, flush=True)
-        logging.getLogger("lunarsim.rover").info("rover %d connected", rover_id)
-        agent = RoverAgent(rover_id, keys, params, behaviour_class(rover_id, params), state_file=args.state)
-        runtime.run(agent, bus, stop)
+            print(f"rover {granted}: id handed out by the world service", file=sys.stderr, flush=True)
+            rover_ids = [granted]
+        logging.getLogger("lunarsim.rover").info("%s connected", who)
+        agents = [RoverAgent(rid, keys, params, behaviour_class(rid, params), state_file=_state_file(args, rid))
+                  for rid in rover_ids]
+        runtime.run(agents, bus, stop)
     return 0
+
+
+def _state_file(args: argparse.Namespace, rover_id: int) -> Path | None:
+    if args.state is None or args.ids is None:
+        return args.state
+    args.state.mkdir(parents=True, exist_ok=True)
+    return args.state / f"rover{rover_id}.json"
 
 
 def main() -> None:

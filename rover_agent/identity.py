@@ -33,6 +33,29 @@ def parse_id(text: str) -> int | str:
     raise ValueError(f"rover id must be a number from 1 (rover ids start at 1), 'auto' or 'ordinal'; got {text!r}")
 
 
+MAX_AGENTS_PER_PROCESS = 1000
+
+
+def parse_ids(text: str) -> list[int]:
+    """``--ids``: rover ids and ranges, ``1-250`` or ``1,3,7-9``; each id once, from 1."""
+    ids: list[int] = []
+    for part in text.split(","):
+        first, dash, last = part.strip().partition("-")
+        try:
+            low = int(first)
+            high = int(last) if dash else low
+        except ValueError:
+            raise ValueError(f"--ids {text!r}: {part.strip()!r} is not an id or a range like 1-250") from None
+        if low < 1 or high < low:
+            raise ValueError(f"--ids {text!r}: {part.strip()!r} must be ids from 1, low-high with low <= high")
+        ids.extend(range(low, high + 1))
+    if len(set(ids)) != len(ids):
+        raise ValueError(f"--ids {text!r} names some rover twice")
+    if len(ids) > MAX_AGENTS_PER_PROCESS:
+        raise ValueError(f"--ids {text!r} names {len(ids)} rovers; one process runs at most {MAX_AGENTS_PER_PROCESS}")
+    return ids
+
+
 def id_from_hostname(hostname: str | None = None) -> int:
     """StatefulSet pods are named ``<set>-<ordinal>`` from 0; rovers are numbered from 1 as in the report."""
     hostname = hostname or socket.gethostname()

@@ -1,4 +1,4 @@
-"""The rover agent's Zenoh loop: subscribe to this rover's keys, feed the agent, publish what it returns."""
+"""The rover agent's Zenoh loop: subscribe to the rover's keys, feed the agent, publish what it returns."""
 
 from __future__ import annotations
 
@@ -14,14 +14,20 @@ from schemas import messages as m
 log = logging.getLogger("lunarsim.rover")
 
 
-def run(agent: RoverAgent, bus: Bus, stop: threading.Event) -> None:
-    keys = agent.keys
-    prefix = keys.rover(agent.id, "")
-    for topic in SUBSCRIBED_TOPICS:
-        bus.subscribe(keys.rover(agent.id, topic))
+def run(agents: RoverAgent | list[RoverAgent], bus: Bus, stop: threading.Event) -> None:
+    """Run one agent, or several sharing this process and its Zenoh session (``--ids``): each keeps its own
+    subscriptions and liveliness token, so the world and the router see them exactly as separate processes."""
+    agents = [agents] if isinstance(agents, RoverAgent) else agents
+    keys = agents[0].keys
+    by_prefix: dict[str, RoverAgent] = {}
+    for agent in agents:
+        by_prefix[keys.rover(agent.id, "")] = agent
+        for topic in SUBSCRIBED_TOPICS:
+            bus.subscribe(keys.rover(agent.id, topic))
+        bus.declare_token(keys.alive_rover(agent.id))
     bus.subscribe(keys.clock)
-    bus.declare_token(keys.alive_rover(agent.id))
-    watch = ClockWatch(f"rover {agent.id}", keys.clock)
+    who = f"rover {agents[0].id}" if len(agents) == 1 else f"rovers {agents[0].id}..{agents[-1].id}"
+    watch = ClockWatch(who, keys.clock)
     while not stop.is_set():
         item = bus.receive(timeout=0.2)
         watch.check()
@@ -29,17 +35,21 @@ def run(agent: RoverAgent, bus: Bus, stop: threading.Event) -> None:
             continue
         if item.key == keys.clock:
             watch.heard()
-            out = _on_clock(agent, item.payload)
+            clock = _decode_clock(agents, item.payload)
+            out = [o for agent in agents for o in agent.on_clock(clock)] if clock is not None else []
         else:
-            out = agent.handle(item.key[len(prefix):], item.payload)
+            prefix = item.key[:item.key.rindex("/") + 1]
+            out = by_prefix[prefix].handle(item.key[len(prefix):], item.payload)
         for key, message in out:
             bus.publish(key, message)
 
 
-def _on_clock(agent: RoverAgent, payload: bytes) -> list:
+def _decode_clock(agents: list[RoverAgent], payload: bytes) -> m.Clock | None:
+    """Decoded once for every agent of the process; a bad one is counted by each, as separate processes would."""
     try:
-        return agent.on_clock(codec.decode(m.Clock, payload))
+        return codec.decode(m.Clock, payload)
     except codec.DecodeError as exc:
-        agent.rejected += 1
-        log.warning("rover %d: rejected clock sample: %s", agent.id, exc)
-        return []
+        for agent in agents:
+            agent.rejected += 1
+        log.warning("rover(s) %s: rejected clock sample: %s", ",".join(str(a.id) for a in agents), exc)
+        return None
