@@ -1,0 +1,460 @@
+"""Scale: rover agents as separate processes (or sharing processes) against the real world service, in real time
+and in lockstep, on this machine; real-time factor, CPU and memory per rover, sensor delivery, start-up.
+
+Each measurement starts its own Zenoh router on loopback, the world service, the lander and the rover agents as
+OS processes (``python -m world_service`` and so on, exactly as ``lunarsim run`` does), on the scenario with N
+rovers in its formation. The benchmark process watches through the same router (see scale_observe.py):
+
+- real time (``--time-scale 1``): after every agent is connected and ``--warmup`` seconds of running clock,
+  a window of ``--seconds``: simulated seconds per wall second (from the world's own clock samples), CPU of
+  every process (/proc), memory at the end (Rss and Pss), and delivery of the sampled rovers' sensors;
+- lockstep: the whole mission (or ``--lockstep-sim-time`` simulated seconds), timed from the first running
+  clock to the world's final statistics, so start-up is left out;
+- start-up: from spawning the rover processes until the benchmark sees every rover's liveliness token.
+
+Then it fits cost against rover count (the slope) and checks the targets of issue 9.
+
+    python benchmarks/scale.py --quick                      # a smoke check, about two minutes
+    python benchmarks/scale.py [--counts 10 50 100] [--seconds 30] [--shared-counts 1000 750 500]
+                               [--per-process 250] [--lockstep-counts 5 20 100] [--json FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+from control_loop_latency import BenchmarkError, free_port
+from scale_observe import Observer, ProcessMeter, agent_lag, combined_latency, delivery, sim_rate
+from scale_report import RTF_TOLERANCE, print_report, slopes, targets
+from world_scale import SCENARIO
+
+from deploy.children import Children, wait_for_port
+from deploy.zenoh_config import RouterUnreachable, build_config, open_session
+from schemas import keyspace as ks
+from schemas.scenario import Scenario, dump_scenario, load_scenario
+from world_service.sim import tick_length, ticks_per_period
+
+WORLD = "bench"
+HOST = "127.0.0.1"
+STARTED_TIMEOUT_S = 60.0
+"""After the last token: the world needs a clock period or two to see them all and start."""
+QUICK = {"counts": [5, 10], "seconds": 5.0, "warmup": 2.0, "shared_counts": [20], "per_process": 10,
+         "lockstep_counts": [5], "lockstep_sim_time": 10.0}
+FULL = {"counts": [10, 50, 100], "seconds": 30.0, "warmup": 5.0, "shared_counts": [1000, 750, 500],
+        "per_process": 250, "lockstep_counts": [5, 20, 100], "lockstep_sim_time": 60.0}
+
+_t0 = time.monotonic()
+
+
+def progress(text: str) -> None:
+    print(f"[{time.monotonic() - _t0:6.0f} s] {text}", file=sys.stderr, flush=True)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """One measurement: how many rovers, how many agents share a process, real time or lockstep."""
+
+    rovers: int
+    per_process: int = 1
+    lockstep: bool = False
+
+    @property
+    def processes(self) -> int:
+        return -(-self.rovers // self.per_process)
+
+    def rover_groups(self) -> list[list[str]]:
+        """Command-line id arguments of each rover process."""
+        if self.per_process == 1:
+            return [["--id", str(i)] for i in range(1, self.rovers + 1)]
+        starts = range(1, self.rovers + 1, self.per_process)
+        return [["--ids", f"{a}-{min(a + self.per_process - 1, self.rovers)}"] for a in starts]
+
+    def describe(self) -> str:
+        share = "one process each" if self.per_process == 1 else f"{self.per_process} per process"
+        return f"{self.rovers} rovers in {self.processes} processes ({share}), {self.mode}"
+
+    @property
+    def mode(self) -> str:
+        return "lockstep" if self.lockstep else "real time"
+
+
+class Cluster:
+    """The router, world, lander and rover processes of one measurement; ``stop`` ends every one of them."""
+
+    def __init__(self, logs: Path, plan: Plan, scenario_file: Path, scenario: Scenario) -> None:
+        self.children = Children(logs)
+        self.plan, self.scenario_file, self.scenario = plan, scenario_file, scenario
+        self.port = free_port()
+        self.endpoint = f"tcp/{HOST}:{self.port}"
+        self.common = ["--world", WORLD, "--connect", self.endpoint]
+
+    def start_router(self) -> None:
+        router = self.children.start("router", "deploy.router", "--listen", self.endpoint)
+        if not wait_for_port(HOST, self.port, 15.0, router):
+            raise BenchmarkError(f"the router did not open {self.endpoint}" + self.tail("router"))
+
+    def start_world_and_lander(self, world_args: list[str]) -> None:
+        self.children.start("world", "world_service", str(self.scenario_file), *self.common, *world_args)
+        self.children.start("lander", "lander_agent", str(self.scenario_file), *self.common)
+
+    def start_rovers(self) -> None:
+        for ids in self.plan.rover_groups():
+            self.children.start(f"rover{ids[1]}", "rover_agent", *ids, "--params", str(self.scenario_file),
+                                "--behaviour", self.scenario.behaviour, *self.common)
+
+    def groups(self) -> dict[str, list[int]]:
+        procs = self.children.procs
+        roles = {"router": ["router"], "world": ["world"], "lander": ["lander"],
+                 "rovers": [n for n in procs if n.startswith("rover")]}
+        return {role: [procs[n].pid for n in names] for role, names in roles.items()}
+
+    def check(self) -> None:
+        dead = self.children.dead()
+        if dead:
+            name = next(iter(dead))
+            raise BenchmarkError(f"{len(dead)} process(es) exited during the measurement: "
+                                 f"{dict(list(dead.items())[:5])}" + self.tail(name))
+
+    def tail(self, name: str) -> str:
+        return f"\n--- last lines of {name}'s log:\n{self.children.log_tail(name, 10) or '(empty)'}"
+
+    def stop(self) -> None:
+        self.children.stop([n for n in self.children.procs if n != "router"], grace_s=10.0)
+        self.children.stop(["router"])
+
+
+# ---- one measurement ----
+
+
+@dataclass
+class Setting:
+    """What every measurement shares, from the command line."""
+
+    scenario: Path
+    seconds: float
+    warmup: float
+    sample: int
+    startup_timeout: float
+    lockstep_sim_time: float
+    lockstep_timeout: float
+    work: Path
+
+
+def sampled_ids(rovers: int, k: int) -> list[int]:
+    """``k`` rover ids spread evenly over 1..rovers, first and last included."""
+    k = min(k, rovers)
+    return [1] if k == 1 else sorted({round(1 + i * (rovers - 1) / (k - 1)) for i in range(k)})
+
+
+def periods(scenario: Scenario) -> tuple[float, dict[str, int]]:
+    """The world's tick and each sensor's period in ticks, from the scenario's rover parameters."""
+    p = scenario.rover_params
+    dt = tick_length(p)
+    return dt, {ks.PERCEPTION: ticks_per_period(p.perception.publish_frequency, dt),
+                ks.GYROSCOPE: ticks_per_period(p.perception.gyroscope_frequency, dt),
+                ks.NAVIGATION_STATUS: ticks_per_period(p.navigation.publish_frequency, dt)}
+
+
+def measure(plan: Plan, s: Setting) -> dict:
+    progress(f"starting {plan.describe()}")
+    scenario = load_scenario(s.scenario).with_overrides(rovers=plan.rovers)
+    run_dir = Path(tempfile.mkdtemp(prefix=f"scale-{plan.rovers}-", dir=s.work))
+    scenario_file = run_dir / "scenario.yaml"
+    scenario_file.write_text(dump_scenario(scenario))
+    cluster = Cluster(run_dir / "logs", plan, scenario_file, scenario)
+    observer = None
+    load_before = os.getloadavg()
+    try:
+        cluster.start_router()
+        session = open_session(build_config(connect=[cluster.endpoint]), cluster.endpoint, 10.0, who="benchmark")
+        observer = Observer(session, ks.Keyspace(WORLD), sampled_ids(plan.rovers, s.sample))
+        cluster.start_world_and_lander(world_arguments(plan, s))
+        startup = start_rovers(cluster, observer, s.startup_timeout)
+        waited = observer.pump_until(lambda: observer.started, STARTED_TIMEOUT_S, cluster.check)
+        if not waited:
+            raise BenchmarkError("every rover is connected but the world's clock did not start" + cluster.tail("world"))
+        window = (lockstep_window if plan.lockstep else realtime_window)(cluster, observer, s)
+    finally:
+        if observer is not None:
+            observer.close()
+            observer.session.close()
+        cluster.stop()
+    row = summarise(plan, s, scenario, observer, window)
+    row.update(startup_s=round(startup, 2), load_before=load_before, load_after=os.getloadavg())
+    progress(f"done: real-time factor {row['real_time_factor']:.3f}, CPU per rover "
+             f"{row['cpu_per_rover_pct']:.2f} % of a core, start-up {startup:.1f} s")
+    return row
+
+
+def world_arguments(plan: Plan, s: Setting) -> list[str]:
+    args = ["--start-timeout", str(s.startup_timeout + STARTED_TIMEOUT_S)]
+    if plan.lockstep:
+        return [*args, "--lockstep", "--max-sim-time", str(s.lockstep_sim_time)]
+    # long enough that the window never outlives the mission's cap (a completed mission ends it early: reported)
+    return [*args, "--time-scale", "1", "--max-sim-time", str(10 * (s.warmup + s.seconds) + 60)]
+
+
+def start_rovers(cluster: Cluster, observer: Observer, timeout: float) -> float:
+    """Spawn the rover processes; seconds until the benchmark sees every rover's liveliness token."""
+    start = time.monotonic()
+    cluster.start_rovers()
+    n = cluster.plan.rovers
+    if not observer.pump_until(lambda: len(observer.alive) >= n, timeout, cluster.check):
+        raise BenchmarkError(f"only {len(observer.alive)} of {n} rovers connected within {timeout:g} s"
+                             + cluster.tail(next(n for n in cluster.children.procs if n.startswith("rover"))))
+    took = time.monotonic() - start
+    progress(f"all {n} rovers connected after {took:.1f} s; waiting for the clock")
+    return took
+
+
+@dataclass
+class Window:
+    start_ns: int
+    end_ns: int
+    cpu: dict[str, float]
+    memory: dict[str, dict[str, float]]
+    benchmark_cpu: float
+    ended_early: bool
+
+
+def realtime_window(cluster: Cluster, observer: Observer, s: Setting) -> Window:
+    observer.pump_until(lambda: observer.final is not None, s.warmup, cluster.check)
+    progress(f"clock running; measuring for {s.seconds:g} s")
+    return timed(cluster, observer, lambda: observer.pump_until(lambda: observer.final is not None, s.seconds,
+                                                               cluster.check))
+
+
+def lockstep_window(cluster: Cluster, observer: Observer, s: Setting) -> Window:
+    progress(f"clock running; waiting for the end of the mission (at most {s.lockstep_sim_time:g} s simulated)")
+
+    def until_final() -> bool:
+        if not observer.pump_until(lambda: observer.final is not None, s.lockstep_timeout, cluster.check):
+            raise BenchmarkError(f"the lockstep mission did not end within {s.lockstep_timeout:g} s")
+        return True
+
+    window = timed(cluster, observer, until_final)
+    window.start_ns, window.end_ns = observer.ticks[0].published_ns, observer.final.published_ns
+    window.ended_early = False
+    return window
+
+
+def timed(cluster: Cluster, observer: Observer, wait) -> Window:
+    """CPU of every process and of the benchmark over ``wait()`` (True when the mission ended), memory at its end."""
+    meter = ProcessMeter(cluster.groups())
+    meter.mark()
+    own = _own_cpu()
+    start_ns, start = time.time_ns(), time.monotonic()
+    ended = wait()
+    end_ns = time.time_ns()
+    meter.mark()
+    own = (_own_cpu() - own) / (time.monotonic() - start)
+    return Window(start_ns, end_ns, meter.cpu(), meter.memory(), own, ended)
+
+
+def _own_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w: Window) -> dict:
+    dt, per = periods(scenario)
+    if plan.lockstep:
+        first, final = observer.ticks[0], observer.final
+        sim = final.stamp - first.sim_time
+        wall = (final.published_ns - first.published_ns) / 1e9
+        factor = sim / wall
+    else:
+        sim, wall, factor = sim_rate(observer.ticks, w.start_ns, w.end_ns)
+    cpu = {**w.cpu, "total": sum(w.cpu.values())}
+    memory = {**w.memory, "total": {k: sum(g[k] for g in w.memory.values()) for k in ("rss_mib", "pss_mib")}}
+    n = plan.rovers
+    return {
+        "mode": "lockstep" if plan.lockstep else "realtime", "rovers": n, "processes": plan.processes,
+        "agents_per_process": plan.per_process, "sampled_rovers": observer.sampled,
+        "sim_s": round(sim, 3), "wall_s": round(wall, 3), "real_time_factor": round(factor, 4),
+        "mission_ended_in_window": w.ended_early,
+        "mission_duration_s": observer.final.report.mission_duration_s if observer.final else None,
+        "cpu_cores": {k: round(v, 4) for k, v in cpu.items()},
+        "cpu_per_rover_pct": round(100 * cpu["rovers"] / n, 3),
+        "memory_mib": {k: {kk: round(vv, 1) for kk, vv in v.items()} for k, v in memory.items()},
+        "memory_per_rover_mib": {k: round(v / n, 2) for k, v in memory["rovers"].items()},
+        "latency_ms": combined_latency(observer.readings, w.start_ns, w.end_ns),
+        "delivery": delivery(observer.readings, w.start_ns, w.end_ns, dt, per, None if plan.lockstep else 1.0),
+        "agent_lag_ms": agent_lag(observer.readings, observer.ticks, w.start_ns, w.end_ns, dt),
+        "benchmark_cpu_cores": round(w.benchmark_cpu, 4),
+        "undecodable_samples": observer.rejected,
+    }
+
+
+# ---- the whole benchmark ----
+
+
+def supports_ids() -> bool:
+    """``lunarsim rover --ids`` (many agents in one process) is what the shared-process series needs."""
+    out = subprocess.run([sys.executable, "-m", "deploy.cli", "rover", "--help"], capture_output=True, text=True)
+    return "--ids" in out.stdout
+
+
+def code_version() -> dict:
+    """The commit measured, and files changed since it (a benchmark of a working tree says which one)."""
+    repo = Path(__file__).resolve().parents[1]
+
+    def git(*cmd: str) -> str:
+        out = subprocess.run(["git", "-C", str(repo), *cmd], capture_output=True, text=True)
+        return out.stdout.rstrip("\n") if out.returncode == 0 else ""  # porcelain lines start with a space
+
+    changed = [line[3:] for line in git("status", "--porcelain", "--untracked-files=no").splitlines()]
+    return {"commit": git("rev-parse", "--short", "HEAD"), "uncommitted_changes": changed}
+
+
+def run(args: argparse.Namespace) -> int:
+    doc = {"benchmark": "scale", "cpus": os.cpu_count(), "python": platform.python_version(),
+           "zenoh": metadata.version("eclipse-zenoh"), "platform": platform.platform(), "code": code_version(),
+           "scenario": str(args.scenario), "settings": {k: v for k, v in vars(args).items() if k != "json"},
+           "load_at_start": os.getloadavg(), "rows": [], "notes": []}
+    work = Path(tempfile.mkdtemp(prefix="lunarsim-scale-", dir=args.logs))
+    s = Setting(args.scenario, args.seconds, args.warmup, args.sample, args.startup_timeout,
+                args.lockstep_sim_time, args.lockstep_timeout, work)
+    try:
+        run_series(args, s, doc)
+    finally:
+        doc["load_at_end"] = os.getloadavg()
+        doc["slopes"] = slopes(doc["rows"], os.cpu_count() or 1)
+        doc["targets"] = targets(doc)
+        if args.logs is None:
+            shutil.rmtree(work, ignore_errors=True)
+        else:
+            doc["logs"] = str(work)
+        print_report(doc)
+        if args.json:
+            args.json.write_text(json.dumps(doc, indent=2, default=str) + "\n", encoding="utf-8")
+            print(f"figures written to {args.json}")
+    return 0
+
+
+def run_series(args: argparse.Namespace, s: Setting, doc: dict) -> None:
+    rows = doc["rows"]
+    for n in args.counts:
+        rows.append(attempt(Plan(n), s))
+    if not args.skip_1000:
+        if supports_ids():
+            doc["shared_counts_tried"] = sorted(args.shared_counts, reverse=True)
+            doc["highest_shared_holding"] = step_down(args, s, rows)
+        else:
+            doc["notes"].append("skipped the shared-process series: this lunarsim rover has no --ids yet")
+            progress(doc["notes"][-1])
+    if not args.skip_lockstep:
+        for n in args.lockstep_counts:
+            rows.append(attempt(Plan(n, lockstep=True), s))
+
+
+
+def attempt(plan: Plan, s: Setting) -> dict:
+    """One measurement; one that cannot finish (rovers not connected in time, a process died) is a row saying why,
+    and the series goes on: a count that does not start does not hold real time either."""
+    try:
+        return measure(plan, s)
+    except BenchmarkError as exc:
+        progress(f"failed: {exc}")
+        return {"mode": "lockstep" if plan.lockstep else "realtime", "rovers": plan.rovers,
+                "processes": plan.processes, "agents_per_process": plan.per_process, "error": str(exc)}
+
+
+def step_down(args: argparse.Namespace, s: Setting, rows: list[dict]) -> int | None:
+    """Shared processes, largest count first, until one holds real time; that count (None if none does)."""
+    for n in sorted(args.shared_counts, reverse=True):
+        row = attempt(Plan(n, per_process=args.per_process), s)
+        rows.append(row)
+        if holds(row):
+            return n
+    return None
+
+
+def holds(row: dict) -> bool:
+    return "error" not in row and row["real_time_factor"] >= 1.0 - RTF_TOLERANCE
+
+
+# ---- command line ----
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="a smoke check: small counts, short windows "
+                        f"({', '.join(f'{k} {v}' for k, v in QUICK.items())})")
+    parser.add_argument("--counts", type=int, nargs="+", metavar="N",
+                        help=f"real time, one process per rover (default {FULL['counts']})")
+    parser.add_argument("--seconds", type=float, metavar="S", help="measuring window in real time "
+                        f"(default {FULL['seconds']:g})")
+    parser.add_argument("--warmup", type=float, metavar="S", help="running clock before the window "
+                        f"(default {FULL['warmup']:g})")
+    parser.add_argument("--shared-counts", type=int, nargs="+", metavar="N", help="real time, rovers sharing "
+                        f"processes, largest first until one holds (default {FULL['shared_counts']})")
+    parser.add_argument("--per-process", type=int, metavar="K", help="agents per process in the shared series "
+                        f"(default {FULL['per_process']})")
+    parser.add_argument("--lockstep-counts", type=int, nargs="+", metavar="N",
+                        help=f"lockstep, one process per rover (default {FULL['lockstep_counts']})")
+    parser.add_argument("--lockstep-sim-time", type=float, metavar="S", help="cap of each lockstep mission in "
+                        f"simulated seconds (default {FULL['lockstep_sim_time']:g})")
+    parser.add_argument("--lockstep-timeout", type=float, default=900.0, metavar="S",
+                        help="wall seconds a lockstep mission may take (default 900)")
+    parser.add_argument("--skip-lockstep", action="store_true")
+    parser.add_argument("--skip-1000", action="store_true", help="leave out the shared-process series")
+    parser.add_argument("--sample", type=int, default=10, metavar="K", help="rovers whose sensors are followed "
+                        "(spread over the ids; default 10)")
+    parser.add_argument("--startup-timeout", type=float, default=180.0, metavar="S",
+                        help="seconds for every rover to connect (default 180)")
+    parser.add_argument("--scenario", type=Path, default=SCENARIO, help="default: crater_observation.yaml")
+    parser.add_argument("--logs", type=Path, metavar="DIR", help="keep the processes' logs under DIR")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE as JSON")
+    args = parser.parse_args(argv)
+    for key, value in (QUICK if args.quick else FULL).items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+    check_args(parser, args)
+    return args
+
+
+def check_args(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    counts = [*args.counts, *args.shared_counts, *args.lockstep_counts]
+    if min(counts) < 1 or args.per_process < 1 or args.sample < 1:
+        parser.error("rover counts, --per-process and --sample must be 1 or more")
+    if args.seconds <= 0 or args.warmup < 0 or args.lockstep_sim_time <= 0:
+        parser.error("--seconds and --lockstep-sim-time must be more than 0, --warmup 0 or more")
+    if not args.scenario.is_file():
+        parser.error(f"--scenario {args.scenario}: no such file")
+    if args.logs is not None:
+        args.logs.mkdir(parents=True, exist_ok=True)
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    signal.signal(signal.SIGTERM, _interrupt)  # a terminated benchmark stops its processes as on Ctrl-C
+    try:
+        return run(args)
+    except (BenchmarkError, RouterUnreachable) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("interrupted: every process it started is stopped", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

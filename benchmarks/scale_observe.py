@@ -1,0 +1,288 @@
+"""What the scale benchmark sees of a running simulation: its own Zenoh session beside the agents, and /proc.
+
+``Observer`` subscribes, through the same router as the agents, to the world's clock and statistics, to every
+rover's liveliness token and to the sensors (perception, gyroscope, navigation status) and status of a few
+sampled rovers. Callbacks only stamp the arrival time and enqueue; ``pump`` decodes in the caller's thread.
+
+- Delivery latency of a sample: its arrival (wall clock) minus its Zenoh timestamp, which the publisher's
+  ``Bus.put`` takes from its session's HLC (Unix-epoch NTP64, the same wall clock on one machine).
+- Drops: gaps in the sim-time stamps of a rover's perception (one per perception period) and gyroscope (one per
+  tick). Navigation status is sent only while an action runs, so its gaps say nothing: latency only.
+- Agent lag: from the world publishing the clock tick a RoverStatus is stamped with to the agent publishing that
+  status. An agent whose inbox backs up (too many agents for its process, a busy core) shows it here first.
+
+``ProcessMeter`` reads user+system CPU time from /proc/<pid>/stat and Rss/Pss from /proc/<pid>/smaps_rollup.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import queue
+import time
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import NamedTuple
+
+import zenoh
+from control_loop_latency import Summary
+
+from schemas import codec
+from schemas import keyspace as ks
+from schemas import messages as m
+
+SENSOR_TOPICS = (ks.PERCEPTION, ks.GYROSCOPE, ks.NAVIGATION_STATUS)
+GAP_CHECKED = (ks.PERCEPTION, ks.GYROSCOPE)
+"""Topics published at a fixed rate whatever the rover does, so a gap in their stamps is a lost sample."""
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+class Arrival(NamedTuple):
+    key: str
+    payload: bytes
+    published_ns: int | None
+    received_ns: int
+    alive: bool | None = None
+
+
+class Reading(NamedTuple):
+    """One sampled rover's sensor or status sample: its sim-time stamp and its wall-clock journey."""
+
+    rover: int
+    topic: str
+    stamp: float
+    published_ns: int
+    received_ns: int
+
+
+class ClockMark(NamedTuple):
+    tick: int
+    sim_time: float
+    published_ns: int
+
+
+@dataclass
+class Final:
+    stamp: float
+    published_ns: int
+    report: m.MissionReport
+
+
+@dataclass
+class Observer:
+    session: zenoh.Session
+    keys: ks.Keyspace
+    sampled: list[int]
+    alive: set[int] = field(default_factory=set)
+    ticks: list[ClockMark] = field(default_factory=list)
+    readings: list[Reading] = field(default_factory=list)
+    final: Final | None = None
+    rejected: int = 0
+    _inbox: queue.SimpleQueue[Arrival] = field(default_factory=queue.SimpleQueue)
+    _declared: list = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        keys = self.keys
+        data = [keys.clock, keys.stats]
+        data += [keys.rover(rid, topic) for rid in self.sampled for topic in (*SENSOR_TOPICS, ks.STATUS)]
+        for key in data:
+            handler = zenoh.handlers.Callback(self._on_sample, indirect=False)
+            self._declared.append(self.session.declare_subscriber(key, handler))
+        handler = zenoh.handlers.Callback(self._on_alive, indirect=False)
+        self._declared.append(self.session.liveliness().declare_subscriber(keys.alive_rovers, handler, history=True))
+
+    # ---- Zenoh threads: stamp and enqueue, nothing else ----
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        now = time.time_ns()
+        stamp = sample.timestamp
+        published = stamp.get_time_as_ntp64().as_nanos() if stamp is not None else None
+        self._inbox.put(Arrival(str(sample.key_expr), sample.payload.to_bytes(), published, now))
+
+    def _on_alive(self, sample: zenoh.Sample) -> None:
+        self._inbox.put(Arrival(str(sample.key_expr), b"", None, time.time_ns(), sample.kind == zenoh.SampleKind.PUT))
+
+    # ---- the benchmark's thread ----
+
+    def pump(self, timeout: float) -> None:
+        """Take in everything that has arrived, waiting up to ``timeout`` for the first item."""
+        try:
+            item = self._inbox.get(timeout=timeout)
+        except queue.Empty:
+            return
+        while True:
+            self._take(item)
+            try:
+                item = self._inbox.get_nowait()
+            except queue.Empty:
+                return
+
+    def pump_until(self, condition, timeout: float, check=None) -> bool:
+        """Pump until ``condition()`` holds (True) or ``timeout`` passes (False); ``check()`` runs every pass."""
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() >= deadline:
+                return False
+            self.pump(0.1)
+            if check is not None:
+                check()
+        return True
+
+    def _take(self, item: Arrival) -> None:
+        if item.alive is not None:
+            rover_id = self.keys.parse_alive_key(item.key)
+            (self.alive.add if item.alive else self.alive.discard)(rover_id)
+            return
+        try:
+            if item.key == self.keys.clock:
+                self._on_clock(codec.decode(m.Clock, item.payload), item)
+            elif item.key == self.keys.stats:
+                self._on_stats(codec.decode(m.WorldStats, item.payload), item)
+            else:
+                self._on_rover(item)
+        except codec.DecodeError:
+            self.rejected += 1
+
+    def _on_clock(self, clock: m.Clock, item: Arrival) -> None:
+        if clock.running and item.published_ns is not None:
+            self.ticks.append(ClockMark(clock.tick, clock.sim_time, item.published_ns))
+
+    def _on_stats(self, stats: m.WorldStats, item: Arrival) -> None:
+        if stats.final and self.final is None:
+            self.final = Final(stats.stamp, item.published_ns or item.received_ns, stats.report)
+
+    def _on_rover(self, item: Arrival) -> None:
+        rover_id, topic = self.keys.parse_rover_key(item.key)
+        model = m.RoverStatus if topic == ks.STATUS else m.TOPIC_MODELS[topic]
+        message = codec.decode(model, item.payload)
+        if item.published_ns is not None:
+            self.readings.append(Reading(rover_id, topic, message.stamp, item.published_ns, item.received_ns))
+
+    @property
+    def started(self) -> bool:
+        return bool(self.ticks)
+
+    def close(self) -> None:
+        for entity in reversed(self._declared):
+            with contextlib.suppress(zenoh.ZError):
+                entity.undeclare()
+        self._declared.clear()
+
+
+# ---- what the readings say ----
+
+
+def sim_rate(ticks: list[ClockMark], start_ns: int, end_ns: int) -> tuple[float, float, float]:
+    """(simulated seconds, wall seconds, their ratio) between the first and last clock published in the window."""
+    inside = [t for t in ticks if start_ns <= t.published_ns <= end_ns]
+    if len(inside) < 2:
+        return 0.0, (end_ns - start_ns) / 1e9, 0.0
+    sim = inside[-1].sim_time - inside[0].sim_time
+    wall = (inside[-1].published_ns - inside[0].published_ns) / 1e9
+    return sim, wall, sim / wall if wall > 0 else math.inf
+
+
+def delivery(readings: list[Reading], start_ns: int, end_ns: int, dt: float, periods: dict[str, int],
+             time_scale: float | None) -> dict[str, dict]:
+    """Per sensor topic: latency summary, samples later than one period (real time only), drops, reorders."""
+    by_topic: dict[str, list[Reading]] = defaultdict(list)
+    for r in readings:
+        if start_ns <= r.received_ns <= end_ns and r.topic in SENSOR_TOPICS:
+            by_topic[r.topic].append(r)
+    out = {}
+    for topic in SENSOR_TOPICS:
+        rows = by_topic.get(topic, [])
+        latencies = [r.received_ns - r.published_ns for r in rows]
+        period_ns = periods[topic] * dt / time_scale * 1e9 if time_scale else None
+        dropped, reordered = _gaps(rows, dt, periods[topic]) if topic in GAP_CHECKED else (None, None)
+        out[topic] = {
+            "period_s": periods[topic] * dt,
+            "received": len(rows),
+            "latency_ms": vars(Summary.of(latencies)) if latencies else None,
+            "over_one_period": sum(lat > period_ns for lat in latencies) if period_ns else None,
+            "dropped": dropped,
+            "out_of_order": reordered,
+        }
+    return out
+
+
+def _gaps(rows: list[Reading], dt: float, period_ticks: int) -> tuple[int, int]:
+    """Missing samples between consecutive arrivals of each rover, and samples that came back in time."""
+    last: dict[int, int] = {}
+    dropped = reordered = 0
+    for r in rows:  # arrival order
+        tick = round(r.stamp / dt)
+        previous = last.get(r.rover)
+        if previous is not None:
+            gap = tick - previous
+            if gap <= 0:
+                reordered += 1
+                continue
+            dropped += max(0, gap // period_ticks - 1)
+        last[r.rover] = tick
+    return dropped, reordered
+
+
+def agent_lag(readings: list[Reading], ticks: list[ClockMark], start_ns: int, end_ns: int,
+              dt: float) -> dict | None:
+    """From the world's clock tick to the sampled agents' status stamped with it (ms)."""
+    published = {t.tick: t.published_ns for t in ticks}
+    lags = []
+    for r in readings:
+        if r.topic == ks.STATUS and start_ns <= r.received_ns <= end_ns:
+            clock_ns = published.get(round(r.stamp / dt))
+            if clock_ns is not None:
+                lags.append(r.published_ns - clock_ns)
+    return vars(Summary.of(lags)) if lags else None
+
+
+def combined_latency(readings: list[Reading], start_ns: int, end_ns: int) -> dict | None:
+    lat = [r.received_ns - r.published_ns for r in readings
+           if r.topic in SENSOR_TOPICS and start_ns <= r.received_ns <= end_ns]
+    return vars(Summary.of(lat)) if lat else None
+
+
+# ---- /proc ----
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process so far (its threads included)."""
+    stat = Path(f"/proc/{pid}/stat").read_text()
+    fields = stat[stat.rindex(")") + 2:].split()  # after "pid (comm) "; comm may hold spaces
+    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime, stime: fields 14 and 15 of stat(5)
+
+
+def memory_kib(pid: int) -> tuple[int, int]:
+    """(Rss, Pss) in KiB: resident pages, and resident pages with shared ones split among their sharers."""
+    values = {}
+    for line in Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines():
+        name, _, rest = line.partition(":")
+        if name in ("Rss", "Pss"):
+            values[name] = int(rest.split()[0])
+    return values["Rss"], values["Pss"]
+
+
+@dataclass
+class ProcessMeter:
+    """CPU and memory of groups of processes (router, world, lander, rovers), between two ``mark`` calls."""
+
+    groups: dict[str, list[int]]
+    _marks: list[tuple[float, dict[int, float]]] = field(default_factory=list)
+
+    def mark(self) -> None:
+        self._marks.append((time.monotonic(), {pid: cpu_seconds(pid) for pids in self.groups.values()
+                                               for pid in pids}))
+
+    def cpu(self) -> dict[str, float]:
+        """CPU seconds each group used per wall second between the first and the last mark (1.0 = one core)."""
+        (t0, a), (t1, b) = self._marks[0], self._marks[-1]
+        return {name: sum(b[p] - a[p] for p in pids) / (t1 - t0) for name, pids in self.groups.items()}
+
+    def memory(self) -> dict[str, dict[str, float]]:
+        out = {}
+        for name, pids in self.groups.items():
+            rss, pss = zip(*(memory_kib(p) for p in pids), strict=True)
+            out[name] = {"rss_mib": sum(rss) / 1024, "pss_mib": sum(pss) / 1024}
+        return out

@@ -1,0 +1,199 @@
+"""The scale benchmark's output: the table, delivery per topic, cost against rover count (the slope), targets.
+
+Works on the JSON document ``scale.py`` builds (rows of plain dicts), so a saved ``--json`` file can be printed
+again: ``python benchmarks/scale_report.py FILE``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+RTF_TOLERANCE = 0.005
+"""The world paces itself to real time and never runs ahead, so a run that keeps up measures 1.000 give or take
+the clock samples at the window's ends; a factor within this of 1.0 holds real time."""
+LOCKSTEP_TARGET = 20.0
+STARTUP_TARGET_S = 20.0
+SATURATED = 0.9
+"""Share of the machine's cores above which a run's CPU figures are capped by the machine, not by its needs."""
+
+
+def print_report(doc: dict) -> None:
+    rows = doc["rows"]
+    print(f"\nScale benchmark, {doc['scenario']}: {doc['cpus']} CPUs, Python {doc['python']}, zenoh {doc['zenoh']}")
+    code = doc.get("code", {})
+    if code:
+        dirty = code["uncommitted_changes"]
+        print(f"code: commit {code['commit']}" + (f", with uncommitted changes to {', '.join(dirty)}" if dirty else ""))
+    print(f"load average (1, 5, 15 min) at start {_load(doc['load_at_start'])}, at end "
+          f"{_load(doc.get('load_at_end', doc['load_at_start']))}: other work on this machine adds noise")
+    if rows:
+        sampled = next((r["sampled_rovers"] for r in rows if "sampled_rovers" in r and len(r["sampled_rovers"]) > 5),
+                       None)
+        print("sensor delivery measured on up to 10 rovers spread over the ids"
+              + (f" (e.g. {sampled})" if sampled else "") + "; latency = arrival minus the publisher's Zenoh "
+              "timestamp; agent lag = world clock tick to the agent's status stamped with it")
+        print_table(rows)
+        print_delivery(rows)
+    print_slopes(doc.get("slopes", []))
+    for note in doc.get("notes", []):
+        print(f"note: {note}")
+    if "highest_shared_holding" in doc:
+        h = doc["highest_shared_holding"]
+        print(f"highest shared-process rover count holding real time: {h if h is not None else 'none measured'}")
+    for t in doc.get("targets", []):
+        verdict = "not measured" if t["pass"] is None else ("PASS" if t["pass"] else "FAIL")
+        print(f"target: {t['target']}: {t['measured']}  {verdict}")
+
+
+def _load(load: list[float]) -> str:
+    return " ".join(f"{x:.2f}" for x in load)
+
+
+HEADER = (f"{'mode':9}{'rovers':>7}{'procs':>6}{'RTF':>8}{'CPU/rover':>10}{'rovers':>8}{'world':>7}{'router':>7}"
+          f"{'total':>7}{'RSS/rover':>10}{'PSS/rover':>10}{'RSS all':>9}{'lat p50':>8}{'p99':>7}{'>period':>8}"
+          f"{'dropped':>8}{'lag p99':>8}{'start-up':>9}{'load':>6}")
+UNITS = (f"{'':30}{'% core':>10}{'cores':>8}{'cores':>7}{'cores':>7}{'cores':>7}{'MiB':>10}{'MiB':>10}{'MiB':>9}"
+         f"{'ms':>8}{'ms':>7}{'':16}{'ms':>8}{'s':>9}{'1 min':>6}")
+
+
+def print_table(rows: list[dict]) -> None:
+    print()
+    print(HEADER)
+    print(UNITS)
+    for r in rows:
+        head = f"{r['mode']:9}{r['rovers']:>7}{r['processes']:>6}"
+        if "error" in r:
+            print(f"{head}  failed: {r['error'].splitlines()[0]}")
+            continue
+        c, mem, lat, lag = r["cpu_cores"], r["memory_mib"], r["latency_ms"] or {}, r["agent_lag_ms"] or {}
+        over, dropped = _sum(r, "over_one_period"), _sum(r, "dropped")
+        print(f"{head}{r['real_time_factor']:>8.3f}{r['cpu_per_rover_pct']:>10.2f}{c['rovers']:>8.2f}{c['world']:>7.2f}"
+              f"{c['router']:>7.2f}{c['total']:>7.2f}{r['memory_per_rover_mib']['rss_mib']:>10.1f}"
+              f"{r['memory_per_rover_mib']['pss_mib']:>10.1f}{mem['total']['rss_mib']:>9.0f}"
+              f"{_num(lat.get('p50_ms'), 2):>8}{_num(lat.get('p99_ms'), 1):>7}{_num(over, 0):>8}{_num(dropped, 0):>8}"
+              f"{_num(lag.get('p99_ms'), 0):>8}{r['startup_s']:>9.1f}{r['load_before'][0]:>6.2f}")
+
+
+def _sum(row: dict, field: str) -> int | None:
+    values = [d[field] for d in row["delivery"].values() if d[field] is not None]
+    return sum(values) if values else None
+
+
+def _num(value: float | None, digits: int) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def print_delivery(rows: list[dict]) -> None:
+    print(f"\n{'mode':9}{'rovers':>7}{'procs':>6}  {'topic':18}{'period s':>9}{'received':>9}{'p50 ms':>8}"
+          f"{'p99 ms':>8}{'max ms':>8}{'>period':>8}{'dropped':>8}{'reorder':>8}")
+    for r in rows:
+        if "error" in r:
+            continue
+        for topic, d in r["delivery"].items():
+            lat = d["latency_ms"] or {}
+            print(f"{r['mode']:9}{r['rovers']:>7}{r['processes']:>6}  {topic:18}{d['period_s']:>9.2f}"
+                  f"{d['received']:>9}{_num(lat.get('p50_ms'), 2):>8}{_num(lat.get('p99_ms'), 1):>8}"
+                  f"{_num(lat.get('max_ms'), 1):>8}{_num(d['over_one_period'], 0):>8}{_num(d['dropped'], 0):>8}"
+                  f"{_num(d['out_of_order'], 0):>8}")
+
+
+# ---- cost against rover count ----
+
+
+def fit(xs: list[float], ys: list[float]) -> tuple[float, float]:
+    """Least-squares line: (slope, intercept)."""
+    n = len(xs)
+    mx, my = sum(xs) / n, sum(ys) / n
+    sxx = sum((x - mx) ** 2 for x in xs)
+    slope = sum((x - mx) * (y - my) for x, y in zip(xs, ys, strict=True)) / sxx
+    return slope, my - slope * mx
+
+
+def slopes(rows: list[dict], cpus: int) -> list[dict]:
+    """Per series (real time, same agents per process, at least two counts): marginal and fixed cost."""
+    out = []
+    done = [r for r in rows if r["mode"] == "realtime" and "error" not in r]
+    for k in sorted({r["agents_per_process"] for r in done}):
+        series = sorted((r for r in done if r["agents_per_process"] == k), key=lambda r: r["rovers"])
+        if len({r["rovers"] for r in series}) < 2:
+            continue
+        xs = [r["rovers"] for r in series]
+        entry = {"agents_per_process": k, "rovers": xs,
+                 "saturated": any(r["cpu_cores"]["total"] > SATURATED * cpus for r in series)}
+        for name in ("total", "rovers", "world", "router"):
+            slope, fixed = fit(xs, [r["cpu_cores"][name] for r in series])
+            entry[f"cpu_{name}"] = {"per_rover_pct": round(100 * slope, 3), "fixed_pct": round(100 * fixed, 1)}
+        for name in ("rss_mib", "pss_mib"):
+            slope, fixed = fit(xs, [r["memory_mib"]["total"][name] for r in series])
+            entry[name] = {"per_rover": round(slope, 2), "fixed": round(fixed, 1)}
+        out.append(entry)
+    return out
+
+
+def print_slopes(entries: list[dict]) -> None:
+    for e in entries:
+        share = "one process per rover" if e["agents_per_process"] == 1 else f"{e['agents_per_process']} per process"
+        c, w, ro, rt = e["cpu_total"], e["cpu_world"], e["cpu_router"], e["cpu_rovers"]
+        print(f"\ncost against rover count, real time, {share} (fit over {e['rovers']} rovers):")
+        print(f"  CPU: each more rover +{c['per_rover_pct']:.2f} % of a core (rover agents {rt['per_rover_pct']:.2f}, "
+              f"world {w['per_rover_pct']:.2f}, router {ro['per_rover_pct']:.2f}); fixed {c['fixed_pct']:.0f} %")
+        print(f"  memory: each more rover +{e['rss_mib']['per_rover']:.1f} MiB RSS, "
+              f"+{e['pss_mib']['per_rover']:.1f} MiB PSS; fixed {e['rss_mib']['fixed']:.0f} MiB RSS")
+        if e["saturated"]:
+            print("  (a run used over 90 % of the machine: its CPU is capped, so the CPU slope understates the cost)")
+
+
+# ---- targets (issue 9) ----
+
+
+def _row(rows: list[dict], mode: str, rovers: int, per_process: int = 1) -> dict | None:
+    return next((r for r in rows if r["mode"] == mode and r["rovers"] == rovers
+                 and r["agents_per_process"] == per_process), None)
+
+
+def targets(doc: dict) -> list[dict]:
+    rows = doc["rows"]
+    rt = _row(rows, "realtime", 100)
+    lock = _row(rows, "lockstep", 5)
+    out = [_realtime_target(rt), _startup_target(rt)]
+    out.append(_thousand_target(doc))
+    ok = lock is not None and "error" not in lock
+    out.append({"target": f"5-rover lockstep at least {LOCKSTEP_TARGET:g} x real time",
+                "measured": f"{lock['real_time_factor']:.2f} x" if ok else "not run",
+                "pass": lock["real_time_factor"] >= LOCKSTEP_TARGET if ok else None})
+    return out
+
+
+def _thousand_target(doc: dict) -> dict:
+    name = "1,000 rovers (sharing processes) hold a real-time factor of at least 1.0"
+    if "highest_shared_holding" not in doc:
+        return {"target": name, "measured": "not run", "pass": None}
+    highest = doc["highest_shared_holding"]
+    measured = f"highest count holding: {highest} (tried {doc['shared_counts_tried']})"
+    if highest is not None and highest >= 1000:
+        return {"target": name, "measured": measured, "pass": True}
+    return {"target": name, "measured": measured, "pass": False if max(doc["shared_counts_tried"]) >= 1000 else None}
+
+
+def _realtime_target(rt: dict | None) -> dict:
+    name = "100 rover processes hold real time, no sensor sample dropped or later than one period"
+    if rt is None or "error" in rt:
+        return {"target": name, "measured": rt["error"].splitlines()[0] if rt else "not run",
+                "pass": False if rt else None}
+    over, dropped = _sum(rt, "over_one_period") or 0, _sum(rt, "dropped") or 0
+    return {"target": name, "measured": f"factor {rt['real_time_factor']:.3f}, {over} later than a period, "
+            f"{dropped} dropped", "pass": rt["real_time_factor"] >= 1.0 - RTF_TOLERANCE and over == 0 and dropped == 0}
+
+
+def _startup_target(rt: dict | None) -> dict:
+    name = f"100 rover processes all connected within {STARTUP_TARGET_S:g} s"
+    if rt is None or "startup_s" not in rt:
+        return {"target": name, "measured": "not run" if rt is None else "did not connect", "pass": None
+                if rt is None else False}
+    return {"target": name, "measured": f"{rt['startup_s']:.1f} s", "pass": rt["startup_s"] <= STARTUP_TARGET_S}
+
+
+if __name__ == "__main__":
+    print_report(json.loads(Path(sys.argv[1]).read_text()))
