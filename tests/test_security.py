@@ -10,6 +10,7 @@ session did arrive, so it is not a timing artefact: one session's samples reach 
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -18,13 +19,15 @@ from types import SimpleNamespace
 import pytest
 import yaml
 import zenoh
-from procs import REPO, SCENARIOS, free_port, lunarsim, module, stop, wait_for
+from procs import REPO, SCENARIOS, free_port, lunarsim, module, stop, wait_for, wait_for_output
 
 from deploy.children import wait_for_port
 from deploy.security import acl, configs
 from deploy.zenoh_config import build_config
 from rover_agent.agent import SUBSCRIBED_TOPICS
+from schemas import codec
 from schemas import keyspace as ks
+from schemas import messages as m
 from world_service.sim import World
 
 KEYS = ks.Keyspace("secure")
@@ -140,9 +143,10 @@ def test_credentials_keep_existing_passwords_and_reject_broken_lines():
 
 # ---- certificates and the command line ----
 
-def make_certs(folder: Path, rovers: int, *hosts: str) -> str:
-    done = subprocess.run([str(CERT_SCRIPT), str(folder), str(rovers), *hosts], capture_output=True, text=True,
-                          timeout=60)
+def make_certs(folder: Path, rovers: int, *hosts: str, bridges: str | None = None) -> str:
+    options = ["--bridges", bridges] if bridges is not None else []
+    done = subprocess.run([str(CERT_SCRIPT), *options, str(folder), str(rovers), *hosts], capture_output=True,
+                          text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     return done.stdout
 
@@ -365,3 +369,216 @@ def test_a_secured_lockstep_mission_runs_as_on_an_open_router(secure, router, tm
     assert secured["rejected_messages"] == 0 and secured["total_distance_covered_m"] > 20
     plain, _ = run_mission(tmp_path / "open", scenario, router, None)
     assert secured == plain
+
+
+# ---- real rovers: driver bridges (lunarsim acl --bridges) and the twin world ----
+
+@pytest.fixture(scope="module")
+def bridged() -> dict:
+    """Rovers 1 and 2 real, each behind its driver bridge; rover 3 simulated by the world."""
+    return acl.access_control(acl.roles(KEYS, [1, 2, 3], bridged=[1, 2]), KEYS)
+
+
+def publishers(control: dict, key: str) -> set[str]:
+    """Every role of ``control`` that may publish on ``key``."""
+    return {s["id"] for s in control["subjects"] if allowed(control, s["id"], "put", "ingress", key)}
+
+
+def subscribers(control: dict, key: str) -> set[str]:
+    return {s["id"] for s in control["subjects"] if allowed(control, s["id"], "declare_subscriber", "ingress", key)
+            and allowed(control, s["id"], "put", "egress", key)}
+
+
+def test_a_bridge_alone_publishes_its_own_rovers_sensors_and_telemetry(bridged):
+    from world_service.twin import TwinWorld
+
+    for topic in (*SUBSCRIBED_TOPICS, ks.TELEMETRY):
+        assert publishers(bridged, KEYS.rover(1, topic)) == {"bridge-1"}, topic
+        assert publishers(bridged, KEYS.rover(2, topic)) == {"bridge-2"}, topic
+        assert subscribers(bridged, KEYS.rover(1, topic)) >= {"recorder"}
+    for topic in SUBSCRIBED_TOPICS:
+        assert publishers(bridged, KEYS.rover(3, topic)) == {"world"}, topic  # rover 3 is still simulated
+        assert subscribers(bridged, KEYS.rover(1, topic)) - {"world"} == {"rover-1", "recorder"}, topic
+        assert ("world" in subscribers(bridged, KEYS.rover(1, topic))) == (topic in TwinWorld.INPUT_TOPICS), topic
+    assert publishers(bridged, KEYS.rover(3, ks.TELEMETRY)) == set()  # no agent forges a driver's pose
+    for key in (KEYS.ground_command, KEYS.state, KEYS.stats, KEYS.clock, KEYS.lander(ks.COMM_IN),
+                KEYS.rover(1, ks.MOVE_ACTION), KEYS.rover(1, ks.STATUS), KEYS.rover(1, ks.ACK)):
+        assert not allowed(bridged, "bridge-1", "put", "ingress", key), key
+
+
+def test_a_bridge_reads_only_its_own_agents_commands_the_clock_and_its_agents_token(bridged):
+    from deploy.hardware.bridge import AGENT_TOPICS
+
+    for topic in (*AGENT_TOPICS, ks.COMM_OUT):
+        assert "bridge-1" in subscribers(bridged, KEYS.rover(1, topic)), topic
+        assert "bridge-1" not in subscribers(bridged, KEYS.rover(2, topic)), topic
+        assert publishers(bridged, KEYS.rover(1, topic)) == {"rover-1"}, topic
+    assert "bridge-1" in subscribers(bridged, KEYS.clock)
+    for key in (KEYS.state, KEYS.stats, KEYS.all, KEYS.rovers(ks.MOVE_ACTION), KEYS.ground_command,
+                KEYS.rover(2, ks.PERCEPTION)):
+        assert not allowed(bridged, "bridge-1", "declare_subscriber", "ingress", key), key
+    assert allowed(bridged, "bridge-1", "declare_liveliness_subscriber", "ingress", KEYS.alive_rover(1))
+    assert allowed(bridged, "bridge-1", "liveliness_token", "egress", KEYS.alive_rover(1))
+    assert not allowed(bridged, "bridge-1", "declare_liveliness_subscriber", "ingress", KEYS.alive_rover(2))
+    assert not allowed(bridged, "bridge-1", "liveliness_token", "ingress", KEYS.alive_rover(1))  # the agent's
+
+
+class Declared:
+    """The keys a service's ``declare_io(bus, keys)`` declares on its bus, to check them against the rules."""
+
+    def __init__(self) -> None:
+        self.subscribed: list[str] = []
+        self.watched: list[str] = []
+
+    def subscribe(self, key_expr: str) -> None:
+        self.subscribed.append(key_expr)
+
+    def watch_liveliness(self, key_expr: str) -> None:
+        self.watched.append(key_expr)
+
+
+def test_the_world_follows_real_rovers_as_a_twin_and_cannot_speak_for_them(bridged, control):
+    from world_service import service, twin_service
+
+    all_real = acl.access_control(acl.roles(KEYS, [1, 2], bridged=[1, 2]), KEYS)
+    twin, simulated = Declared(), Declared()
+    twin_service.declare_io(twin, KEYS)
+    service.declare_io(simulated, KEYS)
+    for rules, declared in ((bridged, twin), (all_real, twin), (bridged, simulated), (control, simulated)):
+        for key in declared.subscribed:  # as declared: wildcards over every rover
+            assert allowed(rules, "world", "declare_subscriber", "ingress", key), key
+        for key in declared.watched:
+            assert allowed(rules, "world", "declare_liveliness_subscriber", "ingress", key), key
+    for key in (KEYS.clock, KEYS.state, KEYS.stats):
+        assert publishers(all_real, key) == {"world"}, key
+    for topic in SUBSCRIBED_TOPICS:
+        assert publishers(all_real, KEYS.rover(1, topic)) == {"bridge-1"}, topic
+    assert publishers(all_real, KEYS.lander(ks.COMM_IN)) == set()  # no simulated radio left to deliver it
+    assert not allowed(all_real, "world", "declare_subscriber", "ingress", KEYS.rovers(ks.MOVE_ACTION))
+    assert not allowed(control, "rover-1", "put", "ingress", KEYS.rover(1, ks.TELEMETRY))
+
+
+def test_on_a_bench_the_one_bridge_is_the_clock_and_bad_bridge_sets_are_refused():
+    bench = acl.access_control(acl.roles(KEYS, [1], bridged=[1], bridge_clock=True), KEYS)
+    assert allowed(bench, "bridge-1", "put", "ingress", KEYS.clock)
+    assert not allowed(bench, "world", "put", "ingress", KEYS.clock)
+    assert allowed(bench, "rover-1", "put", "egress", KEYS.clock)
+    with pytest.raises(ValueError, match=r"bridged rovers \[3\] are not rovers of this world"):
+        acl.roles(KEYS, [1, 2], bridged=[1, 3])
+    with pytest.raises(ValueError, match="one bridge"):
+        acl.roles(KEYS, [1, 2], bridged=[1, 2], bridge_clock=True)
+
+
+@needs_openssl
+def test_make_dev_certs_makes_bridge_certificates_when_asked(tmp_path):
+    made = make_certs(tmp_path, 3, bridges="1,3")
+    assert "made  " + str(tmp_path / "bridge-1.pem") in made and "made  " + str(tmp_path / "bridge-3.pem") in made
+    assert not (tmp_path / "bridge-2.pem").exists()
+    subject = subprocess.run(["openssl", "x509", "-in", str(tmp_path / "bridge-3.pem"), "-noout", "-subject"],
+                             capture_output=True, text=True).stdout
+    assert "CN = bridge-3" in subject or "CN=bridge-3" in subject
+    again = make_certs(tmp_path, 3, bridges="all")
+    assert again.count("made ") == 1 and "made  " + str(tmp_path / "bridge-2.pem") in again
+    assert make_certs(tmp_path, 3).count("made ") == 0  # without --bridges, as before
+    bad = subprocess.run([str(CERT_SCRIPT), "--bridges", "4", str(tmp_path), "3"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "rover ids 1..3" in bad.stderr
+
+
+def test_acl_command_refuses_bridges_that_are_not_rovers(tmp_path, capsys):
+    from deploy.cli import main
+
+    scenario = str(SCENARIOS / "crater_observation.yaml")
+    out = str(tmp_path / "router.json5")
+    assert main(["acl", scenario, "--rovers", "2", "--bridges", "1,3", "-o", out]) == 2
+    assert "bridged rovers [3] are not rovers of this world" in capsys.readouterr().err
+    assert main(["acl", scenario, "--rovers", "2", "--bridges", "one", "-o", out]) == 2
+    assert "expected 'all' or rover ids" in capsys.readouterr().err
+    assert main(["acl", scenario, "--rovers", "2", "--bridges", "all", "--bridge-clock", "-o", out]) == 2
+    assert "--bridge-clock needs exactly one bridge" in capsys.readouterr().err
+    assert main(["acl", scenario, "--rovers", "2", "--bridges", "all", "-o", out]) == 2
+    assert "make-dev-certs.sh --bridges all" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def real(tmp_path_factory):
+    """A router from ``lunarsim acl --bridges all`` (2 real rovers, world 'secure'), bridge certificates included."""
+    if shutil.which("openssl") is None:
+        pytest.skip("openssl is not installed: make-dev-certs.sh cannot make certificates")
+    folder = tmp_path_factory.mktemp("real")
+    make_certs(folder / "certs", 2, bridges="all")
+    made = lunarsim("acl", str(SCENARIOS / "crater_observation.yaml"), "--rovers", "2", "--bridges", "all",
+                    "--world", KEYS.world, "-o", str(folder / "router.json5"))
+    out, err = made.communicate(timeout=60)
+    assert made.returncode == 0, out + err
+    assert (folder / "clients" / "bridge-2.json5").is_file()
+    port = free_port()
+    router = lunarsim("router", "--config", str(folder / "router.json5"), "--listen", f"tls/127.0.0.1:{port}")
+    assert wait_for_port("127.0.0.1", port, 15, router), router.communicate(timeout=5) if router.poll() else "timeout"
+    yield SimpleNamespace(folder=folder, endpoint=f"tls/localhost:{port}", port=port)
+    stop(router)
+
+
+@pytest.mark.e2e
+def test_bridge_1_feeds_rover_1_and_cannot_forge_rover_2s_sensors(real):
+    with session(real, "recorder") as recorder, session(real, "rover-1") as rover1, \
+            session(real, "rover-2") as rover2, session(real, "bridge-1") as bridge1:
+        everything, own = Inbox(recorder, KEYS.all), Inbox(rover1, KEYS.rover(1, ks.PERCEPTION))
+        others = Inbox(rover2, KEYS.rover(2, ks.PERCEPTION))
+        perception = KEYS.rover(1, ks.PERCEPTION)
+        put_until(bridge1, perception, b"real", lambda: own.has(perception, b"real"), "bridge 1 perception at rover 1")
+        forged = [KEYS.rover(2, ks.PERCEPTION), KEYS.rover(2, ks.TELEMETRY), KEYS.state, KEYS.ground_command]
+        for _ in range(5):
+            for key in forged:
+                bridge1.put(key, b"forged")
+        bridge1.put(perception, b"marker")  # after the forged ones, on the same session
+        wait_for(lambda: everything.has(perception, b"marker"), 10, "bridge 1's marker at the recorder")
+        assert everything.keys() == {perception} and others.items == []
+
+
+@pytest.mark.e2e
+def test_the_agent_drives_an_emulated_rover_through_its_bridge_and_the_twin_follows_over_the_secured_router(real):
+    """emulate-device, bridge-1, rover-1 and the twin world each on its own role's config; the lander's radio
+    (mission direction, calibration) comes in through bridge 1's role, as the bridge would deliver it."""
+    clients = real.folder / "clients"
+
+    def role(name: str) -> list[str]:
+        return ["--world", KEYS.world, "--config", str(clients / f"{name}.json5"), "--connect", real.endpoint]
+
+    device = lunarsim("emulate-device", "--rocks", "none")
+    started = []
+    try:
+        port = wait_for_output(device, "emulated device on", 20).split()[-1]
+        started.append(lunarsim("world", str(SCENARIOS / "crater_observation.yaml"), "--twin", "--rovers", "1",
+                                "--no-lander", *role("world")))
+        started.append(lunarsim("bridge", "--id", "1", "--driver", f"serial://{port}", *role("bridge-1")))
+        agent = lunarsim("rover", "--id", "1", *role("rover-1"))
+        started.append(agent)
+        with session(real, "recorder") as recorder, session(real, "bridge-1") as radio:
+            states: list[m.WorldState] = []
+            seen = Inbox(recorder, KEYS.rover(1, ks.CANCEL_RESULT))
+            recorder_sub = recorder.declare_subscriber(KEYS.state, lambda s: states.append(
+                codec.decode(m.WorldState, s.payload.to_bytes())))
+            direction = m.MissionDirection(goal_index=0, goals_total=1, kind="waypoint", bearing_deg=0.0,
+                                           distance_m=9.0)
+            calibration = m.Calibration(x=0.0, z=0.0, heading_deg=0.0)
+
+            def moved() -> bool:
+                radio.put(KEYS.rover(1, ks.CALIBRATION), codec.encode(calibration))
+                radio.put(KEYS.rover(1, ks.MISSION_DIRECTION), codec.encode(direction))
+                return bool(states) and states[-1].rovers[0].distance_covered_m > 0.5
+
+            wait_for(moved, 40, "the twin to see the agent drive the emulated rover", interval=0.5)
+            truth = states[-1].rovers[0]
+            assert truth.alive and truth.state != "waiting"
+            wait_for(lambda: states[-1].comm_links == [(0, 1)], 10, "the twin to show the radio link of rover 1")
+            agent.kill()  # its token goes: the bridge, watching it, stops the rover
+            wait_for(lambda: seen.items, 15, "the bridge to stop the rover of a dead agent")
+            wait_for(lambda: states[-1].rovers[0].action == "idle", 10, "the twin to see the rover stop")
+            recorder_sub.undeclare()
+    finally:
+        stop(*started, device)
+    final = re.search(r"final pose x=(\S+) z=(\S+) heading=(\S+)", device.stdout.read())
+    assert final, "the emulated device did not say where it ended"
+    z = float(final.group(2))
+    assert 0.5 < z < 8.5  # it drove, and stopped short of the 9 m waypoint
+    assert states[-1].rovers[0].distance_covered_m == pytest.approx(z, abs=0.1)
