@@ -35,8 +35,9 @@ Out = tuple[str, m.Message]
 FINISHED_STATES = ("done", "stuck", "stopped", "relay")
 KIND_NAMES = np.array(m.HIT_KINDS)
 PHOTO_TILT_DEG = 8.0
-ACTION_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.PHOTO_ACTION})
 """Photos look slightly down, so a crater seen from its rim fills the frame."""
+ACTION_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.PHOTO_ACTION})
+"""What an agent sends only once it has heard how its last action ended."""
 
 
 def tick_length(params: RoverParams) -> float:
