@@ -37,7 +37,16 @@ from importlib import metadata
 from pathlib import Path
 
 from control_loop_latency import BenchmarkError, free_port
-from scale_observe import Observer, ProcessMeter, agent_lag, combined_latency, delivery, sim_rate
+from scale_observe import (
+    Observer,
+    ProcessMeter,
+    agent_lag,
+    clock_missing,
+    combined_latency,
+    delivery,
+    drop_events,
+    sim_rate,
+)
 from scale_report import RTF_TOLERANCE, print_report, slopes, targets
 from world_scale import SCENARIO
 
@@ -49,6 +58,8 @@ from world_service.sim import tick_length, ticks_per_period
 
 WORLD = "bench"
 HOST = "127.0.0.1"
+MIN_SHARED = 50
+"""The shared series halves its last count until one holds real time, down to this."""
 STARTED_TIMEOUT_S = 60.0
 """After the last token: the world needs a clock period or two to see them all and start."""
 QUICK = {"counts": [5, 10], "seconds": 5.0, "warmup": 2.0, "shared_counts": [20], "per_process": 10,
@@ -225,6 +236,7 @@ class Window:
     start_ns: int
     end_ns: int
     cpu: dict[str, float]
+    machine: dict[str, float]
     memory: dict[str, dict[str, float]]
     benchmark_cpu: float
     ended_early: bool
@@ -261,7 +273,7 @@ def timed(cluster: Cluster, observer: Observer, wait) -> Window:
     end_ns = time.time_ns()
     meter.mark()
     own = (_own_cpu() - own) / (time.monotonic() - start)
-    return Window(start_ns, end_ns, meter.cpu(), meter.memory(), own, ended)
+    return Window(start_ns, end_ns, meter.cpu(), meter.machine(), meter.memory(), own, ended)
 
 
 def _own_cpu() -> float:
@@ -279,6 +291,7 @@ def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w:
     else:
         sim, wall, factor = sim_rate(observer.ticks, w.start_ns, w.end_ns)
     cpu = {**w.cpu, "total": sum(w.cpu.values())}
+    machine = {**w.machine, "other_cores": w.machine["busy_cores"] - cpu["total"] - w.benchmark_cpu}
     memory = {**w.memory, "total": {k: sum(g[k] for g in w.memory.values()) for k in ("rss_mib", "pss_mib")}}
     n = plan.rovers
     return {
@@ -288,12 +301,16 @@ def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w:
         "mission_ended_in_window": w.ended_early,
         "mission_duration_s": observer.final.report.mission_duration_s if observer.final else None,
         "cpu_cores": {k: round(v, 4) for k, v in cpu.items()},
+        "cpu_seconds_per_sim_second": {k: round(v / factor, 4) if factor > 0 else None for k, v in cpu.items()},
+        "machine_cores": {k: round(v, 3) for k, v in machine.items()},
         "cpu_per_rover_pct": round(100 * cpu["rovers"] / n, 3),
         "memory_mib": {k: {kk: round(vv, 1) for kk, vv in v.items()} for k, v in memory.items()},
         "memory_per_rover_mib": {k: round(v / n, 2) for k, v in memory["rovers"].items()},
         "latency_ms": combined_latency(observer.readings, w.start_ns, w.end_ns),
         "delivery": delivery(observer.readings, w.start_ns, w.end_ns, dt, per, None if plan.lockstep else 1.0),
         "agent_lag_ms": agent_lag(observer.readings, observer.ticks, w.start_ns, w.end_ns, dt),
+        "clock_samples_missing": clock_missing(observer.ticks, w.start_ns, w.end_ns),
+        "drop_events": drop_events(observer.readings, w.start_ns, w.end_ns, dt, per),
         "benchmark_cpu_cores": round(w.benchmark_cpu, 4),
         "undecodable_samples": observer.rejected,
     }
@@ -351,8 +368,8 @@ def run_series(args: argparse.Namespace, s: Setting, doc: dict) -> None:
         rows.append(attempt(Plan(n), s))
     if not args.skip_1000:
         if supports_ids():
-            doc["shared_counts_tried"] = sorted(args.shared_counts, reverse=True)
-            doc["highest_shared_holding"] = step_down(args, s, rows)
+            doc["shared_counts_tried"] = []
+            doc["highest_shared_holding"] = step_down(args, s, rows, doc["shared_counts_tried"])
         else:
             doc["notes"].append("skipped the shared-process series: this lunarsim rover has no --ids yet")
             progress(doc["notes"][-1])
@@ -373,13 +390,19 @@ def attempt(plan: Plan, s: Setting) -> dict:
                 "processes": plan.processes, "agents_per_process": plan.per_process, "error": str(exc)}
 
 
-def step_down(args: argparse.Namespace, s: Setting, rows: list[dict]) -> int | None:
-    """Shared processes, largest count first, until one holds real time; that count (None if none does)."""
-    for n in sorted(args.shared_counts, reverse=True):
+def step_down(args: argparse.Namespace, s: Setting, rows: list[dict], tried: list[int]) -> int | None:
+    """Shared processes, largest count first, until one holds real time; that count (None if none does). After
+    the counts asked for, the last one is halved until a count holds or it is below ``MIN_SHARED``."""
+    counts = sorted(args.shared_counts, reverse=True)
+    while counts:
+        n = counts.pop(0)
+        tried.append(n)
         row = attempt(Plan(n, per_process=args.per_process), s)
         rows.append(row)
         if holds(row):
             return n
+        if not counts and n // 2 >= MIN_SHARED:
+            counts.append(n // 2)
     return None
 
 

@@ -17,6 +17,7 @@ sampled rovers. Callbacks only stamp the arrival time and enqueue; ``pump`` deco
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import os
 import queue
@@ -196,7 +197,10 @@ def delivery(readings: list[Reading], start_ns: int, end_ns: int, dt: float, per
         rows = by_topic.get(topic, [])
         latencies = [r.received_ns - r.published_ns for r in rows]
         period_ns = periods[topic] * dt / time_scale * 1e9 if time_scale else None
-        dropped, reordered = _gaps(rows, dt, periods[topic]) if topic in GAP_CHECKED else (None, None)
+        dropped = reordered = None
+        if topic in GAP_CHECKED:
+            gaps, reordered = _gaps(rows, dt, periods[topic])
+            dropped = sum(g[2] for g in gaps)
         out[topic] = {
             "period_s": periods[topic] * dt,
             "received": len(rows),
@@ -208,21 +212,21 @@ def delivery(readings: list[Reading], start_ns: int, end_ns: int, dt: float, per
     return out
 
 
-def _gaps(rows: list[Reading], dt: float, period_ticks: int) -> tuple[int, int]:
-    """Missing samples between consecutive arrivals of each rover, and samples that came back in time."""
+def _gaps(rows: list[Reading], dt: float, period_ticks: int) -> tuple[list[tuple[int, int, int]], int]:
+    """Over one topic's arrivals: the gaps, as (rover, first missing tick, samples missing), and the samples that
+    arrived after a later one of the same rover."""
     last: dict[int, int] = {}
-    dropped = reordered = 0
+    gaps, reordered = [], 0
     for r in rows:  # arrival order
         tick = round(r.stamp / dt)
         previous = last.get(r.rover)
-        if previous is not None:
-            gap = tick - previous
-            if gap <= 0:
-                reordered += 1
-                continue
-            dropped += max(0, gap // period_ticks - 1)
+        if previous is not None and tick <= previous:
+            reordered += 1
+            continue
+        if previous is not None and tick - previous > period_ticks:
+            gaps.append((r.rover, previous + period_ticks, (tick - previous) // period_ticks - 1))
         last[r.rover] = tick
-    return dropped, reordered
+    return gaps, reordered
 
 
 def agent_lag(readings: list[Reading], ticks: list[ClockMark], start_ns: int, end_ns: int,
@@ -236,6 +240,24 @@ def agent_lag(readings: list[Reading], ticks: list[ClockMark], start_ns: int, en
             if clock_ns is not None:
                 lags.append(r.published_ns - clock_ns)
     return vars(Summary.of(lags)) if lags else None
+
+
+def clock_missing(ticks: list[ClockMark], start_ns: int, end_ns: int) -> int:
+    """World clock samples that never arrived in the window (the world publishes one every tick)."""
+    inside = [t.tick for t in ticks if start_ns <= t.published_ns <= end_ns]
+    return sum(max(0, b - a - 1) for a, b in itertools.pairwise(inside))
+
+
+def drop_events(readings: list[Reading], start_ns: int, end_ns: int, dt: float, periods: dict[str, int],
+                limit: int = 50) -> list[tuple[int, str, float, int]]:
+    """The first ``limit`` gaps of each checked topic: (rover, topic, sim time of the first sample missing, how many
+    are missing). The same sim times across rovers point at the world or the router, not at one link."""
+    events = []
+    for topic in GAP_CHECKED:
+        rows = [r for r in readings if r.topic == topic and start_ns <= r.received_ns <= end_ns]
+        gaps, _ = _gaps(rows, dt, periods[topic])
+        events += [(rover, topic, round(tick * dt, 3), missing) for rover, tick, missing in gaps[:limit]]
+    return events
 
 
 def combined_latency(readings: list[Reading], start_ns: int, end_ns: int) -> dict | None:
@@ -264,21 +286,42 @@ def memory_kib(pid: int) -> tuple[int, int]:
     return values["Rss"], values["Pss"]
 
 
+def machine_cpu_seconds() -> tuple[float, float]:
+    """(busy, stolen) CPU seconds of the whole machine so far, every core summed (/proc/stat, proc(5))."""
+    with open("/proc/stat") as f:
+        user, nice, system, _idle, _iowait, irq, softirq, steal = (int(v) for v in f.readline().split()[1:9])
+    return (user + nice + system + irq + softirq) / CLK_TCK, steal / CLK_TCK
+
+
+class Mark(NamedTuple):
+    wall: float
+    per_pid: dict[int, float]
+    machine: tuple[float, float]
+
+
 @dataclass
 class ProcessMeter:
-    """CPU and memory of groups of processes (router, world, lander, rovers), between two ``mark`` calls."""
+    """CPU and memory of groups of processes (router, world, lander, rovers), between two ``mark`` calls, and the
+    machine's whole CPU use over the same time: what is left is other work (other engineers' tests, the system)."""
 
     groups: dict[str, list[int]]
-    _marks: list[tuple[float, dict[int, float]]] = field(default_factory=list)
+    _marks: list[Mark] = field(default_factory=list)
 
     def mark(self) -> None:
-        self._marks.append((time.monotonic(), {pid: cpu_seconds(pid) for pids in self.groups.values()
-                                               for pid in pids}))
+        per_pid = {pid: cpu_seconds(pid) for pids in self.groups.values() for pid in pids}
+        self._marks.append(Mark(time.monotonic(), per_pid, machine_cpu_seconds()))
 
     def cpu(self) -> dict[str, float]:
         """CPU seconds each group used per wall second between the first and the last mark (1.0 = one core)."""
-        (t0, a), (t1, b) = self._marks[0], self._marks[-1]
-        return {name: sum(b[p] - a[p] for p in pids) / (t1 - t0) for name, pids in self.groups.items()}
+        a, b = self._marks[0], self._marks[-1]
+        return {name: sum(b.per_pid[p] - a.per_pid[p] for p in pids) / (b.wall - a.wall)
+                for name, pids in self.groups.items()}
+
+    def machine(self) -> dict[str, float]:
+        """Busy and stolen (by the hypervisor) cores of the whole machine over the same time."""
+        a, b = self._marks[0], self._marks[-1]
+        wall = b.wall - a.wall
+        return {"busy_cores": (b.machine[0] - a.machine[0]) / wall, "steal_cores": (b.machine[1] - a.machine[1]) / wall}
 
     def memory(self) -> dict[str, dict[str, float]]:
         out = {}
