@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
+import scale_witness
 from control_loop_latency import BenchmarkError, free_port
 from scale_observe import (
     Observer,
@@ -45,6 +46,7 @@ from scale_observe import (
     combined_latency,
     delivery,
     drop_events,
+    missing_samples,
     sim_rate,
 )
 from scale_report import RTF_TOLERANCE, print_report, slopes, targets
@@ -57,6 +59,7 @@ from schemas.scenario import Scenario, dump_scenario, load_scenario
 from world_service.sim import tick_length, ticks_per_period
 
 WORLD = "bench"
+WITNESS = Path(__file__).resolve().parent / "scale_witness.py"
 HOST = "127.0.0.1"
 MIN_SHARED = 50
 """The shared series halves its last count until one holds real time, down to this."""
@@ -126,11 +129,24 @@ class Cluster:
             self.children.start(f"rover{ids[1]}", "rover_agent", *ids, "--params", str(self.scenario_file),
                                 "--behaviour", self.scenario.behaviour, *self.common)
 
+    def start_witness(self, out: Path, sampled: list[int]) -> None:
+        """The second observer (scale_witness.py), stopped with the others; it writes ``out`` when stopped."""
+        log = open(self.children.log_dir / "witness.log", "wb")  # noqa: SIM115 - the child's for its lifetime
+        self.children.procs["witness"] = subprocess.Popen(
+            [sys.executable, str(WITNESS), self.endpoint, WORLD, str(out), *map(str, sampled)],
+            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        log.close()
+        deadline = time.monotonic() + 30.0
+        while "witness ready" not in self.children.log_tail("witness", 1):
+            if self.children.procs["witness"].poll() is not None or time.monotonic() > deadline:
+                raise BenchmarkError("the witness did not start" + self.tail("witness"))
+            time.sleep(0.05)
+
     def groups(self) -> dict[str, list[int]]:
         procs = self.children.procs
         roles = {"router": ["router"], "world": ["world"], "lander": ["lander"],
-                 "rovers": [n for n in procs if n.startswith("rover")]}
-        return {role: [procs[n].pid for n in names] for role, names in roles.items()}
+                 "rovers": [n for n in procs if n.startswith("rover")], "witness": ["witness"]}
+        return {role: [procs[n].pid for n in names if n in procs] for role, names in roles.items()}
 
     def check(self) -> None:
         dead = self.children.dead()
@@ -162,6 +178,7 @@ class Setting:
     lockstep_sim_time: float
     lockstep_timeout: float
     work: Path
+    witness: bool
 
 
 def sampled_ids(rovers: int, k: int) -> list[int]:
@@ -192,6 +209,8 @@ def measure(plan: Plan, s: Setting) -> dict:
         cluster.start_router()
         session = open_session(build_config(connect=[cluster.endpoint]), cluster.endpoint, 10.0, who="benchmark")
         observer = Observer(session, ks.Keyspace(WORLD), sampled_ids(plan.rovers, s.sample))
+        if s.witness:
+            cluster.start_witness(run_dir / "witness.json", observer.sampled)
         cluster.start_world_and_lander(world_arguments(plan, s))
         startup = start_rovers(cluster, observer, s.startup_timeout)
         waited = observer.pump_until(lambda: observer.started, STARTED_TIMEOUT_S, cluster.check)
@@ -204,6 +223,8 @@ def measure(plan: Plan, s: Setting) -> dict:
             observer.session.close()
         cluster.stop()
     row = summarise(plan, s, scenario, observer, window)
+    if s.witness:
+        row["witness"] = compare_witness(run_dir / "witness.json", observer, window, scenario)
     row.update(startup_s=round(startup, 2), load_before=load_before, load_after=os.getloadavg())
     progress(f"done: real-time factor {row['real_time_factor']:.3f}, CPU per rover "
              f"{row['cpu_per_rover_pct']:.2f} % of a core, start-up {startup:.1f} s")
@@ -290,8 +311,9 @@ def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w:
         factor = sim / wall
     else:
         sim, wall, factor = sim_rate(observer.ticks, w.start_ns, w.end_ns)
+    witness = w.cpu.pop("witness", 0.0)
     cpu = {**w.cpu, "total": sum(w.cpu.values())}
-    machine = {**w.machine, "other_cores": w.machine["busy_cores"] - cpu["total"] - w.benchmark_cpu}
+    machine = {**w.machine, "other_cores": w.machine["busy_cores"] - cpu["total"] - w.benchmark_cpu - witness}
     memory = {**w.memory, "total": {k: sum(g[k] for g in w.memory.values()) for k in ("rss_mib", "pss_mib")}}
     n = plan.rovers
     return {
@@ -312,8 +334,21 @@ def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w:
         "clock_samples_missing": clock_missing(observer.ticks, w.start_ns, w.end_ns),
         "drop_events": drop_events(observer.readings, w.start_ns, w.end_ns, dt, per),
         "benchmark_cpu_cores": round(w.benchmark_cpu, 4),
+        "witness_cpu_cores": round(witness, 4),
         "undecodable_samples": observer.rejected,
     }
+
+
+def compare_witness(path: Path, observer: Observer, w: Window, scenario: Scenario) -> dict:
+    """Samples missing at the benchmark, at the witness, and at both (lost before the router's per-subscriber
+    queues, so the agents lose them too)."""
+    dt, per = periods(scenario)
+    readings, ticks = scale_witness.load(path)
+    ours = missing_samples(observer.readings, w.start_ns, w.end_ns, dt, per)
+    theirs = missing_samples(readings, w.start_ns, w.end_ns, dt, per)
+    return {"received": sum(1 for r in readings if w.start_ns <= r.received_ns <= w.end_ns),
+            "dropped": len(theirs), "dropped_at_both": len(ours & theirs),
+            "clock_samples_missing": clock_missing(ticks, w.start_ns, w.end_ns)}
 
 
 # ---- the whole benchmark ----
@@ -344,7 +379,7 @@ def run(args: argparse.Namespace) -> int:
            "load_at_start": os.getloadavg(), "rows": [], "notes": []}
     work = Path(tempfile.mkdtemp(prefix="lunarsim-scale-", dir=args.logs))
     s = Setting(args.scenario, args.seconds, args.warmup, args.sample, args.startup_timeout,
-                args.lockstep_sim_time, args.lockstep_timeout, work)
+                args.lockstep_sim_time, args.lockstep_timeout, work, not args.no_witness)
     try:
         run_series(args, s, doc)
     finally:
@@ -435,6 +470,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="wall seconds a lockstep mission may take (default 900)")
     parser.add_argument("--skip-lockstep", action="store_true")
     parser.add_argument("--skip-1000", action="store_true", help="leave out the shared-process series")
+    parser.add_argument("--no-witness", action="store_true", help="no second observer process (it tells a "
+                        "sample lost before the router's per-subscriber queues from one lost on the way to the "
+                        "benchmark)")
     parser.add_argument("--sample", type=int, default=10, metavar="K", help="rovers whose sensors are followed "
                         "(spread over the ids; default 10)")
     parser.add_argument("--startup-timeout", type=float, default=180.0, metavar="S",

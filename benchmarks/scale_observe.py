@@ -260,6 +260,17 @@ def drop_events(readings: list[Reading], start_ns: int, end_ns: int, dt: float, 
     return events
 
 
+def missing_samples(readings: list[Reading], start_ns: int, end_ns: int, dt: float,
+                    periods: dict[str, int]) -> set[tuple[int, str, int]]:
+    """Every sample of the checked topics missing in the window, as (rover, topic, tick)."""
+    out = set()
+    for topic in GAP_CHECKED:
+        rows = [r for r in readings if r.topic == topic and start_ns <= r.received_ns <= end_ns]
+        gaps, _ = _gaps(rows, dt, periods[topic])
+        out |= {(rover, topic, tick + i * periods[topic]) for rover, tick, missing in gaps for i in range(missing)}
+    return out
+
+
 def combined_latency(readings: list[Reading], start_ns: int, end_ns: int) -> dict | None:
     lat = [r.received_ns - r.published_ns for r in readings
            if r.topic in SENSOR_TOPICS and start_ns <= r.received_ns <= end_ns]

@@ -36,6 +36,7 @@ def print_report(doc: dict) -> None:
               "timestamp; agent lag = world clock tick to the agent's status stamped with it")
         print_table(rows)
         print_delivery(rows)
+    print_witness(rows)
     print_slopes(doc.get("slopes", []))
     for note in doc.get("notes", []):
         print(f"note: {note}")
@@ -98,6 +99,18 @@ def print_delivery(rows: list[dict]) -> None:
                   f"{d['received']:>9}{_num(lat.get('p50_ms'), 2):>8}{_num(lat.get('p99_ms'), 1):>8}"
                   f"{_num(lat.get('max_ms'), 1):>8}{_num(d['over_one_period'], 0):>8}{_num(d['dropped'], 0):>8}"
                   f"{_num(d['out_of_order'], 0):>8}")
+
+
+def print_witness(rows: list[dict]) -> None:
+    """Where lost samples were lost: before the router's per-subscriber queues (agents too) or on one link."""
+    for r in rows:
+        w, ours = r.get("witness"), _sum(r, "dropped") if "delivery" in r else None
+        if w is None or not (ours or w["dropped"] or w["clock_samples_missing"] or r["clock_samples_missing"]):
+            continue
+        print(f"{r['mode']} {r['rovers']} rovers: samples missing at the benchmark {ours}, at the witness process "
+              f"{w['dropped']}, at both {w['dropped_at_both']} (lost before the router's per-subscriber queues: "
+              f"the agents lose them too); world clock samples missing {r['clock_samples_missing']} and "
+              f"{w['clock_samples_missing']}")
 
 
 # ---- cost against rover count ----
