@@ -246,7 +246,7 @@ def start_rovers(cluster: Cluster, observer: Observer, timeout: float) -> float:
     n = cluster.plan.rovers
     if not observer.pump_until(lambda: len(observer.alive) >= n, timeout, cluster.check):
         raise BenchmarkError(f"only {len(observer.alive)} of {n} rovers connected within {timeout:g} s"
-                             + cluster.tail(next(n for n in cluster.children.procs if n.startswith("rover"))))
+                             + cluster.tail(next(name for name in cluster.children.procs if name.startswith("rover"))))
     took = time.monotonic() - start
     progress(f"all {n} rovers connected after {took:.1f} s; waiting for the clock")
     return took
@@ -314,7 +314,8 @@ def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w:
     witness = w.cpu.pop("witness", 0.0)
     cpu = {**w.cpu, "total": sum(w.cpu.values())}
     machine = {**w.machine, "other_cores": w.machine["busy_cores"] - cpu["total"] - w.benchmark_cpu - witness}
-    memory = {**w.memory, "total": {k: sum(g[k] for g in w.memory.values()) for k in ("rss_mib", "pss_mib")}}
+    memory = {name: mem for name, mem in w.memory.items() if name != "witness"}
+    memory["total"] = {k: sum(g[k] for g in memory.values()) for k in ("rss_mib", "pss_mib")}
     n = plan.rovers
     return {
         "mode": "lockstep" if plan.lockstep else "realtime", "rovers": n, "processes": plan.processes,

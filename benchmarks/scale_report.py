@@ -27,13 +27,15 @@ def print_report(doc: dict) -> None:
         dirty = code["uncommitted_changes"]
         print(f"code: commit {code['commit']}" + (f", with uncommitted changes to {', '.join(dirty)}" if dirty else ""))
     print(f"load average (1, 5, 15 min) at start {_load(doc['load_at_start'])}, at end "
-          f"{_load(doc.get('load_at_end', doc['load_at_start']))}: other work on this machine adds noise")
+          f"{_load(doc.get('load_at_end', doc['load_at_start']))} (it counts this benchmark's own threads too); "
+          "'others' below: CPU used outside the benchmark during each window (/proc/stat), other work's noise")
     if rows:
-        sampled = next((r["sampled_rovers"] for r in rows if "sampled_rovers" in r and len(r["sampled_rovers"]) > 5),
-                       None)
+        done = [r for r in rows if "sampled_rovers" in r]
+        sampled = max(done, key=lambda r: r["rovers"])["sampled_rovers"] if done else None
         print("sensor delivery measured on up to 10 rovers spread over the ids"
-              + (f" (e.g. {sampled})" if sampled else "") + "; latency = arrival minus the publisher's Zenoh "
-              "timestamp; agent lag = world clock tick to the agent's status stamped with it")
+              + (f" (at the largest count: {sampled})" if sampled else "")
+              + "; latency = arrival minus the publisher's Zenoh timestamp; agent lag = world clock tick to the "
+              "agent's status stamped with it")
         print_table(rows)
         print_delivery(rows)
     print_witness(rows)
