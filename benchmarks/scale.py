@@ -44,6 +44,7 @@ from scale_observe import (
     agent_lag,
     clock_missing,
     combined_latency,
+    cpu_seconds,
     delivery,
     drop_events,
     missing_samples,
@@ -212,7 +213,7 @@ def measure(plan: Plan, s: Setting) -> dict:
         if s.witness:
             cluster.start_witness(run_dir / "witness.json", observer.sampled)
         cluster.start_world_and_lander(world_arguments(plan, s))
-        startup = start_rovers(cluster, observer, s.startup_timeout)
+        startup, startup_cpu = start_rovers(cluster, observer, s.startup_timeout)
         waited = observer.pump_until(lambda: observer.started, STARTED_TIMEOUT_S, cluster.check)
         if not waited:
             raise BenchmarkError("every rover is connected but the world's clock did not start" + cluster.tail("world"))
@@ -225,7 +226,8 @@ def measure(plan: Plan, s: Setting) -> dict:
     row = summarise(plan, s, scenario, observer, window)
     if s.witness:
         row["witness"] = compare_witness(run_dir / "witness.json", observer, window, scenario)
-    row.update(startup_s=round(startup, 2), load_before=load_before, load_after=os.getloadavg())
+    row.update(startup_s=round(startup, 2), startup_cpu_s_per_process=round(startup_cpu, 3), load_before=load_before,
+               load_after=os.getloadavg())
     progress(f"done: real-time factor {row['real_time_factor']:.3f}, CPU per rover "
              f"{row['cpu_per_rover_pct']:.2f} % of a core, start-up {startup:.1f} s")
     return row
@@ -239,8 +241,9 @@ def world_arguments(plan: Plan, s: Setting) -> list[str]:
     return [*args, "--time-scale", "1", "--max-sim-time", str(10 * (s.warmup + s.seconds) + 60)]
 
 
-def start_rovers(cluster: Cluster, observer: Observer, timeout: float) -> float:
-    """Spawn the rover processes; seconds until the benchmark sees every rover's liveliness token."""
+def start_rovers(cluster: Cluster, observer: Observer, timeout: float) -> tuple[float, float]:
+    """Spawn the rover processes: seconds until the benchmark sees every rover's liveliness token, and the CPU
+    seconds each rover process had used by then (on a small machine, start-up is mostly that CPU, queued)."""
     start = time.monotonic()
     cluster.start_rovers()
     n = cluster.plan.rovers
@@ -248,8 +251,10 @@ def start_rovers(cluster: Cluster, observer: Observer, timeout: float) -> float:
         raise BenchmarkError(f"only {len(observer.alive)} of {n} rovers connected within {timeout:g} s"
                              + cluster.tail(next(name for name in cluster.children.procs if name.startswith("rover"))))
     took = time.monotonic() - start
-    progress(f"all {n} rovers connected after {took:.1f} s; waiting for the clock")
-    return took
+    pids = cluster.groups()["rovers"]
+    cpu = sum(cpu_seconds(pid) for pid in pids) / len(pids)
+    progress(f"all {n} rovers connected after {took:.1f} s ({cpu:.2f} CPU s per rover process); waiting for the clock")
+    return took, cpu
 
 
 @dataclass
