@@ -14,7 +14,7 @@ rovers in its formation. The benchmark process watches through the same router (
 
 Then it fits cost against rover count (the slope) and checks the targets of issue 9.
 
-    python benchmarks/scale.py --quick                      # a smoke check, about two minutes
+    python benchmarks/scale.py --quick                      # a smoke check, under a minute
     python benchmarks/scale.py [--counts 10 50 100] [--seconds 30] [--shared-counts 1000 750 500]
                                [--per-process 250] [--lockstep-counts 5 20 100] [--json FILE]
 """
