@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--clock", action="store_true",
                         help="publish a real-time world clock (no world service running: one rover on a bench)")
-    add_zenoh_arguments(parser)
+    add_zenoh_arguments(parser, agent=True)
 
 
 def run_from_args(args: argparse.Namespace) -> int:
