@@ -178,15 +178,15 @@ def test_acl_command_names_missing_certificates_and_non_tls_endpoints(tmp_path, 
 
 # ---- a real secured router ----
 
-@pytest.fixture(scope="module")
-def secure(tmp_path_factory):
-    """A router from ``lunarsim acl`` (2 rovers, world 'secure') with certificates from make-dev-certs.sh."""
+def secured_router(tmp_path_factory, name: str, *acl_args: str, bridges: str | None = None):
+    """A router from ``lunarsim acl`` (2 rovers, world 'secure') with certificates from make-dev-certs.sh;
+    yields where it is, and stops it."""
     if shutil.which("openssl") is None:
         pytest.skip("openssl is not installed: make-dev-certs.sh cannot make certificates")
-    folder = tmp_path_factory.mktemp("secure")
-    make_certs(folder / "certs", 2)
-    made = lunarsim("acl", str(SCENARIOS / "crater_observation.yaml"), "--rovers", "2", "--world", KEYS.world,
-                    "-o", str(folder / "router.json5"))
+    folder = tmp_path_factory.mktemp(name)
+    make_certs(folder / "certs", 2, bridges=bridges)
+    made = lunarsim("acl", str(SCENARIOS / "crater_observation.yaml"), "--rovers", "2", *acl_args,
+                    "--world", KEYS.world, "-o", str(folder / "router.json5"))
     out, err = made.communicate(timeout=60)
     assert made.returncode == 0, out + err
     port = free_port()
@@ -194,6 +194,11 @@ def secure(tmp_path_factory):
     assert wait_for_port("127.0.0.1", port, 15, router), router.communicate(timeout=5) if router.poll() else "timeout"
     yield SimpleNamespace(folder=folder, endpoint=f"tls/localhost:{port}", port=port)
     stop(router)
+
+
+@pytest.fixture(scope="module")
+def secure(tmp_path_factory):
+    yield from secured_router(tmp_path_factory, "secure")
 
 
 def client_conf(secure, role: str, **changes: str) -> zenoh.Config:
@@ -501,21 +506,10 @@ def test_acl_command_refuses_bridges_that_are_not_rovers(tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def real(tmp_path_factory):
-    """A router from ``lunarsim acl --bridges all`` (2 real rovers, world 'secure'), bridge certificates included."""
-    if shutil.which("openssl") is None:
-        pytest.skip("openssl is not installed: make-dev-certs.sh cannot make certificates")
-    folder = tmp_path_factory.mktemp("real")
-    make_certs(folder / "certs", 2, bridges="all")
-    made = lunarsim("acl", str(SCENARIOS / "crater_observation.yaml"), "--rovers", "2", "--bridges", "all",
-                    "--world", KEYS.world, "-o", str(folder / "router.json5"))
-    out, err = made.communicate(timeout=60)
-    assert made.returncode == 0, out + err
-    assert (folder / "clients" / "bridge-2.json5").is_file()
-    port = free_port()
-    router = lunarsim("router", "--config", str(folder / "router.json5"), "--listen", f"tls/127.0.0.1:{port}")
-    assert wait_for_port("127.0.0.1", port, 15, router), router.communicate(timeout=5) if router.poll() else "timeout"
-    yield SimpleNamespace(folder=folder, endpoint=f"tls/localhost:{port}", port=port)
-    stop(router)
+    """A router from ``lunarsim acl --bridges all`` (2 real rovers), bridge certificates included."""
+    for router in secured_router(tmp_path_factory, "real", "--bridges", "all", bridges="all"):
+        assert (router.folder / "clients" / "bridge-2.json5").is_file()
+        yield router
 
 
 @pytest.mark.e2e
