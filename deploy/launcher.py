@@ -139,6 +139,8 @@ class Mission:
             world_args += ["--max-sim-time", str(self.args.max_sim_time)]
         if self.args.lockstep:
             world_args.append("--lockstep")
+        if getattr(self.args, "verbose", False):
+            world_args.append("--verbose")  # its progress (and lockstep's summary) into world.log
         self.children.start("world", "world_service", *world_args)
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
                             str(self.out / "lander_archive"), *common)

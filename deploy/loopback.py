@@ -1,8 +1,9 @@
 """Run a whole mission in one process, with no router: the world, lander and rover agents wired
 through their pure ``handle`` functions, every message still encoded and decoded with the codec.
 
-Deterministic and fast: the behaviour checker and the tests of mission logic use it. Photos are rendered
-before the next tick, as in lockstep. The cross-process path is tested separately over a real router.
+Deterministic and fast: the behaviour checker and the tests of mission logic use it. As in lockstep, photos
+arrive on their due tick, and an agent that publishes on a tick the world would not wait for (its
+``next_wake`` misses a timer) is an error here. The cross-process path is tested separately over a real router.
 """
 
 from __future__ import annotations
@@ -15,28 +16,53 @@ from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.scenario import Scenario
-from world_service.sim import World
+from world_service.lockstep import AckPlan
+from world_service.sim import PhotoJob, World
 
 
 def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None,
                 behaviour: type[BaseBehaviour] | None = None) -> World:
     keys = ks.Keyspace("loopback")
     world = World(scenario, keys)
+    world.lockstep = True
     lander = Lander(MissionPlan(scenario), keys, archive)
     params = scenario.rover_params
     agents = {rid: RoverAgent(rid, keys, params, behaviour(rid, params) if behaviour else None)
               for rid in world.bodies}
+    plan = AckPlan(keys, world.dt)
     pending: list[tuple[str, m.Message]] = []
+    photos: list[PhotoJob] = []
     while world.sim_time < max_sim_time and not world.complete:
-        photos, world.photo_jobs = world.photo_jobs, []  # rendered before the next tick, as in lockstep
-        pending += [(keys.rover(job.rover_id, ks.PHOTO), world.render(job)) for job in photos]
-        for key, message in world.step():
-            pending += _deliver(key, codec.encode(message), world, lander, agents, keys)
+        photos += world.photo_jobs
+        world.photo_jobs = []
+        pending += [(keys.rover(job.rover_id, ks.PHOTO), world.render(job)) for job in photos
+                    if job.due_tick <= world.tick + 1]
+        photos = [job for job in photos if job.due_tick > world.tick + 1]
+        *samples, (clock_key, clock) = world.step()
+        pending = [*pending, *samples]
         while pending:
             key, message = pending.pop(0)
+            plan.note(key)
             pending += _deliver(key, codec.encode(message), world, lander, agents, keys)
+        clock = clock.model_copy(update={"acks": plan.ask(world.tick, {ks.LANDER_ID, *agents})})
+        pending = _deliver(clock_key, codec.encode(clock), world, lander, agents, keys)
+        _note_acks(pending, plan, keys, clock)
     world.observed_state()  # the final state, as the world service publishes it before its final report
     return world
+
+
+def _note_acks(answers: list[tuple[str, m.Message]], plan: AckPlan, keys: ks.Keyspace, clock: m.Clock) -> None:
+    """Take the acks out of the agents' answers to the clock; anything from an agent not asked is an error."""
+    for key, message in list(answers):
+        if isinstance(message, m.Ack):
+            answers.remove((key, message))
+            agent = ks.LANDER_ID if key == keys.lander(ks.ACK) else keys.parse_rover_key(key)[0]
+            plan.acked(agent, message.tick, message.wake)
+    for key, _ in answers:
+        agent = ks.LANDER_ID if key.startswith(keys.lander("")) else keys.parse_rover_key(key)[0]
+        if agent not in clock.acks:
+            raise AssertionError(f"{key} published on tick {clock.tick}, which the world does not wait for "
+                                 f"(asked: {clock.acks}): the agent's next_wake() misses a timer")
 
 
 def _deliver(key, payload, world, lander, agents, keys):

@@ -14,6 +14,7 @@ from lander_agent.mission import MissionPlan
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.lockstep import lockstep_answer
 from schemas.mission import CommandRefused
 
 log = logging.getLogger("lunarsim.lander")
@@ -68,8 +69,8 @@ class Lander:
         if clock.sim_time >= self.next_send:
             self.next_send = clock.sim_time + SEND_PERIOD_S
             out = self.broadcast(clock.sim_time)
-        if clock.lockstep:
-            out.append((self.keys.lander(ks.ACK), m.Ack(tick=clock.tick)))
+        if clock.lockstep:  # its only timer is the next broadcast
+            out = lockstep_answer(out, clock, ks.LANDER_ID, self.keys.lander(ks.ACK), self.next_send)
         return out
 
     def on_comm_in(self, msg: m.InboundComm) -> list[tuple[str, m.Message]]:

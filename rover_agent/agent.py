@@ -27,6 +27,7 @@ from rover_agent.dead_reckoning import Pose, load_pose, save_pose
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.lockstep import lockstep_answer
 from schemas.params import RoverParams
 
 log = logging.getLogger("lunarsim.rover")
@@ -110,8 +111,20 @@ class RoverAgent:
         if self.photo_outbox and self.now - self._last_photo_send >= PHOTO_RETRY_S:
             out += self._send_photos()
         if clock.lockstep:
-            out.append((self.keys.rover(self.id, ks.ACK), m.Ack(tick=clock.tick)))
+            out = lockstep_answer(out, clock, self.id, self.keys.rover(self.id, ks.ACK), self.next_wake())
         return out
+
+    def next_wake(self) -> float:
+        """When ``on_clock`` will next act by itself: the earliest of its timers. Every timer in ``on_clock``
+        must be here, or a lockstep world would not wait for what it sends (``lockstep_answer`` says so)."""
+        timers = [self._last_status + STATUS_PERIOD_S]
+        if self.finished_goal is not None and self.finished_goal[1] != "stopped":
+            timers.append(self._last_report + GOAL_REPORT_RETRY_S)
+        if self.in_flight and isinstance(self.in_flight.decision, TakePhoto):
+            timers.append(self.in_flight.sent_at + PHOTO_TIMEOUT_S)
+        if self.photo_outbox:
+            timers.append(self._last_photo_send + PHOTO_RETRY_S)
+        return min(timers)
 
     # ---- lander, via radio ----
 

@@ -32,6 +32,7 @@ PHOTO_ACTION: Final = "photo_action"
 PHOTO: Final = "photo"
 STATUS: Final = "status"
 ACK: Final = "ack"
+"""Lockstep: an agent's acknowledgement that it has handled a clock tick (rover and lander keys)."""
 CLOCK: Final = "clock"
 STATE: Final = "state"
 STATS: Final = "stats"
@@ -41,7 +42,11 @@ TELEMETRY: Final = "telemetry"
 """A real rover's own pose estimate, from its hardware driver bridge to the world service in twin mode."""
 ROVER_IDS: Final = "rover_ids"
 """The world's queryable that hands a rover agent started with ``--id auto`` a free rover id."""
-"""Lockstep: an agent's acknowledgement that it has handled a clock tick (rover and lander keys)."""
+ANSWERED_TOPICS: Final = frozenset({PERCEPTION, COMM_IN, MISSION_DIRECTION, CALIBRATION, PHOTO})
+"""The world-to-agent topics (rover or lander) whose samples may make an agent publish. Samples of the others
+(gyroscope, navigation status, cancel result, action rejected, comm partners) only update what the agent knows,
+so in lockstep the world waits for an agent's ack only after a tick that sent it one of these, or when the
+agent's own timers are due (``Ack.wake``)."""
 
 
 _FORBIDDEN = set("/*$#?")

@@ -216,6 +216,8 @@ class Clock(Message):
     time_scale: float
     running: bool = True
     lockstep: bool = False
+    acks: list[int] | None = Field(None, description="lockstep: the agents whose ack this tick waits for (rover "
+                                   "ids, 0 the lander); None: every agent's")
 
 
 class Telemetry(Message):
@@ -242,6 +244,8 @@ class Ack(Message):
     """Lockstep: everything up to and including this tick has been handled (and answered)."""
 
     tick: int
+    wake: float | None = Field(None, description="simulated time at which the agent will next act on its own "
+                               "timers; None: it may act on any tick")
 
 
 class RoverTruth(Message):

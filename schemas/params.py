@@ -118,6 +118,8 @@ class CameraParams(Params):
     horizontal_fov_deg: float = Field(60.0, gt=0, lt=180)
     mount_height_m: float = Field(0.3, gt=0, description="camera height above the ground")
     max_range_m: float = Field(300.0, gt=0, description="farthest rendered distance")
+    capture_time_s: float = Field(0.5, ge=0, description="simulated time from a PhotoAction to its Photo "
+                                  "(exposure, read-out and encoding; the world renders meanwhile)")
 
 
 class RoverParams(Params):

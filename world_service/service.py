@@ -4,19 +4,23 @@ Startup waits (up to ``start_timeout``) for the lander and every rover agent to 
 with a liveliness token, so no rover misses the start. Then the clock runs in one of two ways:
 
 - real time, scaled by ``time_scale`` (``<= 0``: as fast as the world can step);
-- lockstep: after each tick the world waits until every live agent has acknowledged it (``Ack`` on
-  its own ``ack`` key, sent after it has handled the tick and published its answers). What arrived in
-  the meantime is handled in key order, so the run depends on the scenario and seed only, not on
-  machine load, and goes as fast as the processes allow.
+- lockstep: after each tick the world waits until every agent that may answer it has acknowledged it
+  (``Ack`` on its own ``ack`` key, sent after it has handled the tick and published its answers; which
+  agents may answer is ``world_service.lockstep``'s business). What arrived in the meantime is handled in
+  key order, so the run depends on the scenario and seed only, not on machine load, and goes as fast as
+  the processes allow.
+
+Photos take the camera's ``capture_time_s`` of simulated time in both modes: a worker thread renders them
+meanwhile, and in lockstep the clock waits for a render that is not done when its photo is due.
 """
 
 from __future__ import annotations
 
 import logging
-import queue
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable
+from concurrent.futures import BrokenExecutor, Future
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -24,6 +28,8 @@ from deploy.bus import Bus, Received
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from world_service.lockstep import AckPlan
+from world_service.photos import CameraProcess, PhotoJob
 from world_service.rover_ids import IdDesk
 from world_service.sim import World
 
@@ -42,60 +48,101 @@ class ClockSettings:
 
 
 class Photographer:
-    """Renders the world's photo jobs and publishes (and saves) the PNGs.
+    """Renders the world's photo jobs in a camera process and publishes (and saves) the PNGs when they are due.
 
-    In lockstep a photo is rendered before the next tick, so runs stay reproducible; in real time a
-    worker thread renders it, so a 0.4 s render does not stall the clock.
+    A photo is due ``capture_time_s`` after its PhotoAction. In real time it goes out as soon as it is both
+    due and rendered; in lockstep exactly on its due tick, waiting for the render if need be, so runs stay
+    reproducible while the render overlaps the ticks before it. Should the camera process die, the photos are
+    rendered here instead, and the run goes on.
     """
 
-    def __init__(self, world: World, bus: Bus, settings: ClockSettings) -> None:
-        self.world, self.bus, self.settings = world, bus, settings
-        self.inline = settings.lockstep
-        self.pool = None if self.inline else ThreadPoolExecutor(max_workers=1, thread_name_prefix="camera")
-        self.done: queue.SimpleQueue = queue.SimpleQueue()
-        self.pending = 0
+    def __init__(self, world: World, publish: Callable[[str, m.Message], None], settings: ClockSettings,
+                 camera: CameraProcess | None) -> None:
+        self.world, self.publish, self.settings = world, publish, settings
+        self.wait = settings.lockstep
+        self.camera = camera
+        self.queued: list[tuple[PhotoJob, Future]] = []
+        self.waited_s = 0.0  # lockstep: how long the clock waited for renders
 
-    def take(self) -> None:
+    @property
+    def pending(self) -> int:
+        return len(self.queued)
+
+    def take(self, tick: int) -> None:
+        """Start the new jobs; publish what is due by ``tick``, the tick about to be stepped."""
         jobs, self.world.photo_jobs = self.world.photo_jobs, []
-        for job in jobs:
-            if self.inline:
-                self._publish(job, self.world.render(job))
-            else:
-                self.pending += 1
-                self.pool.submit(lambda j=job: self.done.put((j, self.world.render(j))))
-        while not self.done.empty():
-            self.pending -= 1
-            self._publish(*self.done.get())
+        self.queued += [(job, self._submit(job)) for job in jobs]
+        due = [(job, f) for job, f in self.queued if job.due_tick <= tick and (self.wait or f.done())]
+        for job, future in due:
+            self.queued.remove((job, future))
+            t0 = time.perf_counter()
+            photo = self._result(job, future)
+            self.waited_s += time.perf_counter() - t0
+            self._publish(job, photo)
 
-    def _publish(self, job, photo: m.Photo) -> None:
-        self.bus.publish(self.world.keys.rover(job.rover_id, ks.PHOTO), photo)
+    def _submit(self, job: PhotoJob) -> Future:
+        if self.camera is not None:
+            try:
+                return self.camera.submit(job)
+            except BrokenExecutor:
+                self._lost_camera()
+        done: Future = Future()
+        done.set_result(self.world.render(job))
+        return done
+
+    def _result(self, job: PhotoJob, future: Future) -> m.Photo:
+        try:
+            return future.result()
+        except BrokenExecutor:
+            self._lost_camera()
+            return self.world.render(job)
+
+    def _lost_camera(self) -> None:
+        if self.camera is not None:
+            log.error("the camera process died; rendering photos in the world's own process from now on")
+            self.camera = None
+
+    def _publish(self, job: PhotoJob, photo: m.Photo) -> None:
+        self.publish(self.world.keys.rover(job.rover_id, ks.PHOTO), photo)
         if self.settings.photo_dir is not None:
             self.settings.photo_dir.mkdir(parents=True, exist_ok=True)
             name = f"rover{job.rover_id}_t{job.stamp:09.2f}{'_' + job.label if job.label else ''}.png"
             (self.settings.photo_dir / name).write_bytes(photo.png)
 
     def close(self) -> None:
-        if self.pool is not None:
-            self.pool.shutdown(wait=True)
-            self.take()
+        """Publish the photos still on their way, then stop the camera process."""
+        self.wait = True
+        self.take(max((job.due_tick for job, _ in self.queued), default=0))
+        if self.camera is not None:
+            self.camera.close()
 
 
 @dataclass
 class Agents:
-    """Which agents are present (liveliness) and, in lockstep, which have acknowledged the current tick."""
+    """Which agents are present (liveliness) and, in lockstep, whose ack of the current tick is still due."""
 
     keys: ks.Keyspace
     present: set[str] = field(default_factory=set)
-    acked: set[str] = field(default_factory=set)
+    ids: dict[str, int] = field(default_factory=dict)  # liveliness key -> agent id (0 the lander)
     desk: IdDesk | None = None
+    plan: AckPlan | None = None
+    waiting: set[int] = field(default_factory=set)
 
-    def ack_key_of(self, alive_key: str) -> str:
-        if alive_key == self.keys.alive_lander:
-            return self.keys.lander(ks.ACK)
-        return self.keys.rover(self.keys.parse_alive_key(alive_key), ks.ACK)
+    def arrive(self, alive_key: str, agent: int) -> None:
+        self.present.add(alive_key)
+        self.ids[alive_key] = agent
 
-    def waiting_for(self) -> set[str]:
-        return {self.ack_key_of(k) for k in self.present} - self.acked
+    def leave(self, alive_key: str) -> None:
+        self.present.discard(alive_key)
+        agent = self.ids.pop(alive_key, None)
+        self.waiting.discard(agent)
+        if self.plan is not None and agent is not None:
+            self.plan.forget(agent)
+
+    def agent_of_ack(self, ack_key: str) -> int:
+        if ack_key == self.keys.lander(ks.ACK):
+            return ks.LANDER_ID
+        return self.keys.parse_rover_key(ack_key)[0]
 
 
 def declare_io(bus: Bus, keys: ks.Keyspace) -> None:
@@ -110,16 +157,22 @@ def declare_io(bus: Bus, keys: ks.Keyspace) -> None:
 
 
 def note_liveliness(world: World, agents: Agents, item: Received) -> None:
-    (agents.present.add if item.alive else agents.present.discard)(item.key)
-    if item.key != world.keys.alive_lander:
-        try:
-            rover_id = world.keys.parse_alive_key(item.key)
-        except ValueError as exc:
-            log.warning("ignored liveliness token: %s", exc)
-            return
-        world.set_alive(rover_id, item.alive)
-        if agents.desk is not None:
-            agents.desk.note_alive(rover_id, item.alive)
+    if not item.alive:
+        agents.leave(item.key)
+    if item.key == world.keys.alive_lander:
+        if item.alive:
+            agents.arrive(item.key, ks.LANDER_ID)
+        return
+    try:
+        rover_id = world.keys.parse_alive_key(item.key)
+    except ValueError as exc:
+        log.warning("ignored liveliness token: %s", exc)
+        return
+    if item.alive:
+        agents.arrive(item.key, rover_id)
+    world.set_alive(rover_id, item.alive)
+    if agents.desk is not None:
+        agents.desk.note_alive(rover_id, item.alive)
 
 
 def handle(world: World, bus: Bus, item: Received, agents: Agents) -> None:
@@ -130,15 +183,25 @@ def handle(world: World, bus: Bus, item: Received, agents: Agents) -> None:
         _note_ack(world, agents, item)
     else:
         for key, message in world.receive(item.key, item.payload):
-            bus.publish(key, message)
+            _publish(bus, agents, key, message)
+
+
+def _publish(bus: Bus, agents: Agents, key: str, message: m.Message) -> None:
+    if agents.plan is not None:
+        agents.plan.note(key)
+    bus.publish(key, message)
 
 
 def _note_ack(world: World, agents: Agents, item: Received) -> None:
     try:
-        if codec.decode(m.Ack, item.payload).tick == world.tick:
-            agents.acked.add(item.key)
-    except codec.DecodeError as exc:
+        ack = codec.decode(m.Ack, item.payload)
+        agent = agents.agent_of_ack(item.key)
+    except (codec.DecodeError, ValueError) as exc:
         log.warning("rejected ack on %s: %s", item.key, exc)
+        return
+    if ack.tick == world.tick and agents.plan is not None:
+        agents.waiting.discard(agent)
+        agents.plan.acked(agent, ack.tick, ack.wake)
 
 
 def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> Agents:
@@ -163,10 +226,16 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
     return agents
 
 
-def _step(world: World, bus: Bus, photographer: Photographer) -> None:
-    photographer.take()
-    for key, message in world.step():
-        bus.publish(key, message)
+def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) -> None:
+    """One tick: due photos, the world's samples, then the clock, naming in lockstep whose ack it waits for."""
+    photographer.take(world.tick + 1)
+    *samples, (clock_key, clock) = world.step()
+    for key, message in samples:
+        _publish(bus, agents, key, message)
+    if agents.plan is not None:
+        agents.waiting = set(agents.plan.ask(world.tick, set(agents.ids.values())))
+        clock = clock.model_copy(update={"acks": sorted(agents.waiting)})
+    bus.publish(clock_key, clock)
 
 
 def _finished(world: World, settings: ClockSettings) -> bool:
@@ -176,8 +245,10 @@ def _finished(world: World, settings: ClockSettings) -> bool:
 def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> m.MissionReport:
     """Run the mission until every rover is done or stuck, ``max_sim_time`` passes, or ``stop`` is set."""
     world.time_scale, world.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
+    camera = CameraProcess(world.scenario)  # starts while the agents connect
     agents = wait_for_agents(world, bus, settings, stop)
-    photographer = Photographer(world, bus, settings)
+    agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
+    photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings, camera)
     try:
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
     finally:
@@ -195,7 +266,7 @@ def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threadi
     while not stop.is_set():
         for item in bus.drain():
             handle(world, bus, item, agents)
-        _step(world, bus, photographer)
+        _step(world, bus, photographer, agents)
         if _finished(world, settings):
             return
         next_tick += period
@@ -208,29 +279,58 @@ def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threadi
 
 def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents,
                   photographer: Photographer) -> None:
-    while not stop.is_set():
-        agents.acked.clear()
-        _step(world, bus, photographer)
-        if _finished(world, settings):
-            return
-        data = _collect_until_acked(world, bus, settings, stop, agents)
-        for item in sorted(data, key=lambda r: r.key):  # stable: per-key order is kept
-            handle(world, bus, item, agents)
+    tally = LockstepTally(start=time.perf_counter())
+    try:
+        while not stop.is_set():
+            t0 = time.perf_counter()
+            _step(world, bus, photographer, agents)
+            tally.stepping += time.perf_counter() - t0
+            if _finished(world, settings):
+                return
+            tally.ticks += 1
+            tally.waited += bool(agents.waiting)
+            t0 = time.perf_counter()
+            data = _collect_until_acked(world, bus, settings, stop, agents)
+            tally.waiting += time.perf_counter() - t0
+            for item in sorted(data, key=lambda r: r.key):  # stable: per-key order is kept
+                handle(world, bus, item, agents)
+    finally:
+        log.info("%s; waiting for photos %.2f s", tally.summary(world.sim_time), photographer.waited_s)
+
+
+@dataclass
+class LockstepTally:
+    """Where a lockstep run's wall time went, logged at the end: the first thing to read when it is slow."""
+
+    start: float
+    ticks: int = 0
+    waited: int = 0
+    stepping: float = 0.0
+    waiting: float = 0.0
+
+    def summary(self, sim_time: float) -> str:
+        wall = time.perf_counter() - self.start
+        return (f"lockstep: {sim_time:.1f} s simulated in {wall:.2f} s ({sim_time / max(wall, 1e-9):.1f}x real "
+                f"time); {self.ticks} ticks, {self.waited} waited for acks ({self.waiting:.2f} s), stepping "
+                f"{self.stepping:.2f} s")
 
 
 def _collect_until_acked(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event,
                          agents: Agents) -> list[Received]:
-    """Gather the agents' answers to this tick until every live agent has acknowledged it."""
+    """Gather the agents' answers to this tick until every agent it waits for has acknowledged it; then take
+    what else has arrived (answers no tick waited for, ground commands) without waiting for more."""
     data: list[Received] = []
     deadline = time.monotonic() + settings.ack_timeout
-    while not stop.is_set() and agents.waiting_for():
-        item = bus.receive(timeout=0.5)
+    while not stop.is_set():
+        item = bus.receive(timeout=0.5 if agents.waiting else 0)
         if item is None:
+            if not agents.waiting:
+                break
             if time.monotonic() > deadline:
-                late = sorted(agents.waiting_for())
+                late = ", ".join(_agent_name(agent) for agent in sorted(agents.waiting))
                 log.warning("tick %d: no ack after %g s from %s; going on without them", world.tick,
-                            settings.ack_timeout, ", ".join(late))
-                agents.acked.update(late)
+                            settings.ack_timeout, late)
+                agents.waiting.clear()
             continue
         if item.alive is not None:
             note_liveliness(world, agents, item)
@@ -239,6 +339,10 @@ def _collect_until_acked(world: World, bus: Bus, settings: ClockSettings, stop: 
         else:
             data.append(item)
     return data
+
+
+def _agent_name(agent: int) -> str:
+    return "the lander" if agent == ks.LANDER_ID else f"rover {agent}"
 
 
 def linger(world: World, bus: Bus, report: m.MissionReport, stop: threading.Event) -> None:

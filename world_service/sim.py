@@ -10,7 +10,6 @@ import logging
 import math
 from collections import Counter
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -21,10 +20,10 @@ from schemas import messages as m
 from schemas.mission import RoverMissions
 from schemas.params import RoverParams
 from schemas.scenario import Scenario
-from world_service import camera
 from world_service import navigation as nav
 from world_service import statistics as stats
 from world_service.perception import Perceiver
+from world_service.photos import PhotoJob, render_photo
 from world_service.radio import CommGraph, build_graph, line_of_sight
 from world_service.scene import CircleGrid, Scene, in_view
 from world_service.terrain import Heightmap
@@ -34,8 +33,6 @@ log = logging.getLogger("lunarsim.world")
 Out = tuple[str, m.Message]
 FINISHED_STATES = ("done", "stuck", "stopped", "relay")
 KIND_NAMES = np.array(m.HIT_KINDS)
-PHOTO_TILT_DEG = 8.0
-"""Photos look slightly down, so a crater seen from its rim fills the frame."""
 ACTION_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.PHOTO_ACTION})
 """What an agent sends only once it has heard how its last action ended."""
 
@@ -65,20 +62,6 @@ def all_finished(status: dict[int, m.RoverStatus], moving: Iterable[bool],
     return not any(reach.get(rid, False) for rid in pending)
 
 
-@dataclass(frozen=True)
-class PhotoJob:
-    """What a photo shows, frozen at the moment it was asked for."""
-
-    rover_id: int
-    stamp: float
-    label: str
-    x: float
-    z: float
-    heading: float
-    others_x: np.ndarray
-    others_z: np.ndarray
-
-
 class World:
     def __init__(self, scenario: Scenario, keyspace: ks.Keyspace) -> None:
         self.scenario = scenario
@@ -94,7 +77,7 @@ class World:
         self.stats_period = self._period(1.0)
         self.activation_range = scenario.terrain_spec().chunk_activation_range_m
         self.tick = 0
-        self.terrain = Heightmap.from_scenario(scenario, self.rng)
+        self.terrain = Heightmap.from_scenario(scenario, self.rng)  # first draw: photos.build_ground relies on it
         self.scene = Scene.from_scenario(scenario)
         self.mission_stats = stats.MissionStats(scenario, RoverMissions(scenario))
         self.missions = self.mission_stats.missions  # one bookkeeping of goals, followed with the ground's commands
@@ -220,15 +203,14 @@ class World:
         """Queue a photo of what the rover sees now; rendering is slow, so the service decides when."""
         body = self.bodies[rid]
         others = [b for b in self.bodies.values() if b.id != rid]
-        self.photo_jobs.append(PhotoJob(rid, self.sim_time, msg.label, body.x, body.z, body.heading,
+        due = self.tick + max(1, round(self.params.camera.capture_time_s / self.dt))
+        self.photo_jobs.append(PhotoJob(rid, self.sim_time, msg.label, due, body.x, body.z, body.heading,
                                         np.array([b.x for b in others]), np.array([b.z for b in others])))
         return []
 
     def render(self, job: PhotoJob) -> m.Photo:
-        image = camera.render(self.terrain.uncached(), self.scene, job.others_x, job.others_z,
-                              self.params.behaviour.rover_radius, job.x, job.z, job.heading, self.params.camera,
-                              tilt_deg=PHOTO_TILT_DEG)
-        return m.Photo(stamp=job.stamp, label=job.label, png=camera.encode_png(image))
+        """The photo rendered here (tests, the loopback); the service renders in a ``photos.CameraProcess``."""
+        return render_photo(self.terrain.uncached(), self.scene, self.params, job)
 
     def _on_status(self, rid: int, msg: m.RoverStatus) -> list[Out]:
         self.status[rid] = msg
@@ -421,8 +403,12 @@ class World:
         return out
 
     def _perceptions(self, bodies, xs, zs, hs) -> list[Out]:
-        """Each rover scans once per perception period, the rovers staggered over the period's ticks."""
-        which = np.array([i for i, b in enumerate(bodies) if (self.tick + b.id) % self.perception_period == 0], int)
+        """Each rover scans once per perception period. In real time the rovers are staggered over the period's
+        ticks, which spreads the world's work evenly; in lockstep they all scan on the same tick, so the ticks
+        between wait for no agent's answer (``world_service.lockstep``) and run as fast as the world steps."""
+        phase = (lambda body: 0) if self.lockstep else (lambda body: body.id)
+        which = np.array([i for i, b in enumerate(bodies) if (self.tick + phase(b)) % self.perception_period == 0],
+                         int)
         scans = self.perceiver.scan(xs, zs, hs, which)
         # Built from checked arrays at 5 Hz per rover: skip re-validation (receivers still validate).
         return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),

@@ -345,6 +345,17 @@ class Heightmap:
                      for c in self.craters.craters), default=0.0)
         return float(np.degrees(np.arctan(rise)))
 
+    def max_height_bound(self) -> float:
+        """An upper bound on the ground height anywhere (inf for a mesh), from the terrain's recipe.
+
+        Each wave of the undulation adds at most ``amplitude / waves``; craters add at most their rim height,
+        and overlapping rims add up. The camera drops a rising ray once it is above this: it can hit nothing.
+        """
+        if self.base is not None:
+            return math.inf
+        roll = self.undulation.amplitude if self.undulation is not None else 0.0
+        return roll + sum(max(c.rim_height, 0.0) for c in self.craters.craters)
+
     def uncached(self) -> UncachedView:
         """A height-only view that never touches the tile cache: safe beside the world's own thread."""
         return UncachedView(self)
@@ -394,6 +405,33 @@ class Heightmap:
         return out
 
 
+class DenseView:
+    """``height(x, z)`` from the whole height grid held at once: no grouping by tile, so about twice as fast for
+    the camera's hundreds of thousands of samples a photo. Same bilinear formula, so the same values as the
+    Heightmap's; only for terrains small enough to assemble (``FULL_GRID_LIMIT``)."""
+
+    def __init__(self, terrain: Heightmap) -> None:
+        self._terrain = terrain
+        self._grid = terrain.heights.ravel()
+        self._cols = terrain.nx
+
+    def height(self, x, z) -> np.ndarray:
+        t = self._terrain
+        x, z = np.broadcast_arrays(np.asarray(x, float), np.asarray(z, float))
+        fx = np.minimum(np.maximum((x.ravel() - t.origin_x) / t.resolution, 0.0), t.nx - 1)
+        fz = np.minimum(np.maximum((z.ravel() - t.origin_z) / t.resolution, 0.0), t.nz - 1)
+        ix, iz = np.minimum(fx.astype(int), t.nx - 2), np.minimum(fz.astype(int), t.nz - 2)
+        wx, wz = fx - ix, fz - iz
+        g, cols = self._grid, self._cols
+        corner = iz * cols + ix
+        top = g[corner] * (1 - wx) + g[corner + 1] * wx
+        bottom = g[corner + cols] * (1 - wx) + g[corner + cols + 1] * wx
+        return (top * (1 - wz) + bottom * wz).reshape(x.shape)[()]
+
+    def max_height_bound(self) -> float:
+        return self._terrain.max_height_bound()
+
+
 class UncachedView:
     """``height(x, z)`` of a Heightmap, sampled with ``cache=False`` (the camera renders off the world thread)."""
 
@@ -402,6 +440,9 @@ class UncachedView:
 
     def height(self, x, z) -> np.ndarray:
         return self._terrain.height(x, z, cache=False)
+
+    def max_height_bound(self) -> float:
+        return self._terrain.max_height_bound()
 
 
 def _groups(ids: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:

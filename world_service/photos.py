@@ -1,0 +1,88 @@
+"""Photos: what a PhotoAction froze (``PhotoJob``), how it becomes a PNG, and the camera process that renders
+photos beside the world's clock.
+
+A 160x120 photo is 30-90 ms of NumPy. On a thread of the world's process it would hold the GIL between NumPy
+calls and stall every Zenoh call of the clock loop by up to a switch interval; in a process of its own it runs
+on the other core. That process is spawned, never forked from a process running Zenoh's threads, and rebuilds
+the ground from the scenario alone (the terrain is a pure function of the scenario and its seed), so its photos
+are byte for byte the ones the world would render itself.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from schemas import messages as m
+from schemas.params import RoverParams
+from schemas.scenario import Scenario
+from world_service import camera
+from world_service.scene import Scene
+from world_service.terrain import FULL_GRID_LIMIT, DenseView, Heightmap
+
+log = logging.getLogger("lunarsim.world")
+
+PHOTO_TILT_DEG = 8.0
+"""Photos look slightly down, so a crater seen from its rim fills the frame."""
+
+
+@dataclass(frozen=True)
+class PhotoJob:
+    """What a photo shows, frozen at the moment it was asked for."""
+
+    rover_id: int
+    stamp: float
+    label: str
+    due_tick: int  # when the photo reaches the rover: the camera's capture time later
+    x: float
+    z: float
+    heading: float
+    others_x: np.ndarray
+    others_z: np.ndarray
+
+
+def render_photo(terrain: camera.HeightField, scene: Scene, params: RoverParams, job: PhotoJob) -> m.Photo:
+    image = camera.render(terrain, scene, job.others_x, job.others_z, params.behaviour.rover_radius, job.x, job.z,
+                          job.heading, params.camera, tilt_deg=PHOTO_TILT_DEG)
+    return m.Photo(stamp=job.stamp, label=job.label, png=camera.encode_png(image))
+
+
+def build_ground(scenario: Scenario) -> camera.HeightField:
+    """The scenario's terrain, drawn from a generator seeded as the world's is when it builds its own; held
+    whole when it is small enough, which samples faster and gives the same heights."""
+    terrain = Heightmap.from_scenario(scenario, np.random.default_rng(scenario.seed))
+    if terrain.base is None and terrain.nx * terrain.nz <= FULL_GRID_LIMIT:
+        return DenseView(terrain)
+    return terrain
+
+
+class CameraProcess:
+    """One worker process that renders photo jobs; ``submit`` returns a future of the ``m.Photo``."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
+                                        initializer=_start, initargs=(scenario,))
+        self.pool.submit(int)  # start the process now, not at the first photo
+
+    def submit(self, job: PhotoJob) -> Future:
+        return self.pool.submit(_render, job)
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+_ground: tuple[camera.HeightField, Scene, RoverParams] | None = None
+
+
+def _start(scenario: Scenario) -> None:
+    global _ground
+    _ground = (build_ground(scenario), Scene.from_scenario(scenario), scenario.rover_params)
+
+
+def _render(job: PhotoJob) -> m.Photo:
+    terrain, scene, params = _ground
+    return render_photo(terrain, scene, params, job)
