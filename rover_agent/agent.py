@@ -23,7 +23,7 @@ from rover_agent.behaviour import (
     TakePhoto,
     View,
 )
-from rover_agent.dead_reckoning import Pose, load_pose, save_pose
+from rover_agent.dead_reckoning import POSE_WRITER, Pose, load_pose
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -307,4 +307,4 @@ class RoverAgent:
         self.in_flight = None
         self.settled_at = stamp
         if self.state_file is not None and self.pose is not None:
-            save_pose(self.state_file, self.pose)
+            POSE_WRITER.save(self.state_file, self.pose)

@@ -8,6 +8,7 @@ import threading
 from deploy.bus import Bus
 from deploy.world_watch import ClockWatch
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
+from rover_agent.dead_reckoning import POSE_WRITER
 from schemas import codec
 from schemas import messages as m
 
@@ -28,6 +29,15 @@ def run(agents: RoverAgent | list[RoverAgent], bus: Bus, stop: threading.Event) 
     bus.subscribe(keys.clock)
     who = f"rover {agents[0].id}" if len(agents) == 1 else f"rovers {agents[0].id}..{agents[-1].id}"
     watch = ClockWatch(who, keys.clock)
+    try:
+        _loop(agents, bus, stop, watch, by_prefix)
+    finally:
+        POSE_WRITER.flush()  # the poses of the last actions, before the process ends
+
+
+def _loop(agents: list[RoverAgent], bus: Bus, stop: threading.Event, watch: ClockWatch,
+          by_prefix: dict[str, RoverAgent]) -> None:
+    keys = agents[0].keys
     while not stop.is_set():
         item = bus.receive(timeout=0.2)
         watch.check()

@@ -234,6 +234,8 @@ def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) ->
         _publish(bus, agents, key, message)
     if agents.plan is not None:
         agents.waiting = set(agents.plan.ask(world.tick, set(agents.ids.values())))
+        if not agents.waiting:
+            return  # no agent's timer is due and none has anything to answer: the clock would only cost them
         clock = clock.model_copy(update={"acks": sorted(agents.waiting)})
     bus.publish(clock_key, clock)
 
