@@ -9,7 +9,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-import logging
 from pathlib import Path
 
 from aiohttp import WSMsgType, web
@@ -21,7 +20,8 @@ from schemas.scenario import Scenario, ScenarioError
 
 STATIC = Path(__file__).parent / "static"
 BUNDLE = STATIC / "bundle.js"
-log = logging.getLogger("lunarsim.web")
+VIEWER: web.AppKey[Viewer] = web.AppKey("viewer")
+STREAM: web.AppKey[asyncio.Task] = web.AppKey("stream")
 
 
 class Viewer:
@@ -93,7 +93,7 @@ async def _body(request: web.Request) -> dict:
 
 
 def _viewer(request: web.Request) -> Viewer:
-    return request.app["viewer"]
+    return request.app[VIEWER]
 
 
 async def index(request: web.Request) -> web.StreamResponse:
@@ -218,21 +218,21 @@ async def profile_export(request: web.Request) -> web.Response:
 
 
 async def _start_stream(app: web.Application) -> None:
-    app["viewer"].commands.loop = asyncio.get_running_loop()
-    app["stream"] = asyncio.create_task(app["viewer"].stream())
+    app[VIEWER].commands.loop = asyncio.get_running_loop()
+    app[STREAM] = asyncio.create_task(app[VIEWER].stream())
 
 
 async def _stop(app: web.Application) -> None:
-    app["stream"].cancel()
+    app[STREAM].cancel()
     with contextlib.suppress(asyncio.CancelledError):
-        await app["stream"]
-    for ws in list(app["viewer"].clients):
+        await app[STREAM]
+    for ws in list(app[VIEWER].clients):
         await ws.close()
 
 
 def build_app(viewer: Viewer) -> web.Application:
     app = web.Application(client_max_size=16 * 1024 * 1024)
-    app["viewer"] = viewer
+    app[VIEWER] = viewer
     app.router.add_get("/", index)
     app.router.add_get("/ws", websocket)
     app.router.add_get("/api/info", info)
