@@ -128,7 +128,7 @@ export class LiveView {
       if (!trail) this.trails.set(r.id, (trail = []));
       const lastPoint = trail[trail.length - 1];
       if (!lastPoint || Math.hypot(lastPoint[0] - r.x, lastPoint[1] - r.z) > 0.3) {
-        trail.push([r.x, r.z]);
+        trail.push([r.x, r.z, this.ground.at(r.x, r.z) + 0.3]); // height once, not at every redraw
         if (trail.length > TRAIL_POINTS) trail.shift();
       }
     }
@@ -154,7 +154,7 @@ export class LiveView {
     for (const trail of this.trails.values()) {
       for (let i = 1; i < trail.length; i++) {
         const a = trail[i - 1], b = trail[i];
-        pts.push(a[0], this.ground.at(a[0], a[1]) + 0.3, -a[1], b[0], this.ground.at(b[0], b[1]) + 0.3, -b[1]);
+        pts.push(a[0], a[2], -a[1], b[0], b[2], -b[1]);
       }
     }
     setPoints(this.trailLines, pts);
@@ -236,10 +236,17 @@ function terrainMesh(t) {
     }
   }
   geo.setAttribute("position", new THREE.BufferAttribute(pos, 3));
-  geo.setAttribute("color", new THREE.BufferAttribute(col, 3));
   geo.setIndex(index);
   geo.computeVertexNormals();
-  return new THREE.Mesh(geo, new THREE.MeshLambertMaterial({ vertexColors: true, side: THREE.DoubleSide }));
+  // Sunlight baked into the vertex colours once: an unlit material costs far less per pixel, which is what
+  // limits a browser drawing without a GPU.
+  const normal = geo.getAttribute("normal"), sun = new THREE.Vector3(-0.5, 0.7, 0.4).normalize(), n = new THREE.Vector3();
+  for (let k = 0; k < t.nx * t.nz; k++) {
+    const light = 0.45 + 0.75 * Math.max(0, n.fromBufferAttribute(normal, k).dot(sun));
+    col[k * 3] *= light; col[k * 3 + 1] *= light; col[k * 3 + 2] *= light;
+  }
+  geo.setAttribute("color", new THREE.BufferAttribute(col, 3));
+  return new THREE.Mesh(geo, new THREE.MeshBasicMaterial({ vertexColors: true, side: THREE.DoubleSide }));
 }
 
 function ring(x, z, r, h, color) {
