@@ -176,3 +176,36 @@ def test_editor_scenario_saved_reloaded_profiled_and_launched(router, tmp_path, 
         stop(view)  # stops the launched mission too
     runs = list((tmp_path / "runs").glob("e2e_web-web-*"))
     assert len(runs) == 1 and (runs[0] / "scenario.yaml").is_file()
+
+
+def test_a_replay_is_shown_and_paused_from_the_page(router, tmp_path, browser):
+    """A replay republishes the recorded keys, so the same page shows it; Pause on the page stops it."""
+    out = tmp_path / "rec"
+    run = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--connect", router, "--world", "recorded",
+                   "--time-scale", "5", "--max-sim-time", "20", "--quiet", "--out", str(out))
+    run.communicate(timeout=120)
+    assert (out / "session.mcap").is_file(), run.returncode
+    view, url = start_view(router, "replayed", tmp_path, "--scenario", str(out / "scenario.yaml"))
+    replay = lunarsim("replay", str(out / "session.mcap"), "--connect", router, "--remap-world", "replayed",
+                      "--loop", "--quiet")
+    try:
+        page = browser.new_page()
+        page.goto(url)
+        wait_for(lambda: len(positions(page)) == 5, 30, "the replayed rovers on the page")
+        first = positions(page)
+        wait_for(lambda: positions(page) != first, 20, "the replayed rovers to move")
+        page.click("#cmd-pause")
+        wait_for(lambda: page_value(page, "lunarsim.lastCommand.sent"), 10, "the pause to be sent")
+
+        def settled() -> bool:  # no new world state reaches the page for a second
+            before = page_value(page, "lunarsim.states")
+            page.wait_for_timeout(1000)
+            return page_value(page, "lunarsim.states") == before
+
+        wait_for(settled, 15, "the replay to pause")
+        shot(page, "replay_paused")
+        page.click("#cmd-resume")
+        before = page_value(page, "lunarsim.states")
+        wait_for(lambda: page_value(page, "lunarsim.states") > before + 3, 15, "the replay to resume")
+    finally:
+        stop(replay, view)

@@ -52,8 +52,6 @@ export class Editor {
 
   show() { this.draw(); }
 
-  setLiveScene() {}
-
   load(sc) {
     this.sc = structuredClone(sc);
     this.sc.obstacles = this.sc.obstacles || { rocks: [], walls: [], rock_fields: [] };

@@ -206,8 +206,6 @@ export class LiveView {
     const hit = ray.intersectObjects(this.statics.children, false)[0];
     if (hit) this.onPick(hit.point.x, -hit.point.z);
   }
-
-  pick() {}
 }
 
 function setPoints(lines, pts) {

@@ -11,7 +11,7 @@ const lunarsim = (window.lunarsim = {
 
 const $ = (id) => document.getElementById(id);
 const view = new LiveView($("view3d"), lunarsim);
-const panels = new Panels(lunarsim, (x, z) => view.pick(x, z));
+const panels = new Panels(lunarsim);
 const editor = new Editor(lunarsim);
 view.onPick = (x, z) => panels.setTarget(x, z);
 
@@ -26,7 +26,7 @@ for (const tab of document.querySelectorAll(".tab")) {
 function handle(msg) {
   switch (msg.type) {
     case "hello": lunarsim.world = msg.world; $("world").textContent = `world ${msg.world}`; break;
-    case "scene": lunarsim.scene = msg.scene; view.setScene(msg.scene); editor.setLiveScene(msg.scene); break;
+    case "scene": lunarsim.scene = msg.scene; view.setScene(msg.scene); break;
     case "state": lunarsim.state = msg; lunarsim.states += 1; view.setState(msg); panels.setState(msg); break;
     case "stats": lunarsim.stats = msg; panels.setStats(msg); break;
     case "lander": lunarsim.lander = msg; panels.setLander(msg); break;
