@@ -28,7 +28,7 @@ COMMANDS = {
     "report": ("deploy.session.report_cli", "mission statistics and a trajectory plot from a recording alone"),
     "export-foxglove": ("deploy.session.export_cli",
                         "write Foxglove channels (3D scene, transforms, photos) for a recording"),
-    "view": ("deploy.session.view_cli", "serve a live world to the Foxglove app over WebSocket"),
+    "view": ("deploy.session.view_cli", "a live world or replay in the browser (--foxglove: in the Foxglove app)"),
     "bridge": ("deploy.hardware.bridge_app", "put one real rover (a hardware driver) on a rover's keys"),
     "emulate-device": ("deploy.hardware.emulator", "an emulated serial rover base on a pseudo-terminal"),
     "check-driver": ("deploy.hardware.check_cli", "drive a hardware driver through the interface, list violations"),

@@ -41,6 +41,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_zenoh_arguments(parser)
 
 
+def build_command(command: str, rover: int | None = None, x: float | None = None, z: float | None = None,
+                  kind: str = "waypoint", seconds: float | None = None):
+    """A GroundCommand with a fresh request id; UsageError names what a command lacks (also for the web page)."""
+    from schemas import messages as m
+
+    if command == "set-target" and (x is None or z is None):
+        raise process.UsageError("set-target needs --x and --z")
+    if command in ("stop", "return") and rover is None:
+        raise process.UsageError(f"{command} needs --rover N")
+    if command == "seek" and seconds is None:
+        raise process.UsageError("seek needs --seconds S")
+    return m.GroundCommand(request_id=uuid.uuid4().hex, command=command.replace("-", "_"), rover_id=rover, x=x,
+                           z=z, kind=kind, seconds=seconds)
+
+
 def run_from_args(args: argparse.Namespace) -> int:
     import time
 
@@ -50,15 +65,8 @@ def run_from_args(args: argparse.Namespace) -> int:
     from schemas.keyspace import Keyspace
 
     name = args.command.replace("-", "_")
-    if args.command == "set-target" and (args.x is None or args.z is None):
-        raise process.UsageError("set-target needs --x and --z")
-    if args.command in ("stop", "return") and args.rover is None:
-        raise process.UsageError(f"{args.command} needs --rover N")
-    if args.command == "seek" and args.seconds is None:
-        raise process.UsageError("seek needs --seconds S")
     keys = Keyspace(args.world)
-    command = m.GroundCommand(request_id=uuid.uuid4().hex, command=name, rover_id=args.rover, x=args.x, z=args.z,
-                              kind=args.kind, seconds=args.seconds)
+    command = build_command(args.command, args.rover, args.x, args.z, args.kind, args.seconds)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="command")
     with Bus(session) as bus:
         bus.subscribe(keys.ground_command_result)

@@ -1,4 +1,7 @@
-"""``lunarsim view --foxglove``: serve a live world to the Foxglove app over WebSocket.
+"""``lunarsim view``: a live world (or a replay) in the browser; ``--foxglove``: served to the Foxglove app.
+
+Plain ``lunarsim view`` serves the web digital twin (``deploy.web``) at http://127.0.0.1:8080/: 3D view,
+statistics, ground commands and the scenario editor. With ``--foxglove`` it serves Foxglove instead:
 
 Subscribes to the world state and the rover photos of ``--world`` and serves the same channels as
 ``lunarsim export-foxglove`` (``/scene``, ``/tf``, ``/rover_<id>/photo``), so a live run and a recording
@@ -30,16 +33,20 @@ QUEUE_SAMPLES = 256
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--foxglove", action="store_true", required=True,
-                        help="serve the Foxglove WebSocket protocol (the only viewer so far)")
-    parser.add_argument("--scenario", type=Path, required=True, metavar="FILE",
-                        help="the scenario the world runs: terrain, obstacles, lander and goals")
+    parser.add_argument("--foxglove", action="store_true",
+                        help="serve the Foxglove WebSocket protocol instead of the web page")
+    parser.add_argument("--scenario", type=Path, metavar="FILE", help="the scenario the world runs: terrain, "
+                        "obstacles, lander and goals (needed with --foxglove; the web page also shows what it "
+                        "launches)")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
-    parser.add_argument("--port", type=int, default=8765, help="WebSocket port (default 8765)")
+    parser.add_argument("--port", type=int, help="port (default 8080 for the web page, 8765 for --foxglove)")
     parser.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; "
                         "0.0.0.0 for other machines)")
     parser.add_argument("--no-trails", action="store_true", help="do not draw the rovers' recent paths")
     add_zenoh_arguments(parser)
+    from deploy.web.view import add_web_arguments
+
+    add_web_arguments(parser)
 
 
 class LiveScene:
@@ -160,8 +167,16 @@ def run_from_args(args: argparse.Namespace) -> int:
         check_world_name(args.world)
     except ValueError as exc:
         raise process.UsageError(str(exc)) from None
+    if args.port is None:
+        args.port = 8765 if args.foxglove else 8080
     if not 0 < args.port < 65536:
         raise process.UsageError(f"--port must be between 1 and 65535, got {args.port}")
+    if not args.foxglove:
+        from deploy.web.view import run_web
+
+        return run_web(args)
+    if args.scenario is None:
+        raise process.UsageError("--foxglove needs --scenario FILE (the terrain, obstacles, lander and goals)")
     scenario = load_scenario(args.scenario)
     keys = Keyspace(args.world)
     live = LiveScene(scenario, trail_points=0 if args.no_trails else 300)

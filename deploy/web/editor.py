@@ -1,0 +1,116 @@
+"""The scenario editor's server side: validate, save, load and launch scenarios, import and export profiles.
+
+Validation is the command line's own (``schemas.scenario.parse_scenario``), so a scenario the page
+accepts is one ``lunarsim run`` accepts, with the same one-line error when it is not.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+
+from schemas.profiles import profile_to_scenario, scenario_to_profile
+from schemas.scenario import Scenario, ScenarioError, dump_scenario, load_scenario, parse_scenario
+
+NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,80}$")
+
+
+def scenario_from_page(data: object) -> Scenario:
+    """The page's scenario (the model's JSON shape, or YAML text) validated; ScenarioError names the field."""
+    if isinstance(data, str):
+        try:
+            data = yaml.safe_load(data)
+        except yaml.YAMLError as exc:
+            raise ScenarioError(f"editor: not valid YAML: {getattr(exc, 'problem', exc)}") from None
+    return parse_scenario(data, "editor")
+
+
+def scenario_json(scenario: Scenario) -> dict:
+    return scenario.model_dump(mode="json")
+
+
+def profile_scenario(profile: object, name: str) -> Scenario:
+    if not isinstance(profile, dict):
+        raise ScenarioError("profile: a profile is a JSON object")
+    return profile_to_scenario(profile, name or "profile")
+
+
+def profile_of(scenario: Scenario) -> dict:
+    return scenario_to_profile(scenario)
+
+
+class Workspace:
+    """Scenario files the page saves and loads: ``NAME.yaml`` in one folder, nowhere else."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+
+    def path(self, name: str) -> Path:
+        stem = name.removesuffix(".yaml")
+        if not NAME.match(stem):
+            raise ScenarioError(f"bad scenario file name {name!r}: letters, digits, '_', '-' or '.', no folders")
+        return self.folder / f"{stem}.yaml"
+
+    def save(self, name: str, scenario: Scenario) -> Path:
+        path = self.path(name)
+        self.folder.mkdir(parents=True, exist_ok=True)
+        path.write_text(dump_scenario(scenario), encoding="utf-8")
+        return path
+
+    def load(self, name: str) -> Scenario:
+        path = self.path(name)
+        if not path.is_file():
+            raise ScenarioError(f"no saved scenario {path.name!r} in {self.folder}")
+        return load_scenario(path)
+
+    def names(self) -> list[str]:
+        return sorted(p.stem for p in self.folder.glob("*.yaml")) if self.folder.is_dir() else []
+
+
+class Launcher:
+    """``lunarsim run`` for a scenario built in the editor, on the viewer's router and world; one at a time."""
+
+    def __init__(self, runs: Path, endpoint: str, world: str) -> None:
+        self.runs = runs
+        self.endpoint = endpoint
+        self.world = world
+        self.proc: subprocess.Popen | None = None
+        self.out: Path | None = None
+
+    def running(self) -> bool:
+        return self.proc is not None and self.proc.poll() is None
+
+    def launch(self, scenario_file: Path, name: str, time_scale: float) -> Path:
+        if self.running():
+            raise ScenarioError("a launched mission is still running: stop it first")
+        if not 0 < time_scale <= 1000:
+            raise ScenarioError(f"time scale must be in (0, 1000], got {time_scale}")
+        self.out = self.runs / f"{name}-web-{dt.datetime.now():%Y%m%d-%H%M%S}"
+        self.out.mkdir(parents=True, exist_ok=True)
+        log = (self.out / "launch.log").open("w")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "deploy.cli", "run", str(scenario_file), "--connect", self.endpoint, "--world",
+             self.world, "--time-scale", str(time_scale), "--out", str(self.out), "--quiet"],
+            stdout=log, stderr=subprocess.STDOUT)
+        log.close()
+        return self.out
+
+    def status(self) -> dict:
+        if self.proc is None:
+            return {"launched": False}
+        return {"launched": True, "running": self.running(), "exit_code": self.proc.poll(), "out": str(self.out)}
+
+    def stop(self) -> None:
+        """SIGTERM: the launcher stops its agents and still writes its report."""
+        if self.running():
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()

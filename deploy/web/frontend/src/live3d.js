@@ -1,0 +1,278 @@
+// The 3D view. LunarSim (x, z, height) is three.js (x, height, -z): a proper rotation, so the map reads as in
+// our plots from above (+x right, +z up the screen). Heading h (0 = +z, 90 = +x) is a rotation of 90 - h
+// degrees about +y. Rovers are one InstancedMesh, trails and links one LineSegments each: a few draw calls
+// whatever the team size.
+import * as THREE from "three";
+import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
+import { Ground } from "./ground.js";
+
+const ROVER = { length: 1.4, width: 1.0, height: 0.6, scale: 2.0 };
+const TRAIL_POINTS = 300;
+const STATE_COLORS = {
+  waiting: 0x999999, migration: 0x3399ff, avoiding: 0xffcc1a, climbing: 0xe6801a, observing: 0x4ce64c,
+  done: 0x1ab333, stuck: 0xff1a1a, stopped: 0x804d4d, relay: 0xe64de6,
+};
+
+export class LiveView {
+  constructor(container, page) {
+    this.container = container;
+    this.page = page;
+    this.ground = new Ground(null);
+    this.trails = new Map();
+    this.prev = new Map();
+    this.curr = new Map();
+    this.stateAt = 0;
+    this.onPick = null;
+    try {
+      this.renderer = new THREE.WebGLRenderer({ antialias: false });
+    } catch (err) {
+      container.querySelector("#nowebgl").hidden = false;
+      return;
+    }
+    page.webgl = true;
+    this.renderer.setPixelRatio(1);
+    container.appendChild(this.renderer.domElement);
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(0x05070c);
+    this.camera = new THREE.PerspectiveCamera(50, 1, 0.5, 20000);
+    this.controls = new OrbitControls(this.camera, this.renderer.domElement);
+    this.scene.add(new THREE.AmbientLight(0xffffff, 0.55));
+    const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+    sun.position.set(-300, 400, 200);
+    this.scene.add(sun);
+    this.statics = new THREE.Group();
+    this.scene.add(this.statics);
+    this.makeDynamic(128);
+    this.renderer.domElement.addEventListener("click", (ev) => this.click(ev));
+    new ResizeObserver(() => this.resize()).observe(container);
+    this.resize();
+  }
+
+  makeDynamic(capacity) {
+    if (this.rovers) { this.scene.remove(this.rovers); this.rovers.dispose(); }
+    const box = new THREE.BoxGeometry(ROVER.length * ROVER.scale, ROVER.height * ROVER.scale, ROVER.width * ROVER.scale);
+    this.rovers = new THREE.InstancedMesh(box, new THREE.MeshLambertMaterial(), capacity);
+    this.rovers.count = 0;
+    this.rovers.frustumCulled = false;
+    this.scene.add(this.rovers);
+    if (!this.trailLines) {
+      this.trailLines = this.lines(0x66ccff, 0.6);
+      this.linkLines = this.lines(0x4d99ff, 0.8);
+      this.chainLines = this.lines(0xff4dff, 1.0);
+    }
+  }
+
+  lines(color, opacity) {
+    const l = new THREE.LineSegments(new THREE.BufferGeometry(),
+      new THREE.LineBasicMaterial({ color, transparent: opacity < 1, opacity }));
+    l.frustumCulled = false;
+    this.scene.add(l);
+    return l;
+  }
+
+  resize() {
+    if (!this.renderer) return;
+    const w = this.container.clientWidth || 1, h = this.container.clientHeight || 1;
+    this.renderer.setSize(w, h, false);
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+  }
+
+  setScene(scene) {
+    this.ground = new Ground(scene.terrain);
+    this.trails.clear();
+    this.prev.clear();
+    this.curr.clear();
+    if (!this.renderer) return;
+    this.statics.clear();
+    const g = this.ground;
+    if (scene.terrain) this.statics.add(terrainMesh(scene.terrain));
+    for (const c of scene.craters) this.statics.add(ring(c.x, c.z, c.r, c.h + 0.2, 0xe69933));
+    if (scene.rocks.length) this.statics.add(rocks(scene.rocks));
+    for (const w of scene.walls) for (const seg of walls(w, g)) this.statics.add(seg);
+    if (scene.lander) {
+      const l = scene.lander;
+      const m = new THREE.Mesh(new THREE.CylinderGeometry(l.r, l.r, 2.5, 24), new THREE.MeshLambertMaterial({ color: 0xf2d94d }));
+      m.position.set(l.x, l.h + 1.25, -l.z);
+      this.statics.add(m);
+    }
+    for (const goal of scene.goals) {
+      const m = new THREE.Mesh(new THREE.CylinderGeometry(0.6, 0.6, 8, 8),
+        new THREE.MeshBasicMaterial({ color: goal.kind === "crater" ? 0x33ff66 : 0x33ccff, transparent: true, opacity: 0.8 }));
+      m.position.set(goal.x, goal.h + 4, -goal.z);
+      this.statics.add(m);
+    }
+    this.frame(scene);
+  }
+
+  frame(scene) {
+    // Look at the lander and goals from the south-east, high enough to see the whole mission.
+    const t = scene.terrain;
+    const cx = t ? (t.x0 + t.x1) / 2 : 0, cz = t ? (t.z0 + t.z1) / 2 : 0;
+    const size = t ? Math.max(t.x1 - t.x0, t.z1 - t.z0) : 200;
+    const h = this.ground.at(cx, cz);
+    this.controls.target.set(cx, h, -cz);
+    this.camera.position.set(cx + size * 0.15, h + size * 0.75, -cz + size * 0.6);
+    this.camera.far = size * 10;
+    this.camera.updateProjectionMatrix();
+    this.controls.update();
+  }
+
+  setState(state) {
+    const now = performance.now();
+    this.prev = this.curr;
+    this.curr = new Map();
+    for (const r of state.rovers) {
+      this.curr.set(r.id, r);
+      let trail = this.trails.get(r.id);
+      if (!trail) this.trails.set(r.id, (trail = []));
+      const lastPoint = trail[trail.length - 1];
+      if (!lastPoint || Math.hypot(lastPoint[0] - r.x, lastPoint[1] - r.z) > 0.3) {
+        trail.push([r.x, r.z, this.ground.at(r.x, r.z) + 0.3]); // height once, not at every redraw
+        if (trail.length > TRAIL_POINTS) trail.shift();
+      }
+    }
+    this.stateAt = now;
+    this.state = state;
+    if (!this.renderer) return;
+    if (state.rovers.length > this.rovers.instanceMatrix.count) this.makeDynamic(state.rovers.length * 2);
+    this.updateTrails();
+    this.updateLinks(state);
+  }
+
+  where(id) {
+    const r = this.curr.get(id);
+    if (id === 0 && this.page.scene && this.page.scene.lander) {
+      const l = this.page.scene.lander;
+      return [l.x, l.z];
+    }
+    return r ? [r.x, r.z] : null;
+  }
+
+  updateTrails() {
+    const pts = [];
+    for (const trail of this.trails.values()) {
+      for (let i = 1; i < trail.length; i++) {
+        const a = trail[i - 1], b = trail[i];
+        pts.push(a[0], a[2], -a[1], b[0], b[2], -b[1]);
+      }
+    }
+    setPoints(this.trailLines, pts);
+  }
+
+  updateLinks(state) {
+    const relays = new Set(state.relays);
+    const plain = [], chain = [];
+    for (const [a, b] of state.links) {
+      const pa = this.where(a), pb = this.where(b);
+      if (!pa || !pb) continue;
+      const out = relays.has(a) || relays.has(b) ? chain : plain;
+      out.push(pa[0], this.ground.at(pa[0], pa[1]) + 1.5, -pa[1], pb[0], this.ground.at(pb[0], pb[1]) + 1.5, -pb[1]);
+    }
+    setPoints(this.linkLines, plain);
+    setPoints(this.chainLines, chain);
+  }
+
+  render(now) {
+    if (!this.renderer) return;
+    // Ease rovers from their last state to the newest over one stream period, so 10 Hz looks smooth.
+    const f = Math.min(1, (now - this.stateAt) / 100);
+    const m = new THREE.Matrix4(), q = new THREE.Quaternion(), p = new THREE.Vector3(), color = new THREE.Color();
+    const up = new THREE.Vector3(0, 1, 0), s = new THREE.Vector3(1, 1, 1);
+    let i = 0;
+    for (const r of this.curr.values()) {
+      const a = this.prev.get(r.id) || r;
+      const x = a.x + (r.x - a.x) * f, z = a.z + (r.z - a.z) * f;
+      p.set(x, this.ground.at(x, z) + ROVER.height * ROVER.scale / 2, -z);
+      q.setFromAxisAngle(up, ((90 - r.heading) * Math.PI) / 180);
+      this.rovers.setMatrixAt(i, m.compose(p, q, s));
+      this.rovers.setColorAt(i, color.setHex(r.alive ? STATE_COLORS[r.state] ?? 0xffffff : 0x333333));
+      i += 1;
+    }
+    this.rovers.count = i;
+    this.rovers.instanceMatrix.needsUpdate = true;
+    if (this.rovers.instanceColor) this.rovers.instanceColor.needsUpdate = true;
+    this.controls.update();
+    this.renderer.render(this.scene, this.camera);
+  }
+
+  click(ev) {
+    // Shift-click on the terrain: its map point becomes the command target.
+    if (!ev.shiftKey || !this.onPick) return;
+    const rect = this.renderer.domElement.getBoundingClientRect();
+    const ndc = new THREE.Vector2(((ev.clientX - rect.left) / rect.width) * 2 - 1, -((ev.clientY - rect.top) / rect.height) * 2 + 1);
+    const ray = new THREE.Raycaster();
+    ray.setFromCamera(ndc, this.camera);
+    const hit = ray.intersectObjects(this.statics.children, false)[0];
+    if (hit) this.onPick(hit.point.x, -hit.point.z);
+  }
+}
+
+function setPoints(lines, pts) {
+  lines.geometry.setAttribute("position", new THREE.Float32BufferAttribute(pts, 3));
+  lines.geometry.computeBoundingSphere();
+}
+
+function terrainMesh(t) {
+  const geo = new THREE.BufferGeometry();
+  const pos = new Float32Array(t.nx * t.nz * 3), col = new Float32Array(t.nx * t.nz * 3);
+  const lo = Math.min(...t.heights), hi = Math.max(...t.heights);
+  const dx = (t.x1 - t.x0) / (t.nx - 1), dz = (t.z1 - t.z0) / (t.nz - 1);
+  for (let j = 0; j < t.nz; j++) {
+    for (let i = 0; i < t.nx; i++) {
+      const k = j * t.nx + i, h = t.heights[k];
+      pos.set([t.x0 + i * dx, h, -(t.z0 + j * dz)], k * 3);
+      const s = hi > lo ? 0.35 + 0.45 * (h - lo) / (hi - lo) : 0.55;
+      col.set([s, s, s * 1.02], k * 3);
+    }
+  }
+  const index = [];
+  for (let j = 0; j < t.nz - 1; j++) {
+    for (let i = 0; i < t.nx - 1; i++) {
+      const a = j * t.nx + i, b = a + 1, c = a + t.nx, d = c + 1;
+      index.push(a, b, d, a, d, c);
+    }
+  }
+  geo.setAttribute("position", new THREE.BufferAttribute(pos, 3));
+  geo.setIndex(index);
+  geo.computeVertexNormals();
+  // Sunlight baked into the vertex colours once: an unlit material costs far less per pixel, which is what
+  // limits a browser drawing without a GPU.
+  const normal = geo.getAttribute("normal"), sun = new THREE.Vector3(-0.5, 0.7, 0.4).normalize(), n = new THREE.Vector3();
+  for (let k = 0; k < t.nx * t.nz; k++) {
+    const light = 0.45 + 0.75 * Math.max(0, n.fromBufferAttribute(normal, k).dot(sun));
+    col[k * 3] *= light; col[k * 3 + 1] *= light; col[k * 3 + 2] *= light;
+  }
+  geo.setAttribute("color", new THREE.BufferAttribute(col, 3));
+  return new THREE.Mesh(geo, new THREE.MeshBasicMaterial({ vertexColors: true, side: THREE.DoubleSide }));
+}
+
+function ring(x, z, r, h, color) {
+  const pts = [];
+  for (let i = 0; i < 64; i++) {
+    const a = (i / 64) * Math.PI * 2;
+    pts.push(new THREE.Vector3(x + r * Math.sin(a), h, -(z + r * Math.cos(a))));
+  }
+  return new THREE.LineLoop(new THREE.BufferGeometry().setFromPoints(pts), new THREE.LineBasicMaterial({ color }));
+}
+
+function rocks(list) {
+  const mesh = new THREE.InstancedMesh(new THREE.DodecahedronGeometry(1, 0), new THREE.MeshLambertMaterial({ color: 0x8c8073 }), list.length);
+  const m = new THREE.Matrix4();
+  list.forEach((r, i) => mesh.setMatrixAt(i, m.makeScale(r.r, r.r * 0.7, r.r).setPosition(r.x, r.h + r.r * 0.3, -r.z)));
+  return mesh;
+}
+
+function walls(w, ground) {
+  const out = [];
+  for (let i = 1; i < w.points.length; i++) {
+    const [x0, z0] = w.points[i - 1], [x1, z1] = w.points[i];
+    const len = Math.hypot(x1 - x0, z1 - z0) + w.thickness;
+    const mx = (x0 + x1) / 2, mz = (z0 + z1) / 2;
+    const mesh = new THREE.Mesh(new THREE.BoxGeometry(len, w.height, w.thickness), new THREE.MeshLambertMaterial({ color: 0xb3b3bf }));
+    mesh.position.set(mx, ground.at(mx, mz) + w.height / 2, -mz);
+    mesh.rotation.y = Math.atan2(z1 - z0, x1 - x0);
+    out.push(mesh);
+  }
+  return out;
+}

@@ -1,0 +1,101 @@
+"""What the page shows of a running world, kept as the latest value of each stream.
+
+Zenoh callbacks only store bytes (no decoding on Zenoh's thread); the server's broadcast loop takes the
+newest world state at its own pace (``STREAM_HZ``), so a browser never falls behind a fast world: it
+gets the latest value, never a backlog. Works the same on a replay, which republishes these keys.
+"""
+
+from __future__ import annotations
+
+import base64
+import threading
+from dataclasses import dataclass, field
+
+from schemas import codec
+from schemas import messages as m
+
+STREAM_HZ = 10.0
+"""World states pushed to each browser per second at most."""
+
+
+@dataclass
+class Latest:
+    """Newest payload per stream plus a version counter, so the reader knows what changed since last time."""
+
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    payloads: dict[str, bytes] = field(default_factory=dict)
+    versions: dict[str, int] = field(default_factory=dict)
+    photos: dict[int, bytes] = field(default_factory=dict)
+    photo_versions: dict[int, int] = field(default_factory=dict)
+
+    def put(self, stream: str, payload: bytes) -> None:
+        with self.lock:
+            self.payloads[stream] = payload
+            self.versions[stream] = self.versions.get(stream, 0) + 1
+
+    def put_photo(self, rover_id: int, payload: bytes) -> None:
+        with self.lock:
+            self.photos[rover_id] = payload
+            self.photo_versions[rover_id] = self.photo_versions.get(rover_id, 0) + 1
+
+    def newer(self, seen: dict[str, int]) -> dict[str, bytes]:
+        """Streams whose version moved past ``seen`` (updated in place)."""
+        with self.lock:
+            out = {k: p for k, p in self.payloads.items() if self.versions[k] != seen.get(k)}
+            seen.update({k: self.versions[k] for k in out})
+        return out
+
+    def newer_photos(self, seen: dict[int, int]) -> dict[int, bytes]:
+        with self.lock:
+            out = {r: p for r, p in self.photos.items() if self.photo_versions[r] != seen.get(r)}
+            seen.update({r: self.photo_versions[r] for r in out})
+        return out
+
+    def forget(self) -> None:
+        """A new run starts: old states and photos must not linger on the page."""
+        with self.lock:
+            self.payloads.clear()
+            self.photos.clear()
+
+
+def state_json(state: m.WorldState) -> dict:
+    """The world state for the page: one entry per rover, links and the daisy chain."""
+    rovers = [{"id": r.id, "x": round(r.x, 3), "z": round(r.z, 3), "heading": round(r.heading_deg, 2),
+               "state": r.state, "action": r.action, "goal": r.goal_index,
+               "to_goal": round(r.distance_to_goal_m, 2), "covered": round(r.distance_covered_m, 2),
+               "alive": r.alive, "stale": r.telemetry_stale} for r in state.rovers]
+    return {"type": "state", "stamp": state.stamp, "rovers": rovers, "links": [list(p) for p in state.comm_links],
+            "relays": state.relays, "counters": state.counters.model_dump(), "completed_at": state.completed_at}
+
+
+def stats_json(stats: m.WorldStats) -> dict:
+    return {"type": "stats", "stamp": stats.stamp, "final": stats.final, "report": stats.report.model_dump()}
+
+
+def lander_json(status: m.LanderStatus) -> dict:
+    return {"type": "lander", **status.model_dump()}
+
+
+def photo_json(rover_id: int, photo: m.Photo) -> dict:
+    return {"type": "photo", "rover": rover_id, "stamp": photo.stamp, "label": photo.label,
+            "png": base64.b64encode(photo.png).decode("ascii")}
+
+
+STREAM_MODELS = {"state": (m.WorldState, state_json), "stats": (m.WorldStats, stats_json),
+                 "lander": (m.LanderStatus, lander_json)}
+
+
+def stream_message(stream: str, payload: bytes) -> dict | None:
+    """Decode one stored payload into the page's message; None if it does not decode (counted by the caller)."""
+    model, to_json = STREAM_MODELS[stream]
+    try:
+        return to_json(codec.decode(model, payload))
+    except codec.DecodeError:
+        return None
+
+
+def photo_message(rover_id: int, payload: bytes) -> dict | None:
+    try:
+        return photo_json(rover_id, codec.decode(m.Photo, payload))
+    except codec.DecodeError:
+        return None

@@ -1,0 +1,211 @@
+"""The web view driven in a real headless Chromium (Debian's ``chromium``, through Playwright).
+
+A real router, a real ``lunarsim run`` and a real ``lunarsim view``: the page shows the rovers moving, a
+command sent from it reaches the lander (whose answer comes back to the page), and a scenario built in the
+editor is saved, reloaded, exported and imported as a profile, and launched. Screenshots go to
+``artifacts/screenshots/`` at the repository root.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+
+import pytest
+from procs import REPO, SCENARIOS, free_port, lunarsim, stop, wait_for, wait_for_output
+
+pytestmark = pytest.mark.e2e
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                 "--enable-unsafe-swiftshader", "--use-angle=swiftshader"]
+"""The machine's closed network needs the first ones; the last two give WebGL in software without a GPU."""
+SHOTS = REPO / "artifacts" / "screenshots"
+
+
+def browser_context(playwright, user_data: Path):
+    """Debian's chromium with a fresh profile; no browser is ever downloaded."""
+    if not Path(CHROMIUM).is_file():
+        pytest.skip("Debian's chromium is not installed (apt-get install -y chromium; .ci/run does it)")
+    return playwright.chromium.launch_persistent_context(
+        str(user_data), executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True,
+        viewport={"width": 1400, "height": 850}, accept_downloads=True)
+
+
+def shot(page, name: str) -> Path:
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    path = SHOTS / f"{name}.png"
+    page.screenshot(path=str(path))
+    print(f"screenshot: {path}")
+    return path
+
+
+def start_view(router: str, world: str, tmp: Path, *extra: str):
+    port = free_port()
+    proc = lunarsim("view", "--connect", router, "--world", world, "--port", str(port), "--workspace",
+                    str(tmp / "ws"), "--runs", str(tmp / "runs"), *extra)
+    wait_for_output(proc, "serving world", 30)
+    return proc, f"http://127.0.0.1:{port}/"
+
+
+def page_value(page, expression: str):
+    return page.evaluate(f"() => {{ try {{ return {expression}; }} catch (e) {{ return null; }} }}")
+
+
+def positions(page) -> dict:
+    return {r["id"]: (r["x"], r["z"]) for r in page_value(page, "lunarsim.state.rovers") or []}
+
+
+@pytest.fixture
+def browser():
+    from playwright.sync_api import sync_playwright
+
+    with tempfile.TemporaryDirectory() as user_data, sync_playwright() as p:
+        context = browser_context(p, Path(user_data))
+        yield context
+        context.close()
+
+
+def test_live_view_shows_rovers_moving_and_commands_reach_the_lander(router, tmp_path, browser):
+    world = "webview"
+    run = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--connect", router, "--world", world,
+                   "--time-scale", "4", "--quiet", "--no-record", "--out", str(tmp_path / "run"))
+    view, url = start_view(router, world, tmp_path, "--scenario", str(SCENARIOS / "crater_observation.yaml"))
+    try:
+        page = browser.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(url)
+        wait_for(lambda: page_value(page, "lunarsim.scene.name") == "crater_observation", 15, "the scene on the page")
+        wait_for(lambda: len(positions(page)) == 5, 60, "five rovers on the page")
+        first = positions(page)
+        wait_for(lambda: sum(p != first[i] for i, p in positions(page).items()) >= 3, 30, "the rovers to move")
+        wait_for(lambda: page_value(page, "lunarsim.stats.report.rovers_total") == 5, 15, "statistics on the page")
+        assert page.locator("#simstats td[data-field=average_path_efficiency]").count() == 1
+        assert page.locator("#rovers tbody tr").count() == 5
+        shot(page, "live_view")
+
+        page.select_option("#cmd-rover", "2")
+        page.click("#cmd-stop")
+        result = wait_for(lambda: page_value(page, "lunarsim.lastCommand"), 20, "the lander's answer on the page")
+        assert result["name"] == "stop" and result["accepted"] is True, result
+        assert "2" in result["detail"]
+        assert "accepted" in page.inner_text("#cmd-result")
+        stopped = "lunarsim.state.rovers.find(r => r.id === 2).state"
+        wait_for(lambda: page_value(page, stopped) == "stopped", 20, "rover 2 stopped, as the page shows")
+        page.select_option("#cmd-rover", "")
+        page.fill("#cmd-x", "")
+        page.click("#cmd-set-target")
+        wait_for(lambda: page_value(page, "lunarsim.lastCommand.error"), 10, "the page's error for a target without x")
+        assert "set-target needs x and z" in page.inner_text("#cmd-result")
+        shot(page, "live_view_command")
+        assert not errors, errors
+    finally:
+        stop(view, run)
+
+
+def test_editor_scenario_saved_reloaded_profiled_and_launched(router, tmp_path, browser):
+    view, url = start_view(router, "webedit", tmp_path)
+    try:
+        page = browser.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(url)
+        page.click("#tab-editor")
+        wait_for(lambda: page_value(page, "lunarsim.editor.scenario.rovers.length") == 2, 10, "the new scenario")
+        box = page.locator("#map").bounding_box()
+
+        def at(x: float, z: float) -> tuple[float, float]:
+            sx, sy = page.evaluate(f"lunarsim.editor.toScreen({x}, {z})")
+            return box["x"] + sx, box["y"] + sy
+
+        page.check("input[name=tool][value=rover]")
+        page.mouse.click(*at(22, 10))  # a third rover beside the other two
+        page.check("input[name=tool][value=select]")
+        page.mouse.move(*at(0, 0))  # drag the lander a little
+        page.mouse.down()
+        page.mouse.move(*at(3, -4), steps=5)
+        page.mouse.up()
+        sc = page_value(page, "lunarsim.editor.scenario")
+        assert len(sc["rovers"]) == 3 and abs(sc["rovers"][2]["x"] - 22) < 1.5
+        assert abs(sc["lander"]["x"] - 3) < 1.5 and abs(sc["lander"]["z"] + 4) < 1.5
+        page.fill("#ed-name", "e2e_web")
+        page.click("#ed-validate")
+        wait_for(lambda: page_value(page, "lunarsim.editor.ok") is True, 15, "validation")
+        page.click("#ed-save")
+        wait_for(lambda: "saved" in (page_value(page, "lunarsim.editor.status") or ""), 10, "the save")
+        saved = tmp_path / "ws" / "e2e_web.yaml"
+        assert saved.is_file()
+        check = lunarsim("scenario", "check", str(saved))
+        out, err = check.communicate(timeout=60)
+        assert check.returncode == 0 and "3 rovers" in out, err
+        shot(page, "editor_saved")
+
+        page.click("#ed-new")
+        wait_for(lambda: page_value(page, "lunarsim.editor.scenario.rovers.length") == 2, 10, "a new scenario")
+        page.select_option("#ed-files", "e2e_web")
+        page.click("#ed-load")
+        wait_for(lambda: page_value(page, "lunarsim.editor.scenario.rovers.length") == 3, 10, "the reloaded scenario")
+        assert page.input_value("#ed-name") == "e2e_web"
+
+        with page.expect_download() as download:
+            page.click("#ed-export")
+        profile = tmp_path / "e2e_web.json"
+        download.value.save_as(str(profile))
+        assert len(json.loads(profile.read_text())["roverDataObjects"]) == 3
+        page.click("#ed-new")
+        page.set_input_files("#ed-import", str(profile))
+        wait_for(lambda: page_value(page, "lunarsim.editor.scenario.name") == "e2e_web"
+                 and page_value(page, "lunarsim.editor.scenario.rovers.length") == 3, 10, "the imported profile")
+        page.click("#ed-load")  # back to the saved file (the profile has no rover parameters)
+        wait_for(lambda: "loaded" in (page_value(page, "lunarsim.editor.status") or ""), 10, "the reload")
+
+        page.fill("#ed-scale", "6")
+        page.click("#ed-launch")
+        wait_for(lambda: page_value(page, "lunarsim.editor.launched.ok"), 15, "the launch")
+        wait_for(lambda: page_value(page, "lunarsim.scene.name") == "e2e_web", 15, "the launched scenario's scene")
+        wait_for(lambda: len(positions(page)) == 3, 60, "the launched rovers on the page")
+        first = positions(page)
+        wait_for(lambda: any(p != first[i] for i, p in positions(page).items()), 30, "the launched rovers to move")
+        shot(page, "editor_launched_live")
+        assert not errors, errors
+    finally:
+        stop(view)  # stops the launched mission too
+    runs = list((tmp_path / "runs").glob("e2e_web-web-*"))
+    assert len(runs) == 1 and (runs[0] / "scenario.yaml").is_file()
+
+
+def test_a_replay_is_shown_and_paused_from_the_page(router, tmp_path, browser):
+    """A replay republishes the recorded keys, so the same page shows it; Pause on the page stops it."""
+    out = tmp_path / "rec"
+    run = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--connect", router, "--world", "recorded",
+                   "--time-scale", "5", "--max-sim-time", "20", "--quiet", "--out", str(out))
+    run.communicate(timeout=120)
+    assert (out / "session.mcap").is_file(), run.returncode
+    view, url = start_view(router, "replayed", tmp_path, "--scenario", str(out / "scenario.yaml"))
+    replay = lunarsim("replay", str(out / "session.mcap"), "--connect", router, "--remap-world", "replayed",
+                      "--loop", "--quiet")
+    try:
+        page = browser.new_page()
+        page.goto(url)
+        wait_for(lambda: len(positions(page)) == 5, 30, "the replayed rovers on the page")
+        first = positions(page)
+        wait_for(lambda: positions(page) != first, 20, "the replayed rovers to move")
+        page.click("#cmd-pause")
+        wait_for(lambda: page_value(page, "lunarsim.lastCommand.sent"), 10, "the pause to be sent")
+
+        def settled() -> bool:  # no new world state reaches the page for a second
+            before = page_value(page, "lunarsim.states")
+            page.wait_for_timeout(1000)
+            return page_value(page, "lunarsim.states") == before
+
+        wait_for(settled, 15, "the replay to pause")
+        shot(page, "replay_paused")
+        page.click("#cmd-resume")
+        before = page_value(page, "lunarsim.states")
+        wait_for(lambda: page_value(page, "lunarsim.states") > before + 3, 15, "the replay to resume")
+    finally:
+        stop(replay, view)

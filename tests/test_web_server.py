@@ -1,0 +1,138 @@
+"""The web view's server side without a browser: editor endpoints over real HTTP, message conversion.
+
+The live path (Zenoh to the page, commands to the lander) is driven end to end in test_web_browser.py.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+from aiohttp.test_utils import TestClient, TestServer
+from procs import SCENARIOS
+
+from deploy.web import editor, live
+from deploy.web.commands import CommandError, Commands, command_from_request
+from deploy.web.server import Viewer, build_app
+from schemas import codec
+from schemas import messages as m
+from schemas.scenario import load_scenario
+
+SCENARIO = SCENARIOS / "crater_observation.yaml"
+
+
+def _unsent(command: m.GroundCommand) -> None:
+    raise AssertionError(f"no command should reach Zenoh in these tests, got {command}")
+
+
+def _call(tmp_path: Path, requests: list[tuple[str, str, dict | None]]) -> list[tuple[int, dict]]:
+    """Serve a viewer (no Zenoh) on a real loopback port and make the requests in order."""
+    viewer = Viewer("test", live.Latest(), Commands(_unsent), editor.Workspace(tmp_path / "ws"),
+                    editor.Launcher(tmp_path / "runs", "tcp/127.0.0.1:1", "test"))
+
+    async def go() -> list[tuple[int, dict]]:
+        async with TestClient(TestServer(build_app(viewer))) as client:
+            out = []
+            for method, path, body in requests:
+                res = await client.request(method, path, json=body)
+                out.append((res.status, await res.json()))
+            return out
+
+    return asyncio.run(go())
+
+
+def _page_scenario() -> dict:
+    return load_scenario(SCENARIO).model_dump(mode="json")
+
+
+def test_validate_accepts_a_scenario_and_names_the_bad_field(tmp_path: Path):
+    bad = _page_scenario()
+    bad["craters"][0]["radius_mm"] = bad["craters"][0].pop("radius_m")
+    (ok_status, ok), (bad_status, err), (_, scene) = _call(tmp_path, [
+        ("POST", "/api/scenario/validate", {"scenario": _page_scenario(), "scene": True}),
+        ("POST", "/api/scenario/validate", {"scenario": bad}),
+        ("POST", "/api/scenario/validate", {"scenario": "name: x\nlander: {x: 0, z: 0}\n"}),
+    ])
+    assert ok_status == 200 and ok["ok"] and ok["scenario"]["name"] == "crater_observation"
+    assert ok["scene"]["terrain"]["nx"] > 10 and len(ok["scene"]["rocks"]) == 9
+    assert bad_status == 400 and "craters.0.radius_mm: unknown field (did you mean 'radius_m'?)" in err["error"]
+    assert not scene["ok"] and "rovers" in scene["error"]
+
+
+def test_save_list_load_round_trip_writes_scenario_yaml(tmp_path: Path):
+    sc = _page_scenario()
+    sc["name"] = "edited"
+    sc["lander"]["x"] = -555.5
+    results = _call(tmp_path, [
+        ("POST", "/api/scenario/save", {"name": "edited", "scenario": sc}),
+        ("GET", "/api/scenario/list", None),
+        ("GET", "/api/scenario/load?name=edited", None),
+        ("POST", "/api/scenario/save", {"name": "../escape", "scenario": sc}),
+        ("GET", "/api/scenario/load?name=missing", None),
+    ])
+    (_, saved), (_, listing), (_, loaded), (esc_status, esc), (miss_status, miss) = results
+    path = Path(saved["path"])
+    assert path == tmp_path / "ws" / "edited.yaml"
+    assert yaml.safe_load(path.read_text())["lander"]["x"] == -555.5
+    assert load_scenario(path).lander.x == -555.5  # the command line reads what the page wrote
+    assert listing["names"] == ["edited"]
+    assert loaded["scenario"]["lander"]["x"] == -555.5 and loaded["scenario"]["name"] == "edited"
+    assert esc_status == 400 and "bad scenario file name" in esc["error"]
+    assert miss_status == 404 and "no saved scenario 'missing.yaml'" in miss["error"]
+
+
+def test_profile_export_then_import_keeps_lander_rovers_craters_and_goals(tmp_path: Path):
+    (_, exported), = _call(tmp_path, [("POST", "/api/profile/export", {"scenario": _page_scenario()})])
+    profile = exported["profile"]
+    assert len(profile["roverDataObjects"]) == 5 and len(profile["missionDataObjects"]) == 1
+    (_, imported), (bad_status, bad) = _call(tmp_path, [
+        ("POST", "/api/profile/import", {"profile": profile, "name": "back"}),
+        ("POST", "/api/profile/import", {"profile": {"roverDataObjects": []}, "name": "broken"}),
+    ])
+    sc = imported["scenario"]
+    original = load_scenario(SCENARIO)
+    assert sc["name"] == "back" and (sc["lander"]["x"], sc["lander"]["z"]) == (original.lander.x, original.lander.z)
+    assert [(r["x"], r["z"]) for r in sc["rovers"]] == [(r.x, r.z) for r in original.rovers]
+    assert sc["mission"][0]["kind"] == "crater"
+    assert bad_status == 400 and "landerDataObject" in bad["error"]
+
+
+def test_launch_refuses_an_invalid_scenario_and_starts_nothing(tmp_path: Path):
+    sc = _page_scenario()
+    sc["mission"] = []
+    (status, body), (_, state) = _call(tmp_path, [("POST", "/api/scenario/launch", {"scenario": sc}),
+                                                 ("GET", "/api/launch", None)])
+    assert status == 400 and "mission" in body["error"]
+    assert state == {"ok": True, "launched": False}
+
+
+def test_command_requests_are_checked_like_the_command_line():
+    cmd = command_from_request({"command": "set-target", "x": "-590", "z": -20, "kind": "crater", "rover_id": ""})
+    assert (cmd.command, cmd.x, cmd.z, cmd.kind, cmd.rover_id) == ("set_target", -590.0, -20.0, "crater", None)
+    assert command_from_request({"command": "stop", "rover_id": "3"}).rover_id == 3
+    for bad, message in [({"command": "launch"}, "unknown command 'launch'"),
+                         ({"command": "set-target", "x": 1}, "set-target needs x and z"),
+                         ({"command": "return"}, "return needs a rover"),
+                         ({"command": "stop", "rover_id": "two"}, "rover_id must be a number"),
+                         ({"command": "set-target", "x": 1, "z": 2, "kind": "crate"}, "kind")]:
+        with pytest.raises(CommandError, match=message):
+            command_from_request(bad)
+
+
+def test_latest_keeps_only_the_newest_state_and_decodes_it():
+    latest = live.Latest()
+    truth = [m.RoverTruth(id=1, x=float(i), z=2.0, heading_deg=90.0, action="move", state="migration", goal_index=0,
+                          distance_to_goal_m=10.0, distance_covered_m=float(i), alive=True) for i in range(3)]
+    for i in range(3):
+        latest.put("state", codec.encode(m.WorldState(stamp=float(i), rovers=[truth[i]], comm_links=[(0, 1)])))
+    latest.put("stats", b"not msgpack")
+    seen: dict = {}
+    newer = latest.newer(seen)
+    state = live.stream_message("state", newer["state"])
+    assert state["stamp"] == 2.0 and state["rovers"][0]["x"] == 2.0 and state["links"] == [[0, 1]]
+    assert live.stream_message("stats", newer["stats"]) is None
+    assert latest.newer(seen) == {}  # nothing new since
+    json.dumps(state)
