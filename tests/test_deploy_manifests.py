@@ -338,9 +338,20 @@ def test_every_deployment_yaml_parses_into_objects():
         assert doc["metadata"].get("name") or doc["metadata"].get("generateName"), f"{path}: {doc['kind']} unnamed"
 
 
+def python_stages() -> list[dict]:
+    """Every stage but the front end's, which only runs npm."""
+    return [s for s in dockerfile_stages() if s["name"] != "frontend"]
+
+
+def build_stage() -> dict:
+    return next(s for s in dockerfile_stages() if any("pip install ." in r for r in steps(s, "RUN")))
+
+
 def test_dockerfile_builds_from_slim_python_and_runs_as_non_root():
-    stages = dockerfile_stages()
+    stages = python_stages()
     assert all(re.fullmatch(r"python:3\.1[1-9]-slim(-\w+)?", s["base"]) for s in stages), [s["base"] for s in stages]
+    (frontend,) = [s for s in dockerfile_stages() if s["name"] == "frontend"]
+    assert re.fullmatch(r"node:\d+-\w+-slim", frontend["base"]), frontend["base"]
     users = steps(stages[-1], "USER")
     assert users, "the final stage sets no USER: it would run as root"
     uid = users[-1].split(":")[0]
@@ -349,7 +360,7 @@ def test_dockerfile_builds_from_slim_python_and_runs_as_non_root():
 
 
 def test_dockerfile_installs_every_package_with_pip_from_files_that_exist():
-    build, final = dockerfile_stages()[0], dockerfile_stages()[-1]
+    build, final = build_stage(), dockerfile_stages()[-1]
     project = tomllib.loads((REPO / "pyproject.toml").read_text())
     needed = {p.split(".")[0] for p in project["tool"]["setuptools"]["packages"]} | {"pyproject.toml",
                                                                                   project["project"]["readme"]}
@@ -367,8 +378,11 @@ def test_dockerfile_installs_every_package_with_pip_from_files_that_exist():
 def test_dockerignore_sends_what_the_dockerfile_copies_and_leaves_the_rest_out():
     needed = package_files()
     assert len(needed) > 50
-    left_out = [f for f in needed if dockerignore_excludes(f)]
+    built = {dest for stage, _, dest in copies(build_stage()) if stage == "frontend"}
+    assert built == {"/src/deploy/web/static/bundle.js"}, built
+    left_out = [f for f in needed if dockerignore_excludes(f) and f"/src/{f}" not in built]
     assert not left_out, f"pip install . needs these, the context leaves them out: {left_out[:5]}"
+    assert dockerignore_excludes("deploy/web/frontend/node_modules/three/package.json")
     for path in (".git/HEAD", "runs/crater/report.json", ".ci-venv/bin/python", "tests/test_bus.py",
                  "benchmarks/x.py", "schemas/__pycache__/m.cpython-312.pyc", "deploy/compose.yaml",
                  "deploy/k8s/router.yaml", "lunarsim.egg-info/PKG-INFO"):
