@@ -8,9 +8,11 @@ Waits for the lander's answer and prints it. Exit status: 0 accepted, 1 refused 
 printed), 3 no router, 4 no lander answered.
 
     lunarsim command snapshot                                     # a recorder in --snapshot mode writes
-    lunarsim command pause | resume | step | seek --seconds 30    # a running replay
+    lunarsim command pause | resume | step                        # the world's clock, or a running replay
+    lunarsim command seek --seconds 30                            # a running replay
 
-These go to recorders and replays, which do not answer: they are sent and the command exits 0.
+These go to the world service, recorders and replays, which do not answer: they are sent and the command
+exits 0. A paused world publishes a stopped clock; each ``step`` advances it one tick.
 """
 
 from __future__ import annotations

@@ -240,6 +240,17 @@ def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) ->
     bus.publish(clock_key, clock)
 
 
+def _hold(world: World, bus: Bus, agents: Agents, stop: threading.Event) -> None:
+    """Paused by the ground: say so on the clock (agents answer nothing to a stopped clock) and handle what
+    arrives, until a resume or a step."""
+    bus.publish(world.keys.clock, world.clock(running=False))
+    deadline = time.monotonic() + 0.5
+    while not stop.is_set() and world.paused and not world.steps_granted and time.monotonic() < deadline:
+        item = bus.receive(timeout=0.05)
+        if item is not None:
+            handle(world, bus, item, agents)
+
+
 def _finished(world: World, settings: ClockSettings) -> bool:
     return world.complete or (settings.max_sim_time is not None and world.sim_time >= settings.max_sim_time)
 
@@ -268,6 +279,10 @@ def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threadi
     while not stop.is_set():
         for item in bus.drain():
             handle(world, bus, item, agents)
+        if world.held():
+            _hold(world, bus, agents, stop)
+            next_tick = time.monotonic()
+            continue
         _step(world, bus, photographer, agents)
         if _finished(world, settings):
             return
@@ -284,6 +299,8 @@ def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threadi
     tally = LockstepTally(start=time.perf_counter())
     try:
         while not stop.is_set():
+            while world.held() and not stop.is_set():
+                _hold(world, bus, agents, stop)
             t0 = time.perf_counter()
             _step(world, bus, photographer, agents)
             tally.stepping += time.perf_counter() - t0

@@ -99,6 +99,8 @@ class World:
         self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.time_scale = 1.0  # what the clock announces; the service paces the ticks
         self.lockstep = False
+        self.paused = False  # the ground's pause: the service holds the clock
+        self.steps_granted = 0  # ticks the ground asked for one at a time while paused
         self.graph = self._build_graph()
 
     def _period(self, rate_hz: float) -> int:
@@ -228,8 +230,24 @@ class World:
     INPUT_TOPICS = tuple(_handlers)
 
     def _on_ground_command(self, command: m.GroundCommand) -> None:
-        """Follow the ground's changes to the mission, so statistics judge each rover's real final goal."""
+        """Follow the ground's changes to the mission, so statistics judge each rover's real final goal; pause,
+        resume and step hold and release the clock (a replay follows them too)."""
         self.mission_stats.command(command)
+        if command.command == "pause":
+            self.paused = True
+        elif command.command == "resume":
+            self.paused, self.steps_granted = False, 0
+        elif command.command == "step":
+            self.paused, self.steps_granted = True, self.steps_granted + 1
+
+    def held(self) -> bool:
+        """Whether the clock must not advance now: paused, with no step left to take (taking one if there is)."""
+        if not self.paused:
+            return False
+        if self.steps_granted:
+            self.steps_granted -= 1
+            return False
+        return True
 
     def set_alive(self, rover_id: int, alive: bool) -> None:
         """Watchdog: a rover whose agent is gone stops where it is. An agent that comes back (its router
