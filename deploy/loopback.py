@@ -7,6 +7,8 @@ before the next tick, as in lockstep. The cross-process path is tested separatel
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import Lander, PhotoArchive
 from rover_agent.agent import RoverAgent
@@ -19,10 +21,11 @@ from world_service.sim import World
 
 
 def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None,
-                behaviour: type[BaseBehaviour] | None = None) -> World:
+                behaviour: type[BaseBehaviour] | None = None, map_folder: Path | None = None) -> World:
+    """The world at the end; with ``map_folder``, the lander's traverse map is written there as it ends."""
     keys = ks.Keyspace("loopback")
     world = World(scenario, keys)
-    lander = Lander(MissionPlan(scenario), keys, archive)
+    lander = Lander(MissionPlan(scenario), keys, archive, map_folder)
     params = scenario.rover_params
     agents = {rid: RoverAgent(rid, keys, params, behaviour(rid, params) if behaviour else None)
               for rid in world.bodies}
@@ -36,6 +39,7 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
             key, message = pending.pop(0)
             pending += _deliver(key, codec.encode(message), world, lander, agents, keys)
     world.observed_state()  # the final state, as the world service publishes it before its final report
+    lander.final_map()
     return world
 
 
