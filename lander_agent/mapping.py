@@ -136,7 +136,10 @@ class TraverseMap:
 
 def from_message(msg: m.LanderMap) -> tuple[GridSpec, np.ndarray]:
     """The grid and class codes a LanderMap carries; a payload that does not fit its shape is a ValueError."""
-    raw = zlib.decompress(msg.cells)
+    try:
+        raw = zlib.decompress(msg.cells)
+    except zlib.error as exc:
+        raise ValueError(f"lander map: cells are not zlib data ({exc})") from None
     if len(raw) != msg.width * msg.height:
         raise ValueError(f"lander map: {len(raw)} cells for a {msg.width} x {msg.height} grid")
     spec = GridSpec(msg.origin_x, msg.origin_z, msg.cell_m, msg.width, msg.height)
