@@ -21,7 +21,7 @@ def test_a_lockstep_run_maps_the_maze_and_the_report_scores_the_map(tmp_path):
     out = tmp_path / "run"
     report, stdout = run_cli_mission(out, str(SCENARIOS / "maze.yaml"), "--lockstep", "--rovers", "2",
                                      "--max-sim-time", "60", "--port", str(free_port()), "--quiet")
-    spec, classes = mapping.load(out / "map.npz")
+    _, classes = mapping.load(out / "map.npz")
     assert (out / "map.png").read_bytes().startswith(b"\x89PNG")
     assert np.count_nonzero(classes == mapping.OBSTACLE) > 50 and np.count_nonzero(classes == mapping.ROVER) == 2
     # Two rovers, one simulated minute, into the maze (in-process the same run measured 0.36 / 0.60 / 0.99):
