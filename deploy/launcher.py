@@ -2,7 +2,8 @@
 
 Starts a Zenoh router (unless ``--connect`` names one), the world service, the lander agent and one
 rover agent per rover; shows progress; stops when every rover is done or stuck, or at
-``--max-sim-time``; writes ``report.json`` into the run folder; and stops every process it started,
+``--max-sim-time``; writes ``report.json`` into the run folder (scoring the lander's traverse map, ``map.npz``
+and ``map.png`` there); and stops every process it started,
 also on Ctrl-C or SIGTERM.
 """
 
@@ -83,6 +84,18 @@ def _base_scenario(args: argparse.Namespace):
     return scenario
 
 
+def with_map_figures(report, scenario, folder: Path):
+    """The report scoring the lander's traverse map (``world_service.map_truth``), when the lander wrote one."""
+    from lander_agent import mapping
+    from world_service.map_truth import map_figures
+
+    path = folder / mapping.NPZ_FILE
+    if not path.is_file():
+        return report
+    spec, classes = mapping.load(path)
+    return report.model_copy(update=map_figures(scenario, spec, classes).report_fields())
+
+
 class Mission:
     def __init__(self, args, scenario, scenario_file: Path, out: Path, console) -> None:
         from deploy.children import Children
@@ -112,6 +125,7 @@ class Mission:
             self.console.print("[yellow]stopped before the world reported any statistics: no report.json[/]")
             return code or 1
         report = report.model_copy(update={"wall_time_s": round(time.monotonic() - started, 3)})
+        report = with_map_figures(report, self.scenario, self.out)
         (self.out / "report.json").write_text(json.dumps(report.model_dump(), indent=2) + "\n")
         self.console.print(summary_table(report))
         self.console.print(f"report written to {self.out / 'report.json'}")
@@ -143,7 +157,7 @@ class Mission:
             world_args.append("--verbose")  # its progress (and lockstep's summary) into world.log
         self.children.start("world", "world_service", *world_args)
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
-                            str(self.out / "lander_archive"), *common)
+                            str(self.out / "lander_archive"), "--map-out", str(self.out), *common)
         for rover_id in range(1, len(self.scenario.rovers) + 1):
             self.children.start(f"rover{rover_id}", "rover_agent", "--id", str(rover_id),
                                 "--params", str(self.scenario_file), "--behaviour", self.scenario.behaviour,

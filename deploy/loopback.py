@@ -8,6 +8,8 @@ arrive on their due tick, and an agent that publishes on a tick the world would 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import Lander, PhotoArchive
 from rover_agent.agent import RoverAgent
@@ -21,11 +23,12 @@ from world_service.sim import PhotoJob, World
 
 
 def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None,
-                behaviour: type[BaseBehaviour] | None = None) -> World:
+                behaviour: type[BaseBehaviour] | None = None, map_folder: Path | None = None) -> World:
+    """The world at the end; with ``map_folder``, the lander's traverse map is written there as it ends."""
     keys = ks.Keyspace("loopback")
     world = World(scenario, keys)
     world.lockstep = True
-    lander = Lander(MissionPlan(scenario), keys, archive)
+    lander = Lander(MissionPlan(scenario), keys, archive, map_folder)
     params = scenario.rover_params
     agents = {rid: RoverAgent(rid, keys, params, behaviour(rid, params) if behaviour else None)
               for rid in world.bodies}
@@ -49,6 +52,7 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
             pending = _deliver(clock_key, codec.encode(clock), world, lander, agents, keys)
             _note_acks(pending, plan, keys, clock)
     world.observed_state()  # the final state, as the world service publishes it before its final report
+    lander.final_map()
     return world
 
 

@@ -42,6 +42,11 @@ def summary_table(report: m.MissionReport) -> Table:
         ("wall time (s)", f"{report.wall_time_s:.1f}"),
         ("mission complete", "yes" if report.complete else "no (time limit or interrupted)"),
     ]
+    if report.map_corridor_mapped is not None:
+        found, precision = report.map_obstacles_found, report.map_obstacle_precision
+        rows.append(("traverse map: corridor mapped / obstacles found / precision",
+                     " / ".join("-" if v is None else f"{v:.0%}" for v in (report.map_corridor_mapped, found,
+                                                                          precision))))
     for row in rows:
         table.add_row(*row)
     return table

@@ -13,6 +13,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, help="scenario YAML: the lander takes its mission plan from it")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--archive", type=Path, metavar="DIR", help="archive received photos here (PNG + index)")
+    parser.add_argument("--map-out", type=Path, metavar="DIR", help="write the traverse map here (map.npz, map.png)")
     add_zenoh_arguments(parser, agent=True)
 
 
@@ -26,5 +27,5 @@ def run_from_args(args: argparse.Namespace) -> int:
     plan = MissionPlan(load_scenario(args.scenario))
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="lander")
     with Bus(session) as bus, process.stop_on_signals() as stop:
-        run(Lander(plan, Keyspace(args.world), PhotoArchive(args.archive)), bus, stop)
+        run(Lander(plan, Keyspace(args.world), PhotoArchive(args.archive), args.map_out), bus, stop)
     return 0

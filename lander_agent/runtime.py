@@ -10,6 +10,7 @@ from pathlib import Path
 
 from deploy.bus import Bus
 from deploy.world_watch import ClockWatch
+from lander_agent.mapping import TraverseMap
 from lander_agent.mission import MissionPlan
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -19,6 +20,10 @@ from schemas.mission import CommandRefused
 
 log = logging.getLogger("lunarsim.lander")
 SEND_PERIOD_S = 1.0
+MAP_PUBLISH_PERIOD_S = 5.0
+"""Simulated seconds between two ``lander/map`` samples (for viewers and the recorder)."""
+MAP_SAVE_PERIOD_S = 30.0
+"""Simulated seconds between two writes of map.npz / map.png; they are written once more at the end."""
 
 
 class PhotoArchive:
@@ -44,10 +49,16 @@ class PhotoArchive:
 
 
 class Lander:
-    def __init__(self, plan: MissionPlan, keys: ks.Keyspace, archive: PhotoArchive | None = None) -> None:
+    def __init__(self, plan: MissionPlan, keys: ks.Keyspace, archive: PhotoArchive | None = None,
+                 map_folder: Path | None = None) -> None:
         self.plan = plan
         self.keys = keys
         self.archive = archive or PhotoArchive(None)
+        self.map = TraverseMap.for_scenario(plan.scenario)
+        self.map_folder = map_folder
+        self.next_map = self.next_map_save = 0.0
+        self.map_final = False
+        self.now = 0.0
         self.partners: list[int] = []
         self.next_send = 0.0
         self.rejected = 0
@@ -64,17 +75,39 @@ class Lander:
 
     def on_clock(self, clock: m.Clock) -> list[tuple[str, m.Message]]:
         if not clock.running:  # the world waiting for agents, or done: nothing moves, nothing to answer
-            return []
+            return self.final_map() if self.now > 0 else []
         out = []
+        self.now = clock.sim_time
         if clock.sim_time >= self.next_send:
             self.next_send = clock.sim_time + SEND_PERIOD_S
             out = self.broadcast(clock.sim_time)
-        if clock.lockstep:  # its only timer is the next broadcast
-            out = lockstep_answer(out, clock, ks.LANDER_ID, self.keys.lander(ks.ACK), self.next_send)
+        if clock.sim_time >= self.next_map:
+            self.next_map = clock.sim_time + MAP_PUBLISH_PERIOD_S
+            out.append((self.keys.lander(ks.MAP), self.map.to_message(clock.sim_time)))
+        if self.map_folder is not None and clock.sim_time >= self.next_map_save:
+            self.next_map_save = clock.sim_time + MAP_SAVE_PERIOD_S
+            self.map.save(self.map_folder)
+        if clock.lockstep:  # its timers: the next broadcast and the next map
+            wake = min(self.next_send, self.next_map)
+            out = lockstep_answer(out, clock, ks.LANDER_ID, self.keys.lander(ks.ACK), wake)
         return out
+
+    def final_map(self) -> list[tuple[str, m.Message]]:
+        """Once, when the mission is over (the world stopped its clock, or the lander is stopped): the map as
+        it ends, published and written, so the files, the recording and the report agree."""
+        if self.map_final:
+            return []
+        self.map_final = True
+        if self.map_folder is not None:
+            self.map.save(self.map_folder)
+        return [(self.keys.lander(ks.MAP), self.map.to_message(self.now))]
 
     def on_comm_in(self, msg: m.InboundComm) -> list[tuple[str, m.Message]]:
         report = radio.unpack(msg.payload)
+        if isinstance(report, radio.MapReport):
+            self.map.fold(msg.sender, report)
+            ack = radio.pack(radio.MapAck(seqs=[report.seq]))
+            return [(self.keys.lander(ks.COMM_OUT), m.OutboundComm(targets=[msg.sender], payload=ack))]
         if isinstance(report, radio.PhotoReport):
             self.archive.store(msg.sender, report)
             ack = radio.pack(radio.PhotoAck(labels=[report.label]))
@@ -137,3 +170,5 @@ def run(lander: Lander, bus: Bus, stop: threading.Event) -> None:
                 watch.heard()
             for key, message in lander.handle(item.key, item.payload):
                 bus.publish(key, message)
+    for key, message in lander.final_map():  # stopped before the world finished: the map as it stands
+        bus.publish(key, message)

@@ -24,6 +24,7 @@ from rover_agent.behaviour import (
     View,
 )
 from rover_agent.dead_reckoning import POSE_WRITER, Pose, load_pose
+from rover_agent.map_report import MapRecorder
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -75,6 +76,7 @@ class RoverAgent:
         self.photo_outbox: dict[str, radio.PhotoReport] = {}
         self._last_photo_send = -math.inf
         self.craters_found: set[int] = set()
+        self.map = MapRecorder(params)
 
     @property
     def state(self) -> str:
@@ -110,6 +112,9 @@ class RoverAgent:
             self._settle(self.now)
         if self.photo_outbox and self.now - self._last_photo_send >= PHOTO_RETRY_S:
             out += self._send_photos()
+        if self.pose is not None:
+            out += [self._radio([ks.LANDER_ID], report)
+                    for report in self.map.due(self.now, self.pose.x, self.pose.z, reachable=bool(self.partners))]
         if clock.lockstep:
             out = lockstep_answer(out, clock, self.id, self.keys.rover(self.id, ks.ACK), self.next_wake())
         return out
@@ -124,6 +129,8 @@ class RoverAgent:
             timers.append(self.in_flight.sent_at + PHOTO_TIMEOUT_S)
         if self.photo_outbox:
             timers.append(self._last_photo_send + PHOTO_RETRY_S)
+        if self.pose is not None:
+            timers.append(self.map.next_due())
         return min(timers)
 
     # ---- lander, via radio ----
@@ -160,6 +167,8 @@ class RoverAgent:
             for label in message.labels:
                 self.photo_outbox.pop(label, None)
             return [self._status()] if len(self.photo_outbox) != pending else []
+        elif isinstance(message, radio.MapAck) and msg.sender == ks.LANDER_ID:
+            self.map.ack(message.seqs)
         elif isinstance(message, radio.CraterFound):
             self.craters_found.add(message.goal_index)
         elif isinstance(message, radio.StopCommand) and msg.sender == ks.LANDER_ID:
@@ -207,6 +216,8 @@ class RoverAgent:
         hits = tuple(Hit(a, d, k) for a, d, k in zip(msg.angles_deg, msg.distances_m, msg.kinds, strict=True))
         if self.in_flight is not None:
             return self._watch(hits)
+        if self.pose is not None and msg.stamp >= self.settled_at:  # standing still where dead reckoning says
+            self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
         ready = (self.pose is not None and self.goal is not None and self.finished_goal is None
                  and self.state not in ("done", "stuck", "stopped")
                  and msg.stamp >= self.settled_at and self.pitch[1] >= self.settled_at)

@@ -40,6 +40,8 @@ COMMAND: Final = "command"
 COMMAND_RESULT: Final = "command_result"
 TELEMETRY: Final = "telemetry"
 """A real rover's own pose estimate, from its hardware driver bridge to the world service in twin mode."""
+MAP: Final = "map"
+"""The lander's traverse map (occupancy grid), published at a low rate for viewers and the recorder."""
 ROVER_IDS: Final = "rover_ids"
 """The world's queryable that hands a rover agent started with ``--id auto`` a free rover id."""
 ANSWERED_TOPICS: Final = frozenset({PERCEPTION, COMM_IN, MISSION_DIRECTION, CALIBRATION, PHOTO})

@@ -181,6 +181,24 @@ class LanderStatus(Message):
     relay_chain: list[int] = Field(default_factory=list)
 
 
+class LanderMap(Message):
+    """The lander's traverse map (``lander_agent.mapping``): one class code per cell, for viewers and the recorder.
+
+    Cell (row j, column i) covers [origin_x + i * cell_m, + cell_m) x [origin_z + j * cell_m, + cell_m), in map
+    (scenario) coordinates. ``cells`` is the zlib-compressed uint8 array, ``height`` rows of ``width``, row
+    order z; ``classes`` names each code.
+    """
+
+    stamp: float
+    cell_m: float = Field(gt=0)
+    origin_x: float
+    origin_z: float
+    width: int = Field(ge=1)
+    height: int = Field(ge=1)
+    classes: list[str]
+    cells: bytes
+
+
 MISSION_COMMANDS = ("set_target", "stop", "return")
 """Carried out by the lander (needs N5, N6)."""
 RECORDER_COMMANDS = ("snapshot",)
@@ -312,6 +330,12 @@ class MissionReport(Message):
     max_rovers_in_daisy_chain: int = Field(0, description="most rovers relaying for others at one time")
     radio_dropped: int = Field(0, description="transmissions whose target was out of reach")
     radio_lost: int = Field(0, description="transmissions lost to the configured loss probability")
+    map_corridor_mapped: float | None = Field(None, description="share of the A-B corridor's cells the lander's "
+                                              "map knows (world_service.map_truth); None: no map")
+    map_obstacles_found: float | None = Field(None, description="share of the corridor's obstacle cells the map "
+                                              "marks as obstacle (within the match tolerance)")
+    map_obstacle_precision: float | None = Field(None, description="share of the map's obstacle cells that are "
+                                                 "obstacles in truth (within the match tolerance)")
 
 
 class WorldStats(Message):
@@ -355,6 +379,7 @@ LANDER_TOPIC_MODELS: dict[str, type[Message]] = {
     ks.COMM_PARTNERS: CommPartners,
     ks.STATUS: LanderStatus,
     ks.ACK: Ack,
+    ks.MAP: LanderMap,
 }
 WORLD_TOPIC_MODELS: dict[str, type[Message]] = {ks.CLOCK: Clock, ks.STATE: WorldState, ks.STATS: WorldStats,
                                                  ks.ROVER_IDS: RoverIdGrant}

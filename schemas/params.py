@@ -122,9 +122,20 @@ class CameraParams(Params):
                                   "(exposure, read-out and encoding; the world renders meanwhile)")
 
 
+class MappingParams(Params):
+    """What a rover tells the lander for the traverse map (``rover_agent.map_report``, ``lander_agent.mapping``)."""
+
+    cell_m: float = Field(1.0, gt=0, le=100, description="side of a map cell, m: the rover keeps one point per "
+                                                         "cell and kind, the lander's grid uses the same size")
+    report_period_s: float = Field(3.0, gt=0, description="s between two map reports (and resends) to the lander")
+    max_cells_per_report: int = Field(1500, ge=1, le=20_000, description="bounds one MapReport (5 bytes a cell)")
+    max_reports_per_send: int = Field(4, ge=1, description="unacknowledged reports sent at once, oldest first")
+
+
 class RoverParams(Params):
     camera: CameraParams = CameraParams()
     navigation: NavigationParams = NavigationParams()
     perception: PerceptionParams = PerceptionParams()
     communication: CommunicationParams = CommunicationParams()
     behaviour: BehaviourParams = BehaviourParams()
+    mapping: MappingParams = MappingParams()

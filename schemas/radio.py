@@ -6,9 +6,11 @@ so a receiver can tell a goal report from anything else and reject what it does 
 
 from __future__ import annotations
 
+import struct
 from typing import Literal
 
 import msgpack
+from pydantic import Field, model_validator
 
 from schemas import codec
 from schemas.messages import Message
@@ -42,12 +44,61 @@ class CraterFound(Message):
     goal_index: int
 
 
+class MapReport(Message):
+    """Map cells a rover perceived, in the lander's frame (lander at the origin, the map's axes), for the
+    lander's traverse map (``lander_agent.mapping``). The rover holds it until a MapAck names its ``seq``.
+
+    ``cells`` packs little-endian int16 pairs (ix, iz): the cell [ix, ix + 1) x [iz, iz + 1) in units of
+    ``cell_m``; ``kinds`` has one byte per cell (``MAP_KINDS``). ``x``, ``z``: the rover's dead-reckoned
+    position when it built the report.
+    """
+
+    seq: int = Field(ge=0)
+    cell_m: float = Field(gt=0)
+    x: float
+    z: float
+    cells: bytes
+    kinds: bytes
+
+    @model_validator(mode="after")
+    def _one_kind_per_cell(self) -> MapReport:
+        if len(self.cells) != 4 * len(self.kinds):
+            raise ValueError(f"cells holds {len(self.cells)} bytes for {len(self.kinds)} kinds (4 bytes a cell)")
+        if any(k >= len(MAP_KINDS) for k in self.kinds):
+            raise ValueError(f"kinds: a code outside 0..{len(MAP_KINDS) - 1}")
+        return self
+
+    @classmethod
+    def build(cls, seq: int, cell_m: float, x: float, z: float, cells: list[tuple[int, int, int]]) -> MapReport:
+        """From (ix, iz, kind) cells; indices must fit int16."""
+        flat = [v for ix, iz, _ in cells for v in (ix, iz)]
+        return cls(seq=seq, cell_m=cell_m, x=round(x, 3), z=round(z, 3), cells=struct.pack(f"<{len(flat)}h", *flat),
+                   kinds=bytes(k for _, _, k in cells))
+
+    def cell_list(self) -> list[tuple[int, int, int]]:
+        """The (ix, iz, kind) cells, in this report's cell size."""
+        flat = struct.unpack(f"<{len(self.kinds) * 2}h", self.cells)
+        return [(flat[2 * i], flat[2 * i + 1], k) for i, k in enumerate(self.kinds)]
+
+
+MAP_KINDS = ("free", "obstacle", "crater")
+"""What a MapReport cell can be: seen free (on the rover's track or along a ray), an obstacle (a rock, a wall,
+the lander), or crater terrain (crater ground or ground too steep to climb)."""
+
+
+class MapAck(Message):
+    """The lander folded these map reports (by ``seq``) into its map: the rover may forget them."""
+
+    seqs: list[int]
+
+
 class StopCommand(Message):
     """The lander tells a rover to stop where it is until it is given a new goal (need N6)."""
 
 
 RADIO_TYPES: dict[str, type[Message]] = {"goal_report": GoalReport, "photo_report": PhotoReport, "photo_ack": PhotoAck,
-                                         "crater_found": CraterFound, "stop_command": StopCommand}
+                                         "crater_found": CraterFound, "stop_command": StopCommand,
+                                         "map_report": MapReport, "map_ack": MapAck}
 _TAGS = {model: tag for tag, model in RADIO_TYPES.items()}
 
 

@@ -68,6 +68,7 @@ class World:
         self.keys = keyspace
         self.params = scenario.rover_params
         self.rng = np.random.default_rng(scenario.seed)
+        self.radio_rng = np.random.default_rng([scenario.seed, 1])  # its own stream: traffic never shifts the noise
         p = self.params
         self.dt = tick_length(p)
         self.perception_period = self._period(p.perception.publish_frequency)
@@ -285,7 +286,7 @@ class World:
                 self.radio_dropped += 1
                 continue
             c = self.params.communication
-            if c.loss_probability > 0 and self.rng.random() < c.loss_probability:
+            if c.loss_probability > 0 and self.radio_rng.random() < c.loss_probability:
                 self.radio_lost += 1
                 continue
             delivery = self._deliver(sender, target, msg, inner)

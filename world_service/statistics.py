@@ -31,13 +31,13 @@ def relative_path_length(scenario: Scenario, start: tuple[float, float]) -> floa
     """
     length, here = 0.0, start
     for goal in scenario.mission:
-        there = _arrival_point(scenario, goal, here)
+        there = arrival_point(scenario, goal, here)
         length += math.dist(here, there)
         here = there
     return length
 
 
-def _arrival_point(scenario: Scenario, goal: Goal, here: tuple[float, float]) -> tuple[float, float]:
+def arrival_point(scenario: Scenario, goal: Goal, here: tuple[float, float]) -> tuple[float, float]:
     crater = scenario.crater_of(goal) if goal.kind == "crater" else None
     if crater is None:
         return goal.x, goal.z

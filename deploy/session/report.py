@@ -1,5 +1,6 @@
 """Mission statistics from a recording alone: its world states and ground commands through the same
-``MissionStats`` the live world uses, so the result equals the run's ``report.json`` (wall time aside)."""
+``MissionStats`` the live world uses, and its last ``lander/map`` through the same map scoring as the launcher,
+so the result equals the run's ``report.json`` (wall time aside)."""
 
 from __future__ import annotations
 
@@ -21,8 +22,11 @@ class NothingToReport(ValueError):
 def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: str) -> m.MissionReport:
     keys = ks.Keyspace(world)
     stats = MissionStats(scenario, RoverMissions(scenario))
+    last_map: bytes | None = None
     for sample in samples:
-        if sample.key == keys.state:
+        if sample.key == keys.lander(ks.MAP):
+            last_map = sample.payload
+        elif sample.key == keys.state:
             stats.observe(codec.decode(m.WorldState, sample.payload))
         elif sample.key == keys.ground_command:
             try:
@@ -31,4 +35,17 @@ def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: st
                 continue  # the world ignored it too
     if stats.last is None:
         raise NothingToReport(f"no {keys.state} samples: nothing to compute statistics from")
-    return stats.report()  # wall_time_s stays 0: the launcher's stopwatch is not in the world's data
+    report = stats.report()  # wall_time_s stays 0: the launcher's stopwatch is not in the world's data
+    return report if last_map is None else _with_map_figures(report, scenario, last_map)
+
+
+def _with_map_figures(report: m.MissionReport, scenario: Scenario, payload: bytes) -> m.MissionReport:
+    """The last recorded ``lander/map`` scored as the launcher scores ``map.npz`` (a bad sample is skipped)."""
+    from lander_agent import mapping
+    from world_service.map_truth import map_figures
+
+    try:
+        spec, classes = mapping.from_message(codec.decode(m.LanderMap, payload))
+    except (codec.DecodeError, ValueError):
+        return report
+    return report.model_copy(update=map_figures(scenario, spec, classes).report_fields())
