@@ -42,6 +42,10 @@ def summary_table(report: m.MissionReport) -> Table:
         ("wall time (s)", f"{report.wall_time_s:.1f}"),
         ("mission complete", "yes" if report.complete else "no (time limit or interrupted)"),
     ]
+    if report.power_budget_efficiency is not None:  # the scenario has a sun (issue 8)
+        rows += [("power budget efficiency", f"{report.power_budget_efficiency:.3f}"),
+                 ("energy drawn (Wh)", f"{report.energy_used_wh:.4f}"),
+                 ("battery / cold shutdowns", f"{report.power_shutdowns} / {report.cold_shutdowns}")]
     for row in rows:
         table.add_row(*row)
     return table
