@@ -15,7 +15,7 @@ from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.params import PowerParams, ThermalParams
 from schemas.scenario import Obstacles, Rock, ScenarioError, SunSpec, TerrainSpec, Wall, load_scenario, parse_scenario
-from world_service import power
+from world_service import power, shadows
 from world_service.scene import Scene
 from world_service.shadows import Occluders, ShadowCache, lit
 from world_service.sim import World
@@ -117,6 +117,18 @@ def test_terrain_shadows_are_ray_marched_over_the_heightmap():
     assert _shadow_end(terrain, Occluders.none(), sun, np.zeros_like(zs), zs) == pytest.approx(expected, abs=1.0)
     assert not lit(terrain, Occluders.none(), SunPosition(0.0, -1.0), [0.0], [10.0], 0.2, 200.0)[0]  # night
     assert lit(terrain, Occluders.none(), SunPosition(0.0, 80.0), [0.0], [-3.0], 0.2, 200.0)[0]  # high sun
+
+
+def test_rays_stop_once_above_any_ground_without_changing_the_answer():
+    world = World(load_scenario(SCENARIOS / "polar_night_edge.yaml"), Keyspace("t"))
+    terrain, sun = world.terrain, SunPosition(0.0, 2.5)
+    xs, zs = (g.ravel() for g in np.meshgrid(np.arange(-10.0, 60.0, 1.5), np.arange(-15.0, 15.0, 1.5)))
+    py = terrain.height(xs, zs) + 0.2
+    top = shadows.height_bound(terrain, xs, zs, 200.0)
+    assert top == pytest.approx(1.2)  # the one crater's rim: 0.04 x 30 m
+    bounded = shadows._terrain_shadow(terrain, sun, xs, py, zs, 200.0, top)
+    assert np.array_equal(bounded, shadows._terrain_shadow(terrain, sun, xs, py, zs, 200.0))
+    assert 0 < bounded.sum() < bounded.size
 
 
 def test_the_shadow_cache_answers_as_a_fresh_trace_of_the_cell_centre():

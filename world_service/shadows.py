@@ -2,8 +2,10 @@
 
 What casts shadows:
 - the terrain: the ray from the panel towards the sun is marched in half-cell steps (at most half a metre)
-  over the heightmap, every point and every step in one vectorised sample; it is skipped when the sun stands
-  higher than the terrain's steepest slope can ever reach (``Heightmap.max_slope_bound_deg``);
+  over the heightmap, every point and a block of steps in one vectorised sample; a ray stops once it has
+  risen above the highest the ground can be there (``height_bound``: the undulation's amplitude plus the rims
+  of the craters within reach), and no ray is marched when the sun stands higher than the terrain's
+  steepest slope (``Heightmap.max_slope_bound_deg``);
 - rocks and the lander: hemispheres of their footprint radius on the ground (the scenario gives rocks a
   radius only; a boulder about as tall as it is wide is the assumption), hit exactly with a ray-sphere test;
 - walls: vertical slabs of their outline and height, hit exactly with a ray-segment test.
@@ -29,6 +31,8 @@ from world_service.terrain import Heightmap
 CACHE_CELL_M = 0.25
 CHUNK_POINTS = 2048
 """Points traced together: bounds the (points x steps) sample array to a few MB."""
+MARCH_BLOCK = 32
+"""Steps sampled at once; between blocks the rays already shaded or above any ground are dropped."""
 
 
 @dataclass(frozen=True)
@@ -72,20 +76,40 @@ def lit(terrain: Heightmap, occluders: Occluders, sun: SunPosition, xs, zs, pane
         shadow |= _wall_shadow(occluders, sun, px, py, pz, max_shadow_m)
         todo = ~shadow
         if np.any(todo) and sun.elevation_deg <= terrain.max_slope_bound_deg():
-            shadow[todo] = _terrain_shadow(terrain, sun, px[todo], py[todo], pz[todo], max_shadow_m)
+            top = height_bound(terrain, px[todo], pz[todo], max_shadow_m)
+            shadow[todo] = _terrain_shadow(terrain, sun, px[todo], py[todo], pz[todo], max_shadow_m, top)
         out[start:start + CHUNK_POINTS] = ~shadow
     return out
 
 
-def _terrain_shadow(terrain: Heightmap, sun: SunPosition, px, py, pz, max_shadow_m: float) -> np.ndarray:
+def height_bound(terrain: Heightmap, px, pz, reach_m: float) -> float:
+    """The highest the ground can stand within ``reach_m`` of the points (inf for a mesh surface)."""
+    if terrain.base is not None:
+        return math.inf
+    top = terrain.undulation.amplitude if terrain.undulation is not None else 0.0
+    near = terrain.craters.reaching(float(px.min()) - reach_m, float(px.max()) + reach_m,
+                                    float(pz.min()) - reach_m, float(pz.max()) + reach_m)
+    return top + sum(terrain.craters.craters[i].rim_height for i in near)  # a bowl never rises above its rim
+
+
+def _terrain_shadow(terrain: Heightmap, sun: SunPosition, px, py, pz, max_shadow_m: float,
+                    top: float = math.inf) -> np.ndarray:
     """March the ray over the heightmap: shadowed where the ground rises above it at any step."""
     step = min(0.5, terrain.resolution / 2)
     s = step * np.arange(1, math.ceil(max_shadow_m / step) + 1)
     az, tan_el = math.radians(sun.azimuth_deg), math.tan(math.radians(sun.elevation_deg))
-    x = px[:, None] + s[None, :] * math.sin(az)
-    z = pz[:, None] + s[None, :] * math.cos(az)
-    ray = py[:, None] + s[None, :] * tan_el
-    return np.any(terrain.height(x, z) > ray, axis=1)
+    shadow = np.zeros(px.shape, bool)
+    active = np.arange(px.size)
+    for start in range(0, s.size, MARCH_BLOCK):
+        seg, i = s[start:start + MARCH_BLOCK], active
+        x = px[i, None] + seg[None, :] * math.sin(az)
+        z = pz[i, None] + seg[None, :] * math.cos(az)
+        hit = np.any(terrain.height(x, z) > py[i, None] + seg[None, :] * tan_el, axis=1)
+        shadow[i[hit]] = True
+        active = i[~hit & (py[i] + seg[-1] * tan_el <= top)]
+        if active.size == 0:
+            break
+    return shadow
 
 
 def _circle_shadow(occ: Occluders, sun: SunPosition, px, py, pz, max_shadow_m: float) -> np.ndarray:

@@ -384,6 +384,7 @@ class World:
         out, gone_off = self.energy.step(self.tick, self.sim_time, list(self.bodies.values()))
         for rid in gone_off:
             self.bodies[rid].cancel()
+            log.info("rover %d shut down at t = %.1f s: %s", rid, self.sim_time, self.energy.refusal(rid)[1])
         return out
 
     def _slope_factors(self, moving: list[nav.RoverBody]) -> dict[int, float]:
