@@ -14,8 +14,10 @@ progress would have needed at best, divided by the energy they drew. "At best" i
 (``relative_path_length``) at the speed level with the least energy per metre, drawing nothing else;
 progress is how much shorter the rover's remaining ideal path (from where it stands through its remaining
 goals) is than its whole one. Energy is chosen over distance per Wh so the figure stays in 0..1 like path
-efficiency, and progress rather than distance so walking the wrong way, waiting in shadow or dying on the
-way all lower it.
+efficiency, and progress rather than distance so walking the wrong way, detours and standing still (charging
+included) all lower it. It measures how economically energy became progress, not whether the rovers lived:
+one that runs empty half way has wasted nothing on the half it walked, so read the figure beside
+``rovers_reached_final_goal`` and the shutdown counts.
 """
 
 from __future__ import annotations
