@@ -29,6 +29,8 @@ from world_service.sun import SunPosition
 from world_service.terrain import Heightmap
 
 CACHE_CELL_M = 0.25
+MAX_CACHED_CELLS = 200_000
+"""Cells remembered at most (about 30 MB); past that the cache starts afresh (a fixed sun never changes step)."""
 CHUNK_POINTS = 2048
 """Points traced together: bounds the (points x steps) sample array to a few MB."""
 MARCH_BLOCK = 32
@@ -166,7 +168,7 @@ class ShadowCache:
         self.traced = 0
 
     def lit(self, sun: SunPosition, xs, zs) -> np.ndarray:
-        if sun != self._sun:
+        if sun != self._sun or len(self._cells) > MAX_CACHED_CELLS:
             self._sun, self._cells = sun, {}
         ix = np.floor(np.asarray(xs, float) / self.cell_m + 0.5).astype(np.int64)
         iz = np.floor(np.asarray(zs, float) / self.cell_m + 0.5).astype(np.int64)
