@@ -37,13 +37,15 @@ def scripted_problems(cls, params) -> list[str]:
         "goal ahead, a rock 3 m ahead": (b.Goal(0, 1, "waypoint", 0.0, 60.0), rock),
         "goal behind": (b.Goal(0, 1, "waypoint", 0.0, -60.0), ()),
         "crater goal ahead": (b.Goal(0, 1, "crater", 0.0, 60.0), ()),
+        "goal ahead, battery low, in sunlight": (b.Goal(0, 1, "waypoint", 0.0, 60.0), (), 0.2, True),
+        "goal ahead, battery low, in shadow": (b.Goal(0, 1, "waypoint", 0.0, 60.0), (), 0.2, False),
     }
-    for label, (goal, hits) in cases.items():
+    for label, (goal, hits, *power) in cases.items():
         runs = []
         for _ in range(2):
             behaviour = cls(1, params)
             behaviour.start_goal(goal)
-            view = b.View(0.0, Pose(0.0, 0.0, 0.0), goal, hits, 0.0)
+            view = b.View(0.0, Pose(0.0, 0.0, 0.0), goal, hits, 0.0, *power)  # power sensors: issue 8
             runs.append(behaviour.decide(view))
         decision = runs[0]
         if runs[0] != runs[1]:
@@ -85,5 +87,8 @@ def run_from_args(args: argparse.Namespace) -> int:
           f"{report.rovers_total} reached, {report.rover_collisions + report.obstacle_collisions} collisions, "
           f"{report.rovers_stuck} stuck, efficiency {report.average_path_efficiency:.3f}, "
           f"{'complete' if report.complete else 'not complete'} after {report.mission_duration_s:.1f} s")
+    if report.power_budget_efficiency is not None:
+        print(f"power: budget efficiency {report.power_budget_efficiency:.3f}, {report.energy_used_wh:.4f} Wh drawn, "
+              f"{report.power_shutdowns} battery and {report.cold_shutdowns} cold shutdown(s)")
     print("contract: ok" if not problems else f"contract: {len(problems)} problem(s)")
     return 1 if problems else 0

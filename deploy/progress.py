@@ -47,6 +47,10 @@ def summary_table(report: m.MissionReport) -> Table:
         rows.append(("traverse map: corridor mapped / obstacles found / precision",
                      " / ".join("-" if v is None else f"{v:.0%}" for v in (report.map_corridor_mapped, found,
                                                                           precision))))
+    if report.power_budget_efficiency is not None:  # the scenario has a sun (issue 8)
+        rows += [("power budget efficiency", f"{report.power_budget_efficiency:.3f}"),
+                 ("energy drawn (Wh)", f"{report.energy_used_wh:.4f}"),
+                 ("battery / cold shutdowns", f"{report.power_shutdowns} / {report.cold_shutdowns}")]
     for row in rows:
         table.add_row(*row)
     return table

@@ -35,7 +35,8 @@ log = logging.getLogger("lunarsim.rover")
 
 Out = tuple[str, m.Message]
 SUBSCRIBED_TOPICS = (ks.PERCEPTION, ks.NAVIGATION_STATUS, ks.CANCEL_RESULT, ks.ACTION_REJECTED, ks.GYROSCOPE,
-                     ks.COMM_IN, ks.COMM_PARTNERS, ks.MISSION_DIRECTION, ks.CALIBRATION, ks.PHOTO)
+                     ks.COMM_IN, ks.COMM_PARTNERS, ks.MISSION_DIRECTION, ks.CALIBRATION, ks.PHOTO,
+                     ks.BATTERY, ks.TEMPERATURE, ks.SUN)
 GOAL_REPORT_RETRY_S = 2.0
 STATUS_PERIOD_S = 1.0
 PHOTO_TIMEOUT_S = 10.0
@@ -77,6 +78,9 @@ class RoverAgent:
         self._last_photo_send = -math.inf
         self.craters_found: set[int] = set()
         self.map = MapRecorder(params)
+        self.battery: m.Battery | None = None  # power sensors: only from a world with a sun (issue 8)
+        self.temperature: m.Temperature | None = None
+        self.sunlit: bool | None = None
 
     @property
     def state(self) -> str:
@@ -211,6 +215,27 @@ class RoverAgent:
         self.now = max(self.now, msg.stamp)
         return []
 
+    def _on_battery(self, msg: m.Battery) -> list[Out]:
+        self.battery = msg
+        return []
+
+    def _on_temperature(self, msg: m.Temperature) -> list[Out]:
+        self.temperature = msg
+        return []
+
+    def _on_sun(self, msg: m.Sunlight) -> list[Out]:
+        self.sunlit = msg.lit
+        return []
+
+    @property
+    def powered_off(self) -> bool:
+        """The battery is empty or the rover too cold: it can do nothing until the world says it is back."""
+        return bool((self.battery and self.battery.empty) or (self.temperature and self.temperature.shutdown))
+
+    def _view(self, stamp: float, pose: Pose, hits: tuple[Hit, ...]) -> View:
+        charge = self.battery.fraction if self.battery is not None else None
+        return View(stamp, pose, self.goal, hits, self.pitch[0], charge, self.sunlit)
+
     def _on_perception(self, msg: m.Perception) -> list[Out]:
         self.now = max(self.now, msg.stamp)
         hits = tuple(Hit(a, d, k) for a, d, k in zip(msg.angles_deg, msg.distances_m, msg.kinds, strict=True))
@@ -219,18 +244,17 @@ class RoverAgent:
         if self.pose is not None and msg.stamp >= self.settled_at:  # standing still where dead reckoning says
             self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
         ready = (self.pose is not None and self.goal is not None and self.finished_goal is None
-                 and self.state not in ("done", "stuck", "stopped")
+                 and self.state not in ("done", "stuck", "stopped") and not self.powered_off
                  and msg.stamp >= self.settled_at and self.pitch[1] >= self.settled_at)
         if not ready:
             return []
-        view = View(msg.stamp, self.pose, self.goal, hits, self.pitch[0])
-        return self._act(self.behaviour.decide(view))
+        return self._act(self.behaviour.decide(self._view(msg.stamp, self.pose, hits)))
 
     def _watch(self, hits: tuple[Hit, ...]) -> list[Out]:
         flight = self.in_flight
         if flight.cancel_sent or not isinstance(flight.decision, MoveTo):
             return []
-        view = View(self.now, flight.start, self.goal, hits, self.pitch[0])
+        view = self._view(self.now, flight.start, hits)
         if self.behaviour.should_cancel(view):
             flight.cancel_sent = True
             return [(self.keys.rover(self.id, ks.CANCEL_ACTION), m.CancelAction())]
@@ -272,6 +296,8 @@ class RoverAgent:
         self._last_status = self.now
         index = self.goal.index if self.goal else -1
         detail = "another rover found the crater" if index in self.craters_found else ""
+        if self.powered_off:
+            detail = "off: battery empty" if self.battery and self.battery.empty else "off: too cold"
         return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(stamp=self.now, state=self.state, goal_index=index,
                                                                   detail=detail, photos_pending=len(self.photo_outbox))
 

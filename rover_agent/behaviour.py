@@ -23,10 +23,12 @@ scripted sensor data and no router.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 from rover_agent.dead_reckoning import Pose
 from rover_agent.planner import OccupancyGrid, next_waypoint
+from rover_agent.sunlight import CHARGE, SunSeeker
 from schemas.frames import bearing_deg, wrap_deg
 from schemas.params import RoverParams
 
@@ -69,6 +71,8 @@ CROWD_LOOKS = 3
 RIGHT_OF_WAY_DEG = 10.0
 """A rover ahead, or to the right of this many degrees left of ahead, has right of way (report 7.2.1)."""
 MAX_CREST_LOOKS = 3
+CHARGE_CHECK_S = 1.0
+"""While charging in sunlight the rover looks at its battery again this often."""
 ROVER_GAP_CLOSE = 0.5
 """Metres kept between bodies in close quarters, where rovers step 2 m at a time among others standing
 still: on a crater rim, and near the rover's station at a waypoint."""
@@ -109,6 +113,8 @@ class View:
     goal: Goal
     hits: tuple[Hit, ...]
     pitch_deg: float
+    battery: float | None = None  # charge as a share of capacity; None: no power sensors (no sun in the world)
+    sunlit: bool | None = None  # whether the solar panel is lit
 
 
 @dataclass(frozen=True)
@@ -205,8 +211,12 @@ class DefaultBehaviour(BaseBehaviour):
     _photo_due: bool = True
     _map: OccupancyGrid = field(default_factory=OccupancyGrid)
     _routing: bool = False
+    _sun: SunSeeker | None = None
+    _state_before_charging: str = "migration"
 
     name = "default"
+    uses_sunlight: ClassVar[bool] = True
+    """With power sensors (a world with a sun): keep out of shadow when low and charge in sunlight (issue 8)."""
 
     # ---- events from the runtime ----
 
@@ -235,6 +245,9 @@ class DefaultBehaviour(BaseBehaviour):
 
     def cancelled(self, now: float) -> None:
         """A move was cancelled because another rover came close: give way for a moment."""
+        if self._sun is not None and self._sun.turned_back:  # cancelled on entering shadow: no rover to wait for
+            self._sun.turned_back = False
+            return
         self._hold_until = now + self._wait_time()
         if self._crowd_since is None:
             self._crowd_since = now
@@ -255,6 +268,8 @@ class DefaultBehaviour(BaseBehaviour):
         b = self.params.behaviour
         imminent = 2 * b.rover_radius + ROVER_GAP_CLOSE
         danger = imminent if self._close_quarters else b.collision_danger_dist
+        if self._sun is not None and self.uses_sunlight and self._sun.should_turn_back(view):
+            return True
         return any(h.kind == "rover" and abs(h.angle_deg) < 45
                    and h.distance_m < (danger if h.angle_deg >= -RIGHT_OF_WAY_DEG else imminent)
                    for h in view.hits)
@@ -263,6 +278,9 @@ class DefaultBehaviour(BaseBehaviour):
         self._now = view.time
         if view.time < self._hold_until:
             return Hold(self._hold_until)
+        power = self._mind_power(view)
+        if power is not None:
+            return power
         if self.state == "observing":
             return self._observe(view.goal)
         goal, pose = view.goal, view.pose
@@ -284,6 +302,26 @@ class DefaultBehaviour(BaseBehaviour):
         if not self._routing and self._pacing(distance, NO_PROGRESS_ROUTE_M):
             self._routing = True
         return self._head_for(view, distance, self._short_step(view))
+
+    def _mind_power(self, view: View) -> Decision | None:
+        """Charge in sunlight, or walk back to it, when the charge is low (``sunlight``); None: carry on."""
+        if not self.uses_sunlight or view.battery is None:
+            return None
+        if self._sun is None:
+            p = self.params.power
+            self._sun = SunSeeker(p.low_charge_fraction, p.recharge_to_fraction)
+        advice = self._sun.advise(view)
+        if advice is None:
+            if self.state == "charging":
+                self.state = self._state_before_charging
+            return None
+        if advice == CHARGE:
+            if self.state != "charging":
+                self._state_before_charging, self.state = self.state, "charging"
+            return Hold(view.time + CHARGE_CHECK_S)
+        lx, lz = advice
+        back = replace(view, goal=Goal(view.goal.index, view.goal.total, "waypoint", lx, lz))
+        return self._head_for(back, math.hypot(lx - view.pose.x, lz - view.pose.z), None)
 
     def _pacing(self, distance: float, limit_m: float) -> bool:
         """Walked ``limit_m`` without getting closer (climbing a rim is judged by the climb rules instead)."""
@@ -461,6 +499,14 @@ class DefaultBehaviour(BaseBehaviour):
             if across < clearance and along > 0:
                 free = min(free, along - math.sqrt(clearance * clearance - across * across))
         return max(free, 0.0)
+
+
+class SunIgnoring(DefaultBehaviour):
+    """The default behaviour blind to its power sensors: it walks into shadow whatever its charge (the
+    comparison of ``scenarios/polar_night_edge.yaml``)."""
+
+    name = "sun_ignoring"
+    uses_sunlight: ClassVar[bool] = False
 
 
 def _ray_angles(fov_deg: float, count: int) -> list[float]:

@@ -14,6 +14,7 @@ from rover_agent.behaviour import BaseBehaviour
 BUILT_IN = {
     "default": "rover_agent.behaviour:DefaultBehaviour",
     "straight": "rover_agent.examples:StraightLine",
+    "sun_ignoring": "rover_agent.behaviour:SunIgnoring",
 }
 ENTRY_POINT_GROUP = "lunarsim.behaviours"
 

@@ -42,6 +42,11 @@ TELEMETRY: Final = "telemetry"
 """A real rover's own pose estimate, from its hardware driver bridge to the world service in twin mode."""
 MAP: Final = "map"
 """The lander's traverse map (occupancy grid), published at a low rate for viewers and the recorder."""
+BATTERY: Final = "battery"
+TEMPERATURE: Final = "temperature"
+SUN: Final = "sun"
+"""Power sensors (issue 8): charge, temperature and whether the panel is lit; published only when the scenario
+has a sun."""
 ROVER_IDS: Final = "rover_ids"
 """The world's queryable that hands a rover agent started with ``--id auto`` a free rover id."""
 ANSWERED_TOPICS: Final = frozenset({PERCEPTION, COMM_IN, MISSION_DIRECTION, CALIBRATION, PHOTO})

@@ -87,13 +87,46 @@ class ActionRejected(Message):
     """New in LunarSim: why an action was refused, so a behaviour never waits for nothing."""
 
     action: Literal["move", "rotate", "cancel", "speed", "photo"]
-    reason: Literal["out_of_view", "out_of_range", "blocked", "action_in_progress", "no_action", "collided"]
+    reason: Literal["out_of_view", "out_of_range", "blocked", "action_in_progress", "no_action", "collided",
+                    "no_power", "too_cold"]
     detail: str = ""
 
 
 class Gyroscope(Message):
     stamp: float
     pitch_deg: float = Field(description="positive nose up")
+
+
+# ---- power (issue 8: report 7.1.2, needs N9 and N10) ----
+
+
+class Battery(Message):
+    """The rover's battery monitor. ``empty``: the rover is off until it has recharged above its threshold."""
+
+    stamp: float
+    charge_wh: float = Field(ge=0)
+    capacity_wh: float = Field(gt=0)
+    solar_w: float = Field(0.0, ge=0, description="what the panel delivers now")
+    empty: bool = False
+
+    @property
+    def fraction(self) -> float:
+        return self.charge_wh / self.capacity_wh
+
+
+class Temperature(Message):
+    """The rover's internal temperature. ``shutdown``: below its operating minimum, off until warm again (N9)."""
+
+    stamp: float
+    celsius: float
+    shutdown: bool = False
+
+
+class Sunlight(Message):
+    """Whether the rover's solar panel is lit (its sun sensor)."""
+
+    stamp: float
+    lit: bool
 
 
 # ---- radio (report 10.4) ----
@@ -160,7 +193,7 @@ class Photo(Message):
 # ---- agent telemetry, lander, ground, world ----
 
 RoverState = Literal["waiting", "migration", "avoiding", "climbing", "observing", "done", "stuck", "stopped",
-                     "relay"]
+                     "relay", "charging"]
 
 
 class RoverStatus(Message):
@@ -281,6 +314,11 @@ class RoverTruth(Message):
     alive: bool
     telemetry_stale: bool = Field(False, description="twin mode: the rover's driver has gone quiet; this is its "
                                                      "last known pose")
+    battery_wh: float | None = Field(None, description="charge; None when the scenario has no sun (no power model)")
+    temperature_c: float | None = None
+    sunlit: bool | None = None
+    energy_used_wh: float | None = Field(None, description="drawn from the battery since the start")
+    powered: bool | None = Field(None, description="False while off: battery empty or too cold")
 
 
 class WorldCounters(Message):
@@ -291,6 +329,8 @@ class WorldCounters(Message):
     rejected_messages: int = 0
     radio_dropped: int = 0
     radio_lost: int = 0
+    power_shutdowns: int = Field(0, description="times a rover's battery ran empty")
+    cold_shutdowns: int = Field(0, description="times a rover fell below its operating temperature (N9)")
 
 
 class WorldState(Message):
@@ -336,6 +376,11 @@ class MissionReport(Message):
                                               "marks as obstacle (within the match tolerance)")
     map_obstacle_precision: float | None = Field(None, description="share of the map's obstacle cells that are "
                                                  "obstacles in truth (within the match tolerance)")
+    power_budget_efficiency: float | None = Field(
+        None, description="energy the goal progress made needed at best / energy drawn (6.3.3); None without sun")
+    energy_used_wh: float | None = Field(None, description="drawn from every battery together")
+    power_shutdowns: int | None = Field(None, description="times a battery ran empty (None without sun)")
+    cold_shutdowns: int | None = Field(None, description="times a rover got too cold to run (None without sun)")
 
 
 class WorldStats(Message):
@@ -364,6 +409,9 @@ TOPIC_MODELS: dict[str, type[Message]] = {
     ks.STATUS: RoverStatus,
     ks.ACK: Ack,
     ks.TELEMETRY: Telemetry,
+    ks.BATTERY: Battery,
+    ks.TEMPERATURE: Temperature,
+    ks.SUN: Sunlight,
 }
 """Rover topic -> payload model: the one table that says which type travels on which key."""
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 
 class Params(BaseModel):
@@ -132,6 +132,73 @@ class MappingParams(Params):
     max_reports_per_send: int = Field(4, ge=1, description="unacknowledged reports sent at once, oldest first")
 
 
+class PowerParams(Params):
+    """Battery and solar panel (issue 8; needs N10). Used only when the scenario has a ``sun`` block.
+
+    The report gives no electrical figures for the Lunar Zebro; it gives its size (about 30 cm long, 10.7.1) and
+    a top speed of about 1 cm/s. Every default below is therefore a documented assumption for a rover of that
+    size, stated with its reasoning; scenarios scale them (a short test mission needs a small battery).
+    """
+
+    capacity_wh: float = Field(20.0, gt=0, description="Wh; assumption: two 18650 Li-ion cells (~25 Wh), derated")
+    initial_charge_fraction: float = Field(1.0, ge=0, le=1, description="charge at the start, share of capacity")
+    idle_w: float = Field(1.0, ge=0, description="W while on: avionics and radio receiver (assumption)")
+    perception_w: float = Field(1.5, ge=0, description="W while on: camera and its processing (assumption)")
+    move_w: tuple[float, float, float] = Field(
+        (3.0, 4.5, 6.0), description="W while walking at speed level 1, 2, 3 (assumption: faster legs draw more)")
+    rotate_w: float = Field(3.0, ge=0, description="W while turning (assumption: as walking slowly)")
+    radio_transmit_j: float = Field(0.5, ge=0, description="J per radio transmission (assumption)")
+    photo_j: float = Field(2.0, ge=0, description="J per photo taken (assumption)")
+    panel_area_m2: float = Field(0.06, ge=0, description="m^2; the deck of a 30 cm x 20 cm rover (report 10.7.1: "
+                                                         "about 30 cm long)")
+    panel_efficiency: float = Field(0.28, ge=0, le=1, description="triple-junction space cells (assumption)")
+    panel_tilt_deg: float = Field(0.0, ge=0, le=90, description="tilt from the deck towards the sun's azimuth: "
+                                                                "0 = flat; polar rovers tilt their panel up to the "
+                                                                "low sun")
+    panel_height_m: float = Field(0.2, ge=0, description="height of the panel above ground, for shadows")
+    solar_flux_w_m2: float = Field(1361.0, gt=0, description="the solar constant at 1 AU")
+    resume_fraction: float = Field(0.1, ge=0, le=1, description="an empty rover restarts above this charge")
+    low_charge_fraction: float = Field(
+        0.5, ge=0, le=1, description="behaviour: below this it does not go into shadow and stops in sun to charge")
+    recharge_to_fraction: float = Field(0.95, ge=0, le=1, description="behaviour: charges in sun up to this")
+    publish_frequency: float = Field(1.0, gt=0, description="battery, temperature and sun sensor rate, Hz")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> PowerParams:
+        if self.recharge_to_fraction < self.low_charge_fraction:
+            raise ValueError("recharge_to_fraction must be at least low_charge_fraction")
+        if min(self.move_w) < 0:
+            raise ValueError("move_w must not be negative")
+        return self
+
+    def move_power(self, level: int) -> float:
+        return self.move_w[level - 1]
+
+
+class ThermalParams(Params):
+    """Rover temperature (issue 8; need N9): it tends towards the sunlit or the shadowed surface temperature.
+
+    The report gives the surface extremes, 127 C in full sun and -173 C in darkness (4.1.2); those are the
+    defaults the rover tends to. How fast it does, and its operating limit, are assumptions.
+    """
+
+    initial_c: float = Field(20.0, description="temperature at the start, C")
+    sun_c: float = Field(127.0, description="temperature a rover in sun tends to, C (report 4.1.2)")
+    shadow_c: float = Field(-173.0, description="temperature a rover in shadow tends to, C (report 4.1.2)")
+    heat_time_constant_s: float = Field(7200.0, gt=0, description="e-folding time in sun, s (assumption)")
+    cool_time_constant_s: float = Field(10800.0, gt=0, description="e-folding time in shadow, s (assumption: "
+                                                                   "insulated, slower than heating)")
+    min_operating_c: float = Field(-30.0, description="below this the rover shuts down (N9); assumption: "
+                                                      "industrial-grade electronics")
+    resume_c: float = Field(-20.0, description="a rover shut down by cold restarts above this")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> ThermalParams:
+        if self.resume_c < self.min_operating_c:
+            raise ValueError("resume_c must be at least min_operating_c")
+        return self
+
+
 class RoverParams(Params):
     camera: CameraParams = CameraParams()
     navigation: NavigationParams = NavigationParams()
@@ -139,3 +206,5 @@ class RoverParams(Params):
     communication: CommunicationParams = CommunicationParams()
     behaviour: BehaviourParams = BehaviourParams()
     mapping: MappingParams = MappingParams()
+    power: PowerParams = PowerParams()
+    thermal: ThermalParams = ThermalParams()

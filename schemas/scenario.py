@@ -140,6 +140,36 @@ class Formation(Spec):
     spacing_m: float = Field(3.2, gt=0, description="between neighbouring stations")
 
 
+class SunSpec(Spec):
+    """Where the sun stands (issue 8). Without this block there is no power model at all.
+
+    Either fixed (``azimuth_deg`` and ``elevation_deg``) or from the site: ``latitude_deg`` and the time of the
+    lunar day, the sun then moving with simulation time over a synodic day of 29.53 Earth days. Map axes:
+    +z is north, +x east; azimuth like a heading (0 = from +z, 90 = from +x).
+    """
+
+    azimuth_deg: float | None = Field(None, description="fixed sun: direction it shines from")
+    elevation_deg: float | None = Field(None, ge=-90, le=90, description="fixed sun: height above the horizon")
+    latitude_deg: float | None = Field(None, ge=-90, le=90, description="site latitude (the report's far-side "
+                                                                         "polar sites: about -85 to -89)")
+    hours_after_noon: float = Field(0.0, description="local lunar time at t = 0, Earth hours after local noon")
+    declination_deg: float = Field(0.0, ge=-1.6, le=1.6, description="the sun's declination at the Moon "
+                                                                     "(within its 1.54 degree axial tilt)")
+    step_deg: float = Field(0.05, gt=0, le=5, description="sun positions are quantised to this for the shadow "
+                                                          "cache")
+    max_shadow_m: float = Field(200.0, gt=0, description="longest shadow traced, m")
+
+    @model_validator(mode="after")
+    def _one_way(self) -> SunSpec:
+        fixed = (self.azimuth_deg is not None, self.elevation_deg is not None)
+        if fixed[0] != fixed[1]:
+            raise ValueError("a fixed sun needs both azimuth_deg and elevation_deg")
+        if fixed[0] == (self.latitude_deg is not None):
+            raise ValueError("give either azimuth_deg and elevation_deg (a fixed sun) or latitude_deg (one moving "
+                             "with the lunar day)")
+        return self
+
+
 class Scenario(Spec):
     name: str = Field(min_length=1)
     seed: int = 0
@@ -153,6 +183,7 @@ class Scenario(Spec):
     spawn: SpawnParams | None = Field(None, description="Table 3; used by --rovers N")
     formation: Formation = Formation()
     behaviour: str = "default"
+    sun: SunSpec | None = Field(None, description="sunlight, shadows, battery and temperature; none: off")
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:

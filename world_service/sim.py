@@ -22,6 +22,7 @@ from schemas.params import RoverParams
 from schemas.scenario import Scenario
 from world_service import navigation as nav
 from world_service import statistics as stats
+from world_service.energy import Energy
 from world_service.perception import Perceiver
 from world_service.photos import PhotoJob, render_photo
 from world_service.radio import CommGraph, build_graph, line_of_sight
@@ -103,6 +104,8 @@ class World:
         self.paused = False  # the ground's pause: the service holds the clock
         self.steps_granted = 0  # ticks the ground asked for one at a time while paused
         self.graph = self._build_graph()
+        self.energy = Energy(scenario, self.terrain, self.scene, keyspace, self.dt, list(self.bodies),
+                             self.perception_period, self._period(p.power.publish_frequency)) if scenario.sun else None
 
     def _period(self, rate_hz: float) -> int:
         return ticks_per_period(rate_hz, self.dt)
@@ -138,12 +141,15 @@ class World:
 
     def _on_move(self, rid: int, msg: m.MoveAction) -> list[Out]:
         body = self.bodies[rid]
-        reason = self._move_problem(body, msg)
+        reason = self._power_problem(rid) or self._move_problem(body, msg)
         if reason:
             return [self._reject(rid, "move", *reason)]
         slip, turn = self._noise(msg.x, msg.z)
         body.start_move(msg.x, msg.z, slip, turn)
         return [self._nav_status(body, "move")]
+
+    def _power_problem(self, rid: int) -> tuple[str, str] | None:
+        return self.energy.refusal(rid) if self.energy is not None else None
 
     def _noise(self, x: float, z: float) -> tuple[tuple[float, float], float]:
         """How a move goes wrong (seeded): the ground slips it by a share of its length, the heading drifts."""
@@ -184,6 +190,8 @@ class World:
         body = self.bodies[rid]
         if body.busy:
             return [self._reject(rid, "rotate", "action_in_progress", "a move or rotate is still running")]
+        if reason := self._power_problem(rid):
+            return [self._reject(rid, "rotate", *reason)]
         noise = self.params.navigation.heading_noise_std_deg
         body.start_rotate(msg.degrees + (self.rng.normal(0.0, noise) if noise > 0 else 0.0))
         return [self._nav_status(body, "rotate")]
@@ -205,6 +213,10 @@ class World:
     def _on_photo_action(self, rid: int, msg: m.PhotoAction) -> list[Out]:
         """Queue a photo of what the rover sees now; rendering is slow, so the service decides when."""
         body = self.bodies[rid]
+        if reason := self._power_problem(rid):
+            return [self._reject(rid, "photo", *reason)]
+        if self.energy is not None:
+            self.energy.spend(rid, self.params.power.photo_j)
         others = [b for b in self.bodies.values() if b.id != rid]
         due = self.tick + max(1, round(self.params.camera.capture_time_s / self.dt))
         self.photo_jobs.append(PhotoJob(rid, self.sim_time, msg.label, due, body.x, body.z, body.heading,
@@ -277,6 +289,8 @@ class World:
             raise ValueError(f"only the lander may transmit on channel {msg.channel!r}")
         model = m.RADIO_CHANNEL_MODELS.get(msg.channel)
         inner = codec.decode(model, msg.payload) if model else None
+        if self.energy is not None and not from_lander:
+            self.energy.spend(sender, self.params.power.radio_transmit_j)
         out: list[Out] = []
         for target in msg.targets:
             if target != ks.LANDER_ID and target not in self.bodies:
@@ -333,6 +347,8 @@ class World:
         self.tick += 1
         out: list[Out] = []
         out += self._move_bodies()
+        if self.energy is not None:
+            out += self._power_step()
         if self.tick % self.partners_period == 0:
             self._activate_terrain()
             self.graph = self._build_graph()
@@ -363,6 +379,14 @@ class World:
             ended[body.id] = nav.Ended("move", "collided", start)
         self._positions = None
         return [o for b in active if ended[b.id] for o in self._ended(b, ended[b.id])]
+
+    def _power_step(self) -> list[Out]:
+        """Batteries, temperatures and light; a rover that has just gone off stops where it is."""
+        out, gone_off = self.energy.step(self.tick, self.sim_time, list(self.bodies.values()))
+        for rid in gone_off:
+            self.bodies[rid].cancel()
+            log.info("rover %d shut down at t = %.1f s: %s", rid, self.sim_time, self.energy.refusal(rid)[1])
+        return out
 
     def _slope_factors(self, moving: list[nav.RoverBody]) -> dict[int, float]:
         if not moving:
@@ -473,12 +497,14 @@ class World:
                          goal_index=self.status[b.id].goal_index,
                          distance_to_goal_m=round(stats.distance_to_goal(self.scenario, self._goal_of(b.id),
                                                                          b.x, b.z), 3),
-                         distance_covered_m=round(b.distance_covered, 3), alive=self.alive[b.id])
+                         distance_covered_m=round(b.distance_covered, 3), alive=self.alive[b.id],
+                         **(self.energy.truth(b.id) if self.energy is not None else {}))
             for b in self.bodies.values()
         ]
         counters = m.WorldCounters(rover_collisions=self.rover_collisions, obstacle_collisions=self.obstacle_collisions,
                                    rejected_messages=sum(self.rejected.values()), radio_dropped=self.radio_dropped,
-                                   radio_lost=self.radio_lost)
+                                   radio_lost=self.radio_lost,
+                                   **(self.energy.counters() if self.energy is not None else {}))
         return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links(),
                             relays=self.graph.relays(), counters=counters, completed_at=self.completed_at)
 

@@ -7,6 +7,17 @@ feeds it the states of a recording, so the two reports agree to the last digit.
 "Reached" follows the report: the rover finished its final goal *and* stands at the correct final
 location. For a crater goal that is on the rim: within ``RIM_TOLERANCE`` x radius of the crest. For a
 waypoint it is having the goal in view: within the perception radius.
+
+Power budget efficiency (the literature study's first fitness criterion, 6.3.3: "the rate between the current
+situation to the optimal situation"), reported only when the scenario has a sun: the energy the rovers' goal
+progress would have needed at best, divided by the energy they drew. "At best" is walking the ideal path
+(``relative_path_length``) at the speed level with the least energy per metre, drawing nothing else;
+progress is how much shorter the rover's remaining ideal path (from where it stands through its remaining
+goals) is than its whole one. Energy is chosen over distance per Wh so the figure stays in 0..1 like path
+efficiency, and progress rather than distance so walking the wrong way, detours and standing still (charging
+included) all lower it. A rover that is off (battery empty or too cold) or stuck is credited no progress: what
+it walked bought the mission nothing, while the energy it drew still counts. So a rover that spends energy on
+charging and arrives scores above one that saves it and dies half way.
 """
 
 from __future__ import annotations
@@ -29,12 +40,7 @@ def relative_path_length(scenario: Scenario, start: tuple[float, float]) -> floa
     A crater goal is reached on its crest, so its leg ends at the crest point nearest the leg's start
     (the report measured to the goal marker in the crater, which rewards stopping short of it).
     """
-    length, here = 0.0, start
-    for goal in scenario.mission:
-        there = arrival_point(scenario, goal, here)
-        length += math.dist(here, there)
-        here = there
-    return length
+    return remaining_path(scenario, scenario.mission, *start)
 
 
 def arrival_point(scenario: Scenario, goal: Goal, here: tuple[float, float]) -> tuple[float, float]:
@@ -69,6 +75,23 @@ def at_goal(scenario: Scenario, goal: Goal, x: float, z: float) -> bool:
     return distance_to_goal(scenario, goal, x, z) <= scenario.rover_params.perception.perception_radius
 
 
+def energy_per_metre_wh(scenario: Scenario) -> float:
+    """The least energy a rover can walk a metre on: its whole draw over its speed, at the best speed level."""
+    p = scenario.rover_params
+    base = p.power.idle_w + p.power.perception_w
+    return min((base + p.power.move_power(level)) / p.navigation.speed(level) for level in (1, 2, 3)) / 3600.0
+
+
+def remaining_path(scenario: Scenario, goals: Sequence[Goal], x: float, z: float) -> float:
+    """Crow-flies length from (x, z) through the goals still ahead, to where each is reached."""
+    length, here = 0.0, (x, z)
+    for goal in goals:
+        there = arrival_point(scenario, goal, here)
+        length += math.dist(here, there)
+        here = there
+    return length
+
+
 def build_report(
     scenario: Scenario,
     distances: Sequence[float],
@@ -82,6 +105,7 @@ def build_report(
     links: LinkStats | None = None,
     radio_dropped: int = 0,
     radio_lost: int = 0,
+    power: dict | None = None,
 ) -> MissionReport:
     total = float(sum(distances))
     average = total / len(distances) if distances else 0.0
@@ -104,6 +128,7 @@ def build_report(
         radio_dropped=radio_dropped,
         radio_lost=radio_lost,
         **(links.as_fields() if links else {}),
+        **(power or {}),
     )
 
 
@@ -177,6 +202,27 @@ class MissionStats:
                       and at_goal(self.scenario, self.missions.goal(r.id, final), r.x, r.z))
         return count
 
+    def power_fields(self, state: WorldState) -> dict | None:
+        """Power budget efficiency, energy and shutdowns; None when the world has no power model."""
+        if any(r.energy_used_wh is None for r in state.rovers) or not state.rovers:
+            return None
+        useful = 0.0
+        for r in state.rovers:
+            spawn = self.scenario.rovers[r.id - 1] if r.id <= len(self.scenario.rovers) else None
+            if spawn is None or r.powered is False or r.state == "stuck":
+                continue  # stranded: its progress bought nothing
+            final = self.missions.final_index(r.id)
+            goals = [self.missions.goal(r.id, i) for i in range(max(r.goal_index, 0), final + 1)]
+            whole = remaining_path(self.scenario, [self.missions.goal(r.id, i) for i in range(final + 1)],
+                                   spawn.x, spawn.z)
+            useful += max(0.0, whole - remaining_path(self.scenario, goals, r.x, r.z))
+        used = sum(r.energy_used_wh for r in state.rovers)
+        best = useful * energy_per_metre_wh(self.scenario)
+        c = state.counters
+        return {"power_budget_efficiency": round(best / used, 6) if used > 0 else 0.0,
+                "energy_used_wh": round(used, 6), "power_shutdowns": c.power_shutdowns,
+                "cold_shutdowns": c.cold_shutdowns}
+
     def report(self) -> MissionReport:
         state = self.last
         if state is None:
@@ -195,4 +241,5 @@ class MissionStats:
             links=self.links,
             radio_dropped=c.radio_dropped,
             radio_lost=c.radio_lost,
+            power=self.power_fields(state),
         )
