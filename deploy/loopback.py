@@ -33,24 +33,28 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
     agents = {rid: RoverAgent(rid, keys, params, behaviour(rid, params) if behaviour else None)
               for rid in world.bodies}
     plan = AckPlan(keys, world.dt)
-    pending: list[tuple[str, m.Message]] = []
     photos: list[PhotoJob] = []
-    while world.sim_time < max_sim_time and not world.complete:
-        photos += world.photo_jobs
-        world.photo_jobs = []
-        pending += [(keys.rover(job.rover_id, ks.PHOTO), world.render(job)) for job in photos
-                    if job.due_tick <= world.tick + 1]
-        photos = [job for job in photos if job.due_tick > world.tick + 1]
-        *samples, (clock_key, clock) = world.step()
-        pending = [*pending, *samples]
+
+    def cascade(pending: list[tuple[str, m.Message]]) -> None:
+        """Deliver samples and everything they set off, in order, until nothing more is said."""
         while pending:
             key, message = pending.pop(0)
             plan.note(key)
             pending += _deliver(key, codec.encode(message), world, lander, agents, keys)
+
+    while world.sim_time < max_sim_time and not world.complete:
+        photos += world.photo_jobs
+        world.photo_jobs = []
+        due = [(keys.rover(job.rover_id, ks.PHOTO), world.render(job)) for job in photos
+               if job.due_tick <= world.tick + 1]
+        photos = [job for job in photos if job.due_tick > world.tick + 1]
+        *samples, (clock_key, clock) = world.step()
+        cascade([*due, *samples])
         clock = clock.model_copy(update={"acks": plan.ask(world.tick, {ks.LANDER_ID, *agents})})
         if clock.acks:  # as the world service: no clock on a tick that waits for nobody
-            pending = _deliver(clock_key, codec.encode(clock), world, lander, agents, keys)
-            _note_acks(pending, plan, keys, clock)
+            answers = _deliver(clock_key, codec.encode(clock), world, lander, agents, keys)
+            _note_acks(answers, plan, keys, clock)
+            cascade(answers)  # handled before the next tick, as the service handles what came before the acks
     world.observed_state()  # the final state, as the world service publishes it before its final report
     lander.final_map()
     return world

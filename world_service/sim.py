@@ -446,12 +446,12 @@ class World:
         return out
 
     def _perceptions(self, bodies, xs, zs, hs) -> list[Out]:
-        """Each rover scans once per perception period. In real time the rovers are staggered over the period's
-        ticks, which spreads the world's work evenly; in lockstep they all scan on the same tick, so the ticks
-        between wait for no agent's answer (``world_service.lockstep``) and run as fast as the world steps."""
-        phase = (lambda body: 0) if self.lockstep else (lambda body: body.id)
-        which = np.array([i for i, b in enumerate(bodies) if (self.tick + phase(b)) % self.perception_period == 0],
-                         int)
+        """Each rover scans once per perception period, the rovers staggered over the period's ticks.
+
+        Staggered in lockstep too, though scanning all on one tick would leave more ticks waiting for nobody:
+        rovers that decide on the same tick meet each other's right of way symmetrically, and in the daisy chain
+        scenario that cost a rover its goal. Independent rovers do not share a clock phase either."""
+        which = np.array([i for i, b in enumerate(bodies) if (self.tick + b.id) % self.perception_period == 0], int)
         scans = self.perceiver.scan(xs, zs, hs, which)
         # Built from checked arrays at 5 Hz per rover: skip re-validation (receivers still validate).
         return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
