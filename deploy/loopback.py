@@ -48,11 +48,12 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
         due = [(keys.rover(job.rover_id, ks.PHOTO), world.render(job)) for job in photos
                if job.due_tick <= world.tick + 1]
         photos = [job for job in photos if job.due_tick > world.tick + 1]
-        *samples, (clock_key, clock) = world.step()
-        cascade([*due, *samples])
+        out = world.step()
+        clock = next(message for key, message in out if key == keys.clock)
+        cascade([*due, *((key, message) for key, message in out if key != keys.clock)])
         clock = clock.model_copy(update={"acks": plan.ask(world.tick, {ks.LANDER_ID, *agents})})
         if clock.acks:  # as the world service: no clock on a tick that waits for nobody
-            answers = _deliver(clock_key, codec.encode(clock), world, lander, agents, keys)
+            answers = _deliver(keys.clock, codec.encode(clock), world, lander, agents, keys)
             _note_acks(answers, plan, keys, clock)
             cascade(answers)  # handled before the next tick, as the service handles what came before the acks
     world.observed_state()  # the final state, as the world service publishes it before its final report

@@ -229,9 +229,12 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
 def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) -> None:
     """One tick: due photos, the world's samples, then the clock, naming in lockstep whose ack it waits for."""
     photographer.take(world.tick + 1)
-    *samples, (clock_key, clock) = world.step()
-    for key, message in samples:
-        _publish(bus, agents, key, message)
+    out = world.step()
+    clock_key = world.keys.clock
+    clock = next(message for key, message in out if key == clock_key)
+    for key, message in out:
+        if key != clock_key:
+            _publish(bus, agents, key, message)
     if agents.plan is not None:
         agents.waiting = set(agents.plan.ask(world.tick, set(agents.ids.values())))
         if not agents.waiting:
