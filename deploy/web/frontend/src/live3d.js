@@ -32,7 +32,11 @@ export class LiveView {
       return;
     }
     page.webgl = true;
-    this.renderer.setPixelRatio(1);
+    // ?scale=0.5 draws a quarter of the pixels (scaled up by the browser): an option for software WebGL, not the
+    // default, as its gain was between none and 1.8x in paired runs on a shared machine (README, Web view).
+    const scale = Number(new URLSearchParams(location.search).get("scale"));
+    page.renderScale = scale > 0 && scale <= 1 ? scale : 1;
+    this.renderer.setPixelRatio(page.renderScale);
     container.appendChild(this.renderer.domElement);
     this.scene = new THREE.Scene();
     this.scene.background = new THREE.Color(0x05070c);

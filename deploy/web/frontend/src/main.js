@@ -7,7 +7,7 @@ import { inflate } from "./traversemap.js";
 // Page state, also read by the browser tests and the FPS benchmark.
 const lunarsim = (window.lunarsim = {
   connected: false, world: "", scene: null, state: null, stats: null, lander: null,
-  photos: {}, map: null, maps: 0, fps: 0, frames: 0, states: 0, lastCommand: null, webgl: false,
+  photos: {}, map: null, maps: 0, fps: 0, renderScale: 1, frames: 0, states: 0, lastCommand: null, webgl: false,
 });
 
 const $ = (id) => document.getElementById(id);
