@@ -2,7 +2,7 @@
 import { LiveView } from "./live3d.js";
 import { Panels } from "./panels.js";
 import { Editor } from "./editor.js";
-import { inflate } from "./traversemap.js";
+import { inflate, pageColours } from "./traversemap.js";
 
 // Page state, also read by the browser tests and the FPS benchmark.
 const lunarsim = (window.lunarsim = {
@@ -38,6 +38,7 @@ function handle(msg) {
 
 async function showMap(msg) {
   const cells = await inflate(msg.cells);
+  msg.colours = pageColours(msg);
   if (lunarsim.map && lunarsim.map.stamp > msg.stamp) return; // a newer map was inflated first
   lunarsim.map = { ...msg, cells: undefined, bytes: cells.length };
   lunarsim.maps += 1;

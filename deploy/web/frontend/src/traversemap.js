@@ -7,6 +7,13 @@ const ALPHA = 150;
 const LIFT_M = 0.25;
 const MAX_SIDE = 160;
 
+// The PNG's free light grey vanishes on the light terrain of the 3D view: free ground is drawn teal here.
+const PAGE_COLOURS = { free: [40, 170, 200] };
+
+export function pageColours(msg) {
+  return msg.classes.map((name, i) => PAGE_COLOURS[name] || msg.colours[i]);
+}
+
 export async function inflate(b64) {
   const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
   const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("deflate"));
