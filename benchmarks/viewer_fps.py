@@ -9,7 +9,11 @@ is the cost of the terrain alone, so the difference is what the rovers, trails a
 Chromium runs without a GPU here, so WebGL is software (SwiftShader) on the machine's CPUs: the absolute
 figure depends mostly on the viewport's pixel count (``--size``); compare rover counts at one size.
 
-    python benchmarks/viewer_fps.py [--rovers 0 100] [--seconds 10] [--size 1280x720] [--rate 20] [--json FILE]
+``--scales`` compares drawing resolutions in one run: the page's ``?scale=`` pixel ratio (1: full, 0.5: a quarter
+of the pixels, scaled up by the browser).
+
+    python benchmarks/viewer_fps.py [--rovers 0 100] [--scales 1 0.5] [--seconds 10] [--size 1280x720]
+                                    [--rate 20] [--json FILE]
 """
 
 from __future__ import annotations
@@ -84,12 +88,15 @@ def measure(page, n: int, seconds: float) -> dict:
     f0, s0, t0 = page.evaluate("lunarsim.frames"), page.evaluate("lunarsim.states"), time.monotonic()
     time.sleep(seconds)
     f1, s1, t1 = page.evaluate("lunarsim.frames"), page.evaluate("lunarsim.states"), time.monotonic()
-    return {"rovers": n, "fps": round((f1 - f0) / (t1 - t0), 1), "states_per_s": round((s1 - s0) / (t1 - t0), 1)}
+    return {"rovers": n, "fps": round((f1 - f0) / (t1 - t0), 1), "states_per_s": round((s1 - s0) / (t1 - t0), 1),
+            "render_scale": page.evaluate("lunarsim.renderScale")}
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rovers", type=int, nargs="+", default=[0, 100])
+    parser.add_argument("--scales", nargs="+", type=float, default=[1.0],
+                        help="page drawing resolutions (pixel ratio, 0-1) to measure one after the other")
     parser.add_argument("--seconds", type=float, default=10.0)
     parser.add_argument("--size", default="1280x720", help="browser viewport WIDTHxHEIGHT")
     parser.add_argument("--rate", type=float, default=20.0, help="world states published per second")
@@ -115,13 +122,17 @@ def main() -> int:
         with tempfile.TemporaryDirectory() as user_data, sync_playwright() as p:
             context = p.chromium.launch_persistent_context(user_data, executable_path=args.chromium, args=CHROMIUM_ARGS,
                                                            headless=True, viewport={"width": width, "height": height})
-            page = context.new_page()
-            page.goto(f"http://127.0.0.1:{web_port}/")
-            for n in args.rovers:
-                current[0] = n
-                results.append(measure(page, n, args.seconds))
-                print(f"{n:4d} rovers: {results[-1]['fps']:6.1f} frames/s, {results[-1]['states_per_s']:5.1f} states/s "
-                      f"reached the page (viewport {args.size}, states published at {args.rate:g} Hz)", flush=True)
+            for scale in args.scales:
+                page = context.new_page()
+                page.goto(f"http://127.0.0.1:{web_port}/?scale={scale:g}")
+                for n in args.rovers:
+                    current[0] = n
+                    results.append({"scale": scale, **measure(page, n, args.seconds)})
+                    r = results[-1]
+                    print(f"scale {scale:4g}: {n:4d} rovers: {r['fps']:6.1f} frames/s at {r['render_scale']:.3f} "
+                          f"resolution, {r['states_per_s']:5.1f} states/s reached the page (viewport {args.size}, "
+                          f"states published at {args.rate:g} Hz)", flush=True)
+                page.close()
             context.close()
     finally:
         stop.set()

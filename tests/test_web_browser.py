@@ -107,6 +107,38 @@ def test_live_view_shows_rovers_moving_and_commands_reach_the_lander(router, tmp
         stop(view, run)
 
 
+def test_polar_run_shows_battery_columns_power_statistics_and_the_lander_map(router, tmp_path, browser):
+    """polar_night_edge has a sun: battery, temperature and light per rover, and the lander maps the traverse."""
+    world, scenario = "webpolar", str(SCENARIOS / "polar_night_edge.yaml")
+    run = lunarsim("run", scenario, "--connect", router, "--world", world, "--time-scale", "5", "--quiet",
+                   "--no-record", "--out", str(tmp_path / "run"))
+    view, url = start_view(router, world, tmp_path, "--scenario", scenario)
+    try:
+        page = browser.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(url)
+        wait_for(lambda: page_value(page, "lunarsim.scene.power.capacity_wh") == 0.05, 15, "the scene's battery")
+        wait_for(lambda: page.locator("#rovers td[data-field=battery_pct]").count() == 1, 60, "the battery column")
+        assert "Wh" in page.inner_text("#rovers thead") and "°C" in page.inner_text("#rovers thead")
+        percent = int(page.inner_text("#rovers td[data-field=battery_pct]"))
+        battery = page_value(page, "lunarsim.state.rovers[0].battery_wh")
+        assert 0 <= percent <= 100 and battery is not None
+        wait_for(lambda: (page_value(page, "lunarsim.map.counts[1]") or 0) > 0, 40, "a map with explored cells")
+        shown = page_value(page, "lunarsim.map")
+        assert shown["bytes"] == shown["width"] * shown["height"] and shown["classes"][2] == "obstacle"
+        assert page_value(page, "lunarsim.view.mapOverlay.mesh.visible") is True
+        assert page.is_visible("#maplegend") and "free" in page.inner_text("#map-classes")
+        wait_for(lambda: page_value(page, "lunarsim.stats.report.energy_used_wh") is not None, 20, "power stats")
+        assert page.locator("#simstats td[data-field=power_budget_efficiency]").count() == 1
+        shot(page, "live_view_polar_map")
+        page.uncheck("#map-show")
+        assert page_value(page, "lunarsim.view.mapOverlay.mesh.visible") is False
+        assert not errors, errors
+    finally:
+        stop(view, run)
+
+
 def test_editor_scenario_saved_reloaded_profiled_and_launched(router, tmp_path, browser):
     view, url = start_view(router, "webedit", tmp_path)
     try:

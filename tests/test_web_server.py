@@ -6,9 +6,12 @@ The live path (Zenoh to the page, commands to the lander) is driven end to end i
 from __future__ import annotations
 
 import asyncio
+import base64
 import json
+import zlib
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from aiohttp.test_utils import TestClient, TestServer
@@ -16,8 +19,10 @@ from procs import SCENARIOS
 
 from deploy.web import editor, live
 from deploy.web.commands import CommandError, Commands, command_from_request
+from deploy.web.scene import scenario_scene
 from deploy.web.server import Viewer, build_app
-from schemas import codec
+from lander_agent import mapping
+from schemas import codec, radio
 from schemas import messages as m
 from schemas.scenario import load_scenario
 
@@ -136,3 +141,57 @@ def test_latest_keeps_only_the_newest_state_and_decodes_it():
     assert live.stream_message("stats", newer["stats"]) is None
     assert latest.newer(seen) == {}  # nothing new since
     json.dumps(state)
+
+
+def _lander_map() -> tuple[m.LanderMap, np.ndarray]:
+    """The lander's map of polar_night_edge after one rover report: a rover cell, free ground and an obstacle."""
+    scenario = load_scenario(SCENARIOS / "polar_night_edge.yaml")
+    traverse = mapping.TraverseMap.for_scenario(scenario)
+    cells = np.array([[0, 0], [1, 0], [2, 0], [5, 1]], "<i2")
+    kinds = np.array([radio.MAP_KINDS.index(k) for k in ("free", "free", "free", "obstacle")], np.uint8)
+    traverse.fold(1, radio.MapReport(seq=0, x=0.5, z=0.5, cell_m=traverse.spec.cell_m, cells=cells.tobytes(),
+                                     kinds=kinds.tobytes()))
+    return traverse.to_message(5.0), traverse.classes()
+
+
+def test_the_lander_map_is_decoded_and_forwarded_compressed_with_counts_and_colours():
+    msg, classes = _lander_map()
+    latest = live.Latest()
+    latest.put("map", codec.encode(msg))
+    page = live.stream_message("map", latest.newer({})["map"])
+    assert (page["width"], page["height"], page["cell_m"]) == (msg.width, msg.height, msg.cell_m)
+    assert page["classes"] == list(mapping.CLASSES) and page["colours"][2] == mapping.COLOURS[2].tolist()
+    assert zlib.decompress(base64.b64decode(page["cells"])) == classes.tobytes()
+    counts = dict(zip(page["classes"], page["counts"], strict=True))
+    assert counts["obstacle"] == 1 and counts["rover"] == 1 and counts["free"] >= 1
+    assert sum(page["counts"]) == msg.width * msg.height
+    json.dumps(page)
+    torn = msg.model_copy(update={"cells": zlib.compress(b"\x01" * 10)})  # not width x height cells
+    assert live.stream_message("map", codec.encode(torn)) is None
+
+
+def test_power_fields_reach_the_page_only_when_the_scenario_has_a_sun():
+    common = dict(id=1, x=0.0, z=0.0, heading_deg=90.0, action="move", state="migration", goal_index=0,
+                  distance_to_goal_m=10.0, distance_covered_m=1.0, alive=True)
+    powered = m.RoverTruth(**common, battery_wh=0.0125, temperature_c=-12.345, sunlit=False, energy_used_wh=0.002,
+                           powered=True)
+    state = live.state_json(m.WorldState(stamp=1.0, rovers=[powered, m.RoverTruth(**{**common, "id": 2})]))
+    with_sun, without = state["rovers"]
+    assert with_sun["battery_wh"] == 0.0125 and with_sun["temperature_c"] == -12.35
+    assert with_sun["sunlit"] is False and with_sun["powered"] is True and with_sun["energy_used_wh"] == 0.002
+    assert "battery_wh" not in without and "sunlit" not in without
+    report = m.MissionReport(scenario="s", seed=0, relative_path_length_m=1.0, average_distance_covered_m=1.0,
+                             average_path_efficiency=1.0, total_distance_covered_m=1.0, rovers_reached_final_goal=0,
+                             rovers_total=1, rover_collisions=0, obstacle_collisions=0, rovers_stuck=0,
+                             mission_duration_s=1.0, power_budget_efficiency=0.5, power_shutdowns=1, cold_shutdowns=0)
+    stats = codec.decode(m.WorldStats, codec.encode(m.WorldStats(stamp=1.0, report=report)))
+    assert live.stats_json(stats)["report"]["power_budget_efficiency"] == 0.5
+    assert live.stats_json(stats)["report"]["power_shutdowns"] == 1
+
+
+def test_the_scene_carries_the_sun_and_battery_capacity_of_a_sunlit_scenario():
+    polar = scenario_scene(load_scenario(SCENARIOS / "polar_night_edge.yaml"), cells=24)
+    assert polar["power"] == {"capacity_wh": 0.05}
+    assert 0 < polar["sun"]["elevation_deg"] < 5  # the low polar sun of the scenario's comment
+    plain = scenario_scene(load_scenario(SCENARIO), cells=24)
+    assert plain["sun"] is None and plain["power"] is None

@@ -11,6 +11,9 @@ import base64
 import threading
 from dataclasses import dataclass, field
 
+import numpy as np
+
+from lander_agent import mapping
 from schemas import codec
 from schemas import messages as m
 
@@ -58,12 +61,24 @@ class Latest:
             self.photos.clear()
 
 
+def power_json(r: m.RoverTruth) -> dict:
+    """A rover's battery, temperature and light; nothing when the scenario has no sun (no power model)."""
+    if r.battery_wh is None:
+        return {}
+    return {"battery_wh": round(r.battery_wh, 5), "temperature_c": _round(r.temperature_c, 2), "sunlit": r.sunlit,
+            "powered": r.powered, "energy_used_wh": _round(r.energy_used_wh, 5)}
+
+
+def _round(value: float | None, digits: int) -> float | None:
+    return None if value is None else round(value, digits)
+
+
 def state_json(state: m.WorldState) -> dict:
     """The world state for the page: one entry per rover, links and the daisy chain."""
     rovers = [{"id": r.id, "x": round(r.x, 3), "z": round(r.z, 3), "heading": round(r.heading_deg, 2),
                "state": r.state, "action": r.action, "goal": r.goal_index,
                "to_goal": round(r.distance_to_goal_m, 2), "covered": round(r.distance_covered_m, 2),
-               "alive": r.alive, "stale": r.telemetry_stale} for r in state.rovers]
+               "alive": r.alive, "stale": r.telemetry_stale, **power_json(r)} for r in state.rovers]
     return {"type": "state", "stamp": state.stamp, "rovers": rovers, "links": [list(p) for p in state.comm_links],
             "relays": state.relays, "counters": state.counters.model_dump(), "completed_at": state.completed_at}
 
@@ -76,13 +91,25 @@ def lander_json(status: m.LanderStatus) -> dict:
     return {"type": "lander", **status.model_dump()}
 
 
+def map_json(msg: m.LanderMap) -> dict:
+    """The lander's traverse map, still zlib-compressed (the page inflates it): a few kB every 5 s, not the
+    grid's full size. Decoded here once all the same, so a map that does not fit its shape never reaches a page,
+    and so the page gets each class's cell count and colour (those of the map's PNG)."""
+    _, cells = mapping.from_message(msg)
+    counts = np.bincount(cells.ravel(), minlength=len(msg.classes))
+    return {"type": "map", "stamp": msg.stamp, "cell_m": msg.cell_m, "origin_x": msg.origin_x,
+            "origin_z": msg.origin_z, "width": msg.width, "height": msg.height, "classes": msg.classes,
+            "colours": mapping.COLOURS[:len(msg.classes)].tolist(), "counts": counts.tolist(),
+            "cells": base64.b64encode(msg.cells).decode("ascii")}
+
+
 def photo_json(rover_id: int, photo: m.Photo) -> dict:
     return {"type": "photo", "rover": rover_id, "stamp": photo.stamp, "label": photo.label,
             "png": base64.b64encode(photo.png).decode("ascii")}
 
 
 STREAM_MODELS = {"state": (m.WorldState, state_json), "stats": (m.WorldStats, stats_json),
-                 "lander": (m.LanderStatus, lander_json)}
+                 "lander": (m.LanderStatus, lander_json), "map": (m.LanderMap, map_json)}
 
 
 def stream_message(stream: str, payload: bytes) -> dict | None:
@@ -90,7 +117,7 @@ def stream_message(stream: str, payload: bytes) -> dict | None:
     model, to_json = STREAM_MODELS[stream]
     try:
         return to_json(codec.decode(model, payload))
-    except codec.DecodeError:
+    except ValueError:  # codec.DecodeError, or a map whose cells do not fit its shape
         return None
 
 

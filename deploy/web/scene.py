@@ -43,9 +43,23 @@ def scenario_scene(scenario: Scenario, cells: int = TERRAIN_CELLS) -> dict:
         "lander": {"x": scenario.lander.x, "z": scenario.lander.z, "r": scenario.lander.radius_m,
                    "h": ground(scenario.lander.x, scenario.lander.z)},
         "goals": [{"x": g.x, "z": g.z, "kind": g.kind, "h": ground(g.x, g.z)} for g in scenario.mission],
+        **sun_and_power(scenario),
     }
+
+
+def sun_and_power(scenario: Scenario) -> dict:
+    """The sun where it stands at the start (it moves 0.5 degrees an hour, so the page does not follow it) and
+    the battery capacity the page divides by; both None without a ``sun`` block (no power model)."""
+    from world_service.sun import Sun
+
+    if scenario.sun is None:
+        return {"sun": None, "power": None}
+    pos = Sun(scenario.sun).exact(0.0)
+    return {"sun": {"azimuth_deg": round(pos.azimuth_deg, 3), "elevation_deg": round(pos.elevation_deg, 3)},
+            "power": {"capacity_wh": scenario.rover_params.power.capacity_wh}}
 
 
 def empty_scene() -> dict:
     """No scenario known yet (``lunarsim view`` without ``--scenario``): the page sizes a flat ground to the rovers."""
-    return {"name": "", "terrain": None, "craters": [], "rocks": [], "walls": [], "lander": None, "goals": []}
+    return {"name": "", "terrain": None, "craters": [], "rocks": [], "walls": [], "lander": None, "goals": [],
+            "sun": None, "power": None}

@@ -27,7 +27,7 @@ def run_web(args: argparse.Namespace) -> int:
     from deploy.web.server import Viewer, build_app
     from deploy.zenoh_config import DEFAULT_ENDPOINT, config_from_args, describe_endpoints, open_session
     from schemas import codec
-    from schemas.keyspace import PHOTO, STATUS, Keyspace
+    from schemas.keyspace import MAP, PHOTO, STATUS, Keyspace
     from schemas.scenario import load_scenario
 
     keys = Keyspace(args.world)
@@ -36,7 +36,8 @@ def run_web(args: argparse.Namespace) -> int:
                            who="lunarsim view")
     latest = live.Latest()
     commands = Commands(lambda cmd: session.put(keys.ground_command, codec.encode(cmd)))
-    streams = {keys.state: "state", keys.stats: "stats", keys.lander(STATUS): "lander"}
+    streams = {keys.state: "state", keys.stats: "stats", keys.lander(STATUS): "lander",
+               keys.lander(MAP): "map"}
 
     def on_sample(sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)

@@ -5,9 +5,11 @@
 import * as THREE from "three";
 import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
 import { Ground } from "./ground.js";
+import { MapOverlay } from "./traversemap.js";
 
 const ROVER = { length: 1.4, width: 1.0, height: 0.6, scale: 2.0 };
 const TRAIL_POINTS = 300;
+const DEFAULT_SUN = new THREE.Vector3(-0.5, 0.7, 0.4).normalize();
 const STATE_COLORS = {
   waiting: 0x999999, migration: 0x3399ff, avoiding: 0xffcc1a, climbing: 0xe6801a, observing: 0x4ce64c,
   done: 0x1ab333, stuck: 0xff1a1a, stopped: 0x804d4d, relay: 0xe64de6,
@@ -30,16 +32,21 @@ export class LiveView {
       return;
     }
     page.webgl = true;
-    this.renderer.setPixelRatio(1);
+    // ?scale=0.5 draws a quarter of the pixels (scaled up by the browser): an option for software WebGL, not the
+    // default, as its gain was between none and 1.8x in paired runs on a shared machine (README, Web view).
+    const scale = Number(new URLSearchParams(location.search).get("scale"));
+    page.renderScale = scale > 0 && scale <= 1 ? scale : 1;
+    this.renderer.setPixelRatio(page.renderScale);
     container.appendChild(this.renderer.domElement);
     this.scene = new THREE.Scene();
     this.scene.background = new THREE.Color(0x05070c);
     this.camera = new THREE.PerspectiveCamera(50, 1, 0.5, 20000);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.scene.add(new THREE.AmbientLight(0xffffff, 0.55));
-    const sun = new THREE.DirectionalLight(0xffffff, 1.6);
-    sun.position.set(-300, 400, 200);
-    this.scene.add(sun);
+    this.sun = new THREE.DirectionalLight(0xffffff, 1.6);
+    this.sun.position.set(...DEFAULT_SUN.clone().multiplyScalar(500).toArray());
+    this.scene.add(this.sun);
+    this.mapOverlay = new MapOverlay(this.scene);
     this.statics = new THREE.Group();
     this.scene.add(this.statics);
     this.makeDynamic(128);
@@ -85,8 +92,11 @@ export class LiveView {
     this.curr.clear();
     if (!this.renderer) return;
     this.statics.clear();
+    this.mapOverlay.clear();
     const g = this.ground;
-    if (scene.terrain) this.statics.add(terrainMesh(scene.terrain));
+    const sun = scene.sun ? sunVector(scene.sun) : DEFAULT_SUN;
+    this.sun.position.copy(sun).multiplyScalar(500);
+    if (scene.terrain) this.statics.add(terrainMesh(scene.terrain, sun));
     for (const c of scene.craters) this.statics.add(ring(c.x, c.z, c.r, c.h + 0.2, 0xe69933));
     if (scene.rocks.length) this.statics.add(rocks(scene.rocks));
     for (const w of scene.walls) for (const seg of walls(w, g)) this.statics.add(seg);
@@ -138,6 +148,14 @@ export class LiveView {
     if (state.rovers.length > this.rovers.instanceMatrix.count) this.makeDynamic(state.rovers.length * 2);
     this.updateTrails();
     this.updateLinks(state);
+  }
+
+  setMap(msg, cells) {
+    if (this.renderer) this.mapOverlay.update(msg, cells, this.ground);
+  }
+
+  showMap(on) {
+    if (this.renderer) this.mapOverlay.show(on);
   }
 
   where(id) {
@@ -213,7 +231,13 @@ function setPoints(lines, pts) {
   lines.geometry.computeBoundingSphere();
 }
 
-function terrainMesh(t) {
+// The scenario's sun (azimuth like a heading: 0 = shining from +z) as a three.js direction towards it.
+function sunVector(s) {
+  const az = (s.azimuth_deg * Math.PI) / 180, el = (s.elevation_deg * Math.PI) / 180;
+  return new THREE.Vector3(Math.sin(az) * Math.cos(el), Math.sin(el), -Math.cos(az) * Math.cos(el));
+}
+
+function terrainMesh(t, sun) {
   const geo = new THREE.BufferGeometry();
   const pos = new Float32Array(t.nx * t.nz * 3), col = new Float32Array(t.nx * t.nz * 3);
   const lo = Math.min(...t.heights), hi = Math.max(...t.heights);
@@ -238,7 +262,7 @@ function terrainMesh(t) {
   geo.computeVertexNormals();
   // Sunlight baked into the vertex colours once: an unlit material costs far less per pixel, which is what
   // limits a browser drawing without a GPU.
-  const normal = geo.getAttribute("normal"), sun = new THREE.Vector3(-0.5, 0.7, 0.4).normalize(), n = new THREE.Vector3();
+  const normal = geo.getAttribute("normal"), n = new THREE.Vector3();
   for (let k = 0; k < t.nx * t.nz; k++) {
     const light = 0.45 + 0.75 * Math.max(0, n.fromBufferAttribute(normal, k).dot(sun));
     col[k * 3] *= light; col[k * 3 + 1] *= light; col[k * 3 + 2] *= light;

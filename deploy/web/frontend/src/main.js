@@ -2,15 +2,16 @@
 import { LiveView } from "./live3d.js";
 import { Panels } from "./panels.js";
 import { Editor } from "./editor.js";
+import { inflate, pageColours } from "./traversemap.js";
 
 // Page state, also read by the browser tests and the FPS benchmark.
 const lunarsim = (window.lunarsim = {
   connected: false, world: "", scene: null, state: null, stats: null, lander: null,
-  photos: {}, fps: 0, frames: 0, states: 0, lastCommand: null, webgl: false,
+  photos: {}, map: null, maps: 0, fps: 0, renderScale: 1, frames: 0, states: 0, lastCommand: null, webgl: false,
 });
 
 const $ = (id) => document.getElementById(id);
-const view = new LiveView($("view3d"), lunarsim);
+const view = (lunarsim.view = new LiveView($("view3d"), lunarsim));
 const panels = new Panels(lunarsim);
 const editor = new Editor(lunarsim);
 view.onPick = (x, z) => panels.setTarget(x, z);
@@ -26,13 +27,26 @@ for (const tab of document.querySelectorAll(".tab")) {
 function handle(msg) {
   switch (msg.type) {
     case "hello": lunarsim.world = msg.world; $("world").textContent = `world ${msg.world}`; break;
-    case "scene": lunarsim.scene = msg.scene; view.setScene(msg.scene); break;
+    case "scene": lunarsim.scene = msg.scene; lunarsim.map = null; view.setScene(msg.scene); panels.setScene(msg.scene); break;
     case "state": lunarsim.state = msg; lunarsim.states += 1; view.setState(msg); panels.setState(msg); break;
     case "stats": lunarsim.stats = msg; panels.setStats(msg); break;
     case "lander": lunarsim.lander = msg; panels.setLander(msg); break;
     case "photo": lunarsim.photos[msg.rover] = msg; panels.setPhoto(msg); break;
+    case "map": showMap(msg); break;
   }
 }
+
+async function showMap(msg) {
+  const cells = await inflate(msg.cells);
+  msg.colours = pageColours(msg);
+  if (lunarsim.map && lunarsim.map.stamp > msg.stamp) return; // a newer map was inflated first
+  lunarsim.map = { ...msg, cells: undefined, bytes: cells.length };
+  lunarsim.maps += 1;
+  view.setMap(msg, cells);
+  panels.setMap(msg);
+}
+
+$("map-show").addEventListener("change", () => view.showMap($("map-show").checked));
 
 function connect() {
   const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);

@@ -22,6 +22,19 @@ const SIM_FIELDS = [
   ["radio_lost", "radio lost"],
   ["complete", "complete"],
 ];
+// Shown only when the run has them: the lander's map (issue 8) and the power model (a scenario with a sun).
+const OPTIONAL_FIELDS = [
+  ["map_corridor_mapped", "share of the A-B corridor mapped"],
+  ["map_obstacles_found", "share of the corridor's obstacles mapped"],
+  ["map_obstacle_precision", "share of mapped obstacles that are real"],
+  ["power_budget_efficiency", "power budget efficiency"],
+  ["energy_used_wh", "energy used (Wh)"],
+  ["power_shutdowns", "power shutdowns (battery empty)"],
+  ["cold_shutdowns", "cold shutdowns (too cold to run)"],
+];
+const BASE_COLUMNS = "<th>id</th><th>state</th><th>goal</th><th>to goal m</th><th>covered m</th>";
+const POWER_COLUMNS = "<th title=\"battery charge\">Wh</th><th title=\"battery charge, % of capacity\">%</th>" +
+  "<th title=\"temperature\">°C</th><th title=\"panel in sunlight\">light</th><th title=\"off: battery empty or too cold\">on</th>";
 const TABLE_PERIOD_MS = 400;
 
 function fmt(v) {
@@ -34,6 +47,8 @@ export class Panels {
     this.selected = null;
     this.tableAt = 0;
     this.known = new Set();
+    this.capacity = null;
+    this.powerShown = null;
     for (const name of ["set-target", "stop", "return", "pause", "resume", "step"]) {
       $(`cmd-${name}`).addEventListener("click", () => this.send(name));
     }
@@ -49,9 +64,16 @@ export class Panels {
     const now = performance.now();
     if (now - this.tableAt < TABLE_PERIOD_MS) return; // a DOM table of 100 rows is costly at 10 Hz
     this.tableAt = now;
+    const power = state.rovers.some((r) => r.battery_wh !== undefined);
+    if (power !== this.powerShown) {
+      this.powerShown = power;
+      $("rovers").querySelector("thead tr").innerHTML = BASE_COLUMNS + (power ? POWER_COLUMNS : "");
+      $("power-note").textContent = power ? "" : "No sun in this scenario: battery and temperature are not simulated.";
+    }
     const rows = state.rovers.map((r) =>
       `<tr data-id="${r.id}" class="${String(r.id) === this.selected ? "sel" : ""}"><td>${r.id}</td>` +
-      `<td>${r.alive ? r.state : "lost"}</td><td>${r.goal}</td><td>${r.to_goal.toFixed(1)}</td><td>${r.covered.toFixed(1)}</td></tr>`);
+      `<td>${r.alive ? r.state : "lost"}</td><td>${r.goal}</td><td>${r.to_goal.toFixed(1)}</td><td>${r.covered.toFixed(1)}</td>` +
+      (power ? this.powerCells(r) : "") + "</tr>");
     $("rovers").querySelector("tbody").innerHTML = rows.join("");
     const select = $("cmd-rover");
     for (const r of state.rovers) {
@@ -61,9 +83,33 @@ export class Panels {
     }
   }
 
+  powerCells(r) {
+    if (r.battery_wh === undefined) return "<td></td>".repeat(5);
+    const pct = this.capacity ? `${Math.round((100 * r.battery_wh) / this.capacity)}` : "";
+    const temp = r.temperature_c === null ? "" : r.temperature_c.toFixed(1);
+    return `<td data-field="battery_wh">${r.battery_wh.toPrecision(3)}</td><td data-field="battery_pct">${pct}</td>` +
+      `<td>${temp}</td><td>${r.sunlit ? "sun" : "shadow"}</td>` +
+      `<td class="${r.powered ? "" : "bad"}">${r.powered ? "on" : "off"}</td>`;
+  }
+
+  setScene(scene) {
+    this.capacity = scene.power ? scene.power.capacity_wh : null;
+    $("maplegend").hidden = true;
+  }
+
+  setMap(msg) {
+    $("maplegend").hidden = false;
+    $("map-info").textContent = `lander's map at ${msg.stamp.toFixed(0)} s, ${msg.width} × ${msg.height} cells of ${msg.cell_m} m`;
+    $("map-classes").innerHTML = msg.classes.map((name, i) => {
+      const [r, g, b] = msg.colours[i];
+      return `<span class="swatch" style="background: rgb(${r},${g},${b})"></span>${name} ${msg.counts[i]}`;
+    }).join(" ");
+  }
+
   setStats(stats) {
     const r = stats.report;
-    $("simstats").innerHTML = SIM_FIELDS.map(([k, label]) => `<tr><td>${label}</td><td data-field="${k}">${fmt(r[k])}</td></tr>`).join("")
+    const fields = SIM_FIELDS.concat(OPTIONAL_FIELDS.filter(([k]) => r[k] !== null && r[k] !== undefined));
+    $("simstats").innerHTML = fields.map(([k, label]) => `<tr><td>${label}</td><td data-field="${k}">${fmt(r[k])}</td></tr>`).join("")
       + `<tr><td>rovers</td><td>${r.rovers_total}</td></tr>`;
   }
 
