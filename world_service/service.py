@@ -248,7 +248,7 @@ def _hold(world: World, bus: Bus, agents: Agents, stop: threading.Event) -> None
     arrives, until a resume or a step."""
     bus.publish(world.keys.clock, world.clock(running=False))
     deadline = time.monotonic() + 0.5
-    while not stop.is_set() and world.paused and not world.steps_granted and time.monotonic() < deadline:
+    while not stop.is_set() and world.hold.waiting and time.monotonic() < deadline:
         item = bus.receive(timeout=0.05)
         if item is not None:
             handle(world, bus, item, agents)
@@ -261,7 +261,7 @@ def _finished(world: World, settings: ClockSettings) -> bool:
 def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> m.MissionReport:
     """Run the mission until every rover is done or stuck, ``max_sim_time`` passes, or ``stop`` is set."""
     world.time_scale, world.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
-    camera = CameraProcess(world.scenario)  # starts while the agents connect
+    camera = CameraProcess(world.scenario) if world.RENDERS_PHOTOS else None  # starts while the agents connect
     agents = wait_for_agents(world, bus, settings, stop)
     agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
     photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings, camera)
@@ -282,7 +282,7 @@ def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threadi
     while not stop.is_set():
         for item in bus.drain():
             handle(world, bus, item, agents)
-        if world.held():
+        if world.hold.held():
             _hold(world, bus, agents, stop)
             next_tick = time.monotonic()
             continue
@@ -302,7 +302,7 @@ def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threadi
     tally = LockstepTally(start=time.perf_counter())
     try:
         while not stop.is_set():
-            while world.held() and not stop.is_set():
+            while world.hold.held() and not stop.is_set():
                 _hold(world, bus, agents, stop)
             t0 = time.perf_counter()
             _step(world, bus, photographer, agents)

@@ -22,6 +22,7 @@ from schemas.params import RoverParams
 from schemas.scenario import Scenario
 from world_service import navigation as nav
 from world_service import statistics as stats
+from world_service.clock_hold import ClockHold
 from world_service.energy import Energy
 from world_service.perception import Perceiver
 from world_service.photos import PhotoJob, render_photo
@@ -64,6 +65,9 @@ def all_finished(status: dict[int, m.RoverStatus], moving: Iterable[bool],
 
 
 class World:
+    RENDERS_PHOTOS: ClassVar[bool] = True
+    """The service starts a camera process for it (a twin's photos come from the rovers' own cameras)."""
+
     def __init__(self, scenario: Scenario, keyspace: ks.Keyspace) -> None:
         self.scenario = scenario
         self.keys = keyspace
@@ -101,8 +105,7 @@ class World:
         self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.time_scale = 1.0  # what the clock announces; the service paces the ticks
         self.lockstep = False
-        self.paused = False  # the ground's pause: the service holds the clock
-        self.steps_granted = 0  # ticks the ground asked for one at a time while paused
+        self.hold = ClockHold()  # the ground's pause: the service holds the clock
         self.graph = self._build_graph()
         self.energy = Energy(scenario, self.terrain, self.scene, keyspace, self.dt, list(self.bodies),
                              self.perception_period, self._period(p.power.publish_frequency)) if scenario.sun else None
@@ -246,21 +249,7 @@ class World:
         """Follow the ground's changes to the mission, so statistics judge each rover's real final goal; pause,
         resume and step hold and release the clock (a replay follows them too)."""
         self.mission_stats.command(command)
-        if command.command == "pause":
-            self.paused = True
-        elif command.command == "resume":
-            self.paused, self.steps_granted = False, 0
-        elif command.command == "step":
-            self.paused, self.steps_granted = True, self.steps_granted + 1
-
-    def held(self) -> bool:
-        """Whether the clock must not advance now: paused, with no step left to take (taking one if there is)."""
-        if not self.paused:
-            return False
-        if self.steps_granted:
-            self.steps_granted -= 1
-            return False
-        return True
+        self.hold.command(command)
 
     def set_alive(self, rover_id: int, alive: bool) -> None:
         """Watchdog: a rover whose agent is gone stops where it is. An agent that comes back (its router

@@ -26,6 +26,7 @@ from schemas.frames import to_world
 from schemas.mission import RoverMissions
 from schemas.scenario import Scenario
 from world_service import statistics as stats
+from world_service.clock_hold import ClockHold
 from world_service.radio import CommGraph, build_graph
 from world_service.sim import Out, all_finished, tick_length, ticks_per_period
 
@@ -117,9 +118,11 @@ def radio_graph(ids: list[int], links: list[tuple[int, int]]) -> CommGraph:
 class TwinWorld:
     INPUT_TOPICS = (ks.TELEMETRY, ks.STATUS, ks.COMM_PARTNERS)
     """Rover keys the twin follows; the lander's comm_partners, ground commands and liveliness as well."""
+    RENDERS_PHOTOS = False
 
     def __init__(self, scenario: Scenario, keyspace: ks.Keyspace) -> None:
         self.scenario, self.keys = scenario, keyspace
+        self.hold = ClockHold()  # never paused: the twin follows real rovers, whose time does not stop
         self.dt = tick_length(scenario.rover_params)
         self.state_period = ticks_per_period(scenario.rover_params.perception.publish_frequency, self.dt)
         self.stats_period = ticks_per_period(1.0, self.dt)
