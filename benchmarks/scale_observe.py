@@ -16,6 +16,7 @@ sampled rovers. Callbacks only stamp the arrival time and enqueue; ``pump`` deco
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import itertools
 import math
@@ -230,22 +231,27 @@ def _gaps(rows: list[Reading], dt: float, period_ticks: int) -> tuple[list[tuple
 
 
 def agent_lag(readings: list[Reading], ticks: list[ClockMark], start_ns: int, end_ns: int,
-              dt: float) -> dict | None:
-    """From the world's clock tick to the sampled agents' status stamped with it (ms)."""
-    published = {t.tick: t.published_ns for t in ticks}
+              dt: float, time_scale: float | None) -> dict | None:
+    """From the world's tick to the sampled agents' status stamped with it (ms). In real time the world publishes
+    its clock every few ticks; a tick in between is placed by the clock before it and the time scale."""
+    marks = sorted((t.tick, t.published_ns) for t in ticks)
     lags = []
     for r in readings:
         if r.topic == ks.STATUS and start_ns <= r.received_ns <= end_ns:
-            clock_ns = published.get(round(r.stamp / dt))
-            if clock_ns is not None:
-                lags.append(r.published_ns - clock_ns)
+            tick = round(r.stamp / dt)
+            i = bisect.bisect_right(marks, (tick, math.inf)) - 1
+            if i < 0 or (marks[i][0] != tick and not time_scale):
+                continue
+            mark_tick, mark_ns = marks[i]
+            lags.append(r.published_ns - (mark_ns + (tick - mark_tick) * dt / (time_scale or 1.0) * 1e9))
     return vars(Summary.of(lags)) if lags else None
 
 
-def clock_missing(ticks: list[ClockMark], start_ns: int, end_ns: int) -> int:
-    """World clock samples that never arrived in the window (the world publishes one every tick)."""
+def clock_missing(ticks: list[ClockMark], start_ns: int, end_ns: int, period_ticks: int) -> int:
+    """World clock samples that never arrived in the window (in real time the world publishes one every
+    ``period_ticks``)."""
     inside = [t.tick for t in ticks if start_ns <= t.published_ns <= end_ns]
-    return sum(max(0, b - a - 1) for a, b in itertools.pairwise(inside))
+    return sum(max(0, (b - a) // period_ticks - 1) for a, b in itertools.pairwise(inside))
 
 
 def drop_events(readings: list[Reading], start_ns: int, end_ns: int, dt: float, periods: dict[str, int],

@@ -76,7 +76,7 @@ def print_table(rows: list[dict]) -> None:
               f"{c['router']:>7.2f}{c['total']:>7.2f}{r['memory_per_rover_mib']['rss_mib']:>10.1f}"
               f"{r['memory_per_rover_mib']['pss_mib']:>10.1f}{mem['total']['rss_mib']:>9.0f}"
               f"{_num(lat.get('p50_ms'), 2):>8}{_num(lat.get('p99_ms'), 1):>7}{_num(over, 0):>8}{_num(dropped, 0):>8}"
-              f"{r['clock_samples_missing']:>9}{_num(lag.get('p99_ms'), 0):>8}{r['startup_s']:>9.1f}"
+              f"{_dash(r['clock_samples_missing']):>9}{_num(lag.get('p99_ms'), 0):>8}{r['startup_s']:>9.1f}"
               f"{r['machine_cores']['other_cores']:>7.2f}")
 
 
@@ -176,6 +176,10 @@ def print_slopes(entries: list[dict]) -> None:
 def _row(rows: list[dict], mode: str, rovers: int, per_process: int = 1) -> dict | None:
     return next((r for r in rows if r["mode"] == mode and r["rovers"] == rovers
                  and r["agents_per_process"] == per_process), None)
+
+
+def _dash(value: object) -> object:
+    return "-" if value is None else value
 
 
 def targets(doc: dict) -> list[dict]:

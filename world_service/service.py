@@ -240,6 +240,8 @@ def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) ->
         if not agents.waiting:
             return  # no agent's timer is due and none has anything to answer: the clock would only cost them
         clock = clock.model_copy(update={"acks": sorted(agents.waiting)})
+    elif world.tick % world.clock_period and not world.hold.paused:
+        return  # real time: the clock goes out at CLOCK_HZ (a granted step always shows)
     bus.publish(clock_key, clock)
 
 

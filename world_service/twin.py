@@ -28,7 +28,7 @@ from schemas.scenario import Scenario
 from world_service import statistics as stats
 from world_service.clock_hold import ClockHold
 from world_service.radio import CommGraph, build_graph
-from world_service.sim import Out, all_finished, tick_length, ticks_per_period
+from world_service.sim import CLOCK_HZ, Out, all_finished, tick_length, ticks_per_period
 
 log = logging.getLogger("lunarsim.world")
 
@@ -126,6 +126,7 @@ class TwinWorld:
         self.dt = tick_length(scenario.rover_params)
         self.state_period = ticks_per_period(scenario.rover_params.perception.publish_frequency, self.dt)
         self.stats_period = ticks_per_period(1.0, self.dt)
+        self.clock_period = ticks_per_period(CLOCK_HZ, self.dt)
         self.tick = 0
         self.mission_stats = stats.MissionStats(scenario, RoverMissions(scenario))
         self.missions = self.mission_stats.missions
