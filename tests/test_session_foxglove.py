@@ -10,6 +10,7 @@ import functools
 import socket
 from pathlib import Path
 
+import numpy as np
 import pytest
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from google.protobuf.message import Message
@@ -25,6 +26,7 @@ from schemas.scenario import load_scenario
 SCENARIO_FILE = SCENARIOS / "crater_observation.yaml"
 STATE_KEY = "lunar/test/world/state"
 PHOTO_KEY = "lunar/test/rover/2/photo"
+MAP_KEY = "lunar/test/lander/map"
 T0 = 1_700_000_000_000_000_000
 PNG = b"\x89PNG\r\n\x1a\n" + bytes(range(64))
 
@@ -80,8 +82,25 @@ def recording(tmp_path: Path) -> Path:
         writer.write(Sample("lunar/test/rover/1/gyroscope", codec.encode(m.Gyroscope(stamp=i, pitch_deg=1.0)), t, t))
     writer.write(Sample(PHOTO_KEY, codec.encode(m.Photo(stamp=2.5, label="crater", png=PNG)), T0 + 2_500_000_000,
                         T0 + 2_500_000_000))
+    writer.write(Sample(MAP_KEY, codec.encode(lander_map()), T0 + 2_700_000_000, T0 + 2_700_000_000))
     writer.close()
     return path
+
+
+MAP_CODES = np.array([[0, 1, 1, 2], [3, 1, 4, 0], [0, 0, 1, 1]], np.uint8)
+"""A 4 x 3 map: row 0 is the lowest z (unknown, free, free, obstacle), then crater and rover cells."""
+
+
+def lander_map() -> m.LanderMap:
+    """A map as the lander publishes it, built by the lander's own code from a class array."""
+    from lander_agent.mapping import PRECEDENCE, GridSpec, TraverseMap
+
+    spec = GridSpec(origin_x=-600.0, origin_z=20.0, cell_m=2.0, width=4, height=3)
+    grid = TraverseMap(spec, (-560.0, 50.0))
+    for code in PRECEDENCE:
+        grid.seen[code] = np.equal(MAP_CODES, code)
+    grid.rovers[1] = (0, -595.0, 23.0)  # the rover cell: column 2, row 1
+    return grid.to_message(2.7)
 
 
 def _ns(stamp: Message) -> int:
@@ -101,7 +120,7 @@ def test_export_writes_scene_transforms_and_photos(recording: Path, tmp_path: Pa
     out = tmp_path / "out.mcap"
     assert cli.main(["export-foxglove", str(recording), "-o", str(out), "--terrain-cells", "32"]) == 0
     topics = read_foxglove(out)
-    assert set(topics) == {"/scene", "/tf", "/rover_2/photo"}
+    assert set(topics) == {"/scene", "/tf", "/rover_2/photo", "/map"}
 
     scene = topics["/scene"]
     assert len(scene) == 1 + 3  # static, then one update per world state
@@ -218,6 +237,7 @@ def test_live_view_serves_and_stops(tmp_path: Path):
             pass
         assert live.handle(Sample(STATE_KEY, codec.encode(state(1)), T0, T0))
         assert live.handle(Sample(PHOTO_KEY, codec.encode(m.Photo(stamp=1.0, png=PNG)), T0 + 1, T0 + 1))
+        assert live.handle(Sample(MAP_KEY, codec.encode(lander_map()), T0 + 3, T0 + 3))
         assert not live.handle(Sample("lunar/test/rover/1/gyroscope",
                                       codec.encode(m.Gyroscope(stamp=1, pitch_deg=0.0)), T0 + 2, T0 + 2))
     finally:
@@ -228,3 +248,36 @@ def test_live_view_serves_and_stops(tmp_path: Path):
     assert len(topics["/scene"]) == 2  # static first, then the state
     assert len(topics["/tf"]) == 2
     assert topics["/rover_2/photo"][0][2].data == PNG
+    (_, _, grid), = topics["/map"]
+    assert grid.column_count == 4 and len(grid.data) == MAP_CODES.size * 5
+
+
+def test_export_writes_the_lander_map_as_a_grid(recording: Path, tmp_path: Path):
+    """Each cell of ``/map`` carries the lander's class code and the map PNG's colour; unknown cells are clear."""
+    from lander_agent.mapping import COLOURS
+
+    out = tmp_path / "out.mcap"
+    assert cli.main(["export-foxglove", str(recording), "-o", str(out), "--terrain-cells", "32"]) == 0
+    (log_time, _, grid), = read_foxglove(out)["/map"]
+    assert log_time == _ns(grid.timestamp) == T0 + 2_700_000_000
+    assert grid.frame_id == "world" and grid.column_count == 4 and (grid.cell_size.x, grid.cell_size.y) == (2.0, 2.0)
+    assert (grid.pose.position.x, grid.pose.position.y) == (-600.0, 20.0) and grid.pose.position.z > 0
+    fields = {f.name: f.offset for f in grid.fields}
+    assert fields == {"class": 0, "red": 1, "green": 2, "blue": 3, "alpha": 4} and grid.cell_stride == 5
+    cells = np.frombuffer(grid.data, np.uint8).reshape(-1, grid.row_stride // grid.cell_stride, grid.cell_stride)
+    assert cells.shape == (3, 4, 5)
+    assert (cells[..., 0] == MAP_CODES).all()
+    assert (cells[0, 3, 1:4] == COLOURS[2]).all() and cells[0, 3, 4] > 0  # obstacle red, seen
+    assert (cells[1, 2, 1:4] == COLOURS[4]).all()  # a rover
+    assert (cells[..., 4][MAP_CODES == 0] == 0).all() and (cells[..., 4][MAP_CODES != 0] > 0).all()
+
+
+def test_a_malformed_map_is_skipped_with_a_warning(tmp_path: Path, capsys):
+    path = tmp_path / "bad.mcap"
+    writer = SessionWriter(path, {"scenario": SCENARIO_FILE.read_text(encoding="utf-8")})
+    bad = lander_map().model_copy(update={"width": 5})
+    writer.write(Sample(MAP_KEY, codec.encode(bad), T0, T0))
+    writer.close()
+    assert cli.main(["export-foxglove", str(path), "-o", str(tmp_path / "out.mcap"), "--terrain-cells", "16"]) == 0
+    assert "/map" not in read_foxglove(tmp_path / "out.mcap")
+    assert "12 cells for a 5 x 3 grid" in capsys.readouterr().err

@@ -14,6 +14,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
+import yaml
 from procs import REPO, SCENARIOS, free_port, lunarsim, stop, wait_for, wait_for_output
 
 pytestmark = pytest.mark.e2e
@@ -164,6 +165,7 @@ def test_editor_scenario_saved_reloaded_profiled_and_launched(router, tmp_path, 
         sc = page_value(page, "lunarsim.editor.scenario")
         assert len(sc["rovers"]) == 3 and abs(sc["rovers"][2]["x"] - 22) < 1.5
         assert abs(sc["lander"]["x"] - 3) < 1.5 and abs(sc["lander"]["z"] + 4) < 1.5
+        draw_wall_and_rock_field(page, at)
         page.fill("#ed-name", "e2e_web")
         page.click("#ed-validate")
         wait_for(lambda: page_value(page, "lunarsim.editor.ok") is True, 15, "validation")
@@ -173,7 +175,12 @@ def test_editor_scenario_saved_reloaded_profiled_and_launched(router, tmp_path, 
         assert saved.is_file()
         check = lunarsim("scenario", "check", str(saved))
         out, err = check.communicate(timeout=60)
-        assert check.returncode == 0 and "3 rovers" in out, err
+        assert check.returncode == 0 and "3 rovers" in out and "1 walls" in out, err
+        obstacles = yaml.safe_load(saved.read_text())["obstacles"]
+        (wall,) = obstacles["walls"]
+        assert len(wall["points"]) == 3 and wall["thickness_m"] == 1.5
+        assert abs(wall["points"][1][0] - 45) < 1.5 and abs(wall["points"][1][1] - 25) < 1.5  # the dragged point
+        assert obstacles["rock_fields"] == [{"x": 60.0, "z": -20.0, "radius_m": 10.0, "count": 12}]
         shot(page, "editor_saved")
 
         page.click("#ed-new")
@@ -181,6 +188,8 @@ def test_editor_scenario_saved_reloaded_profiled_and_launched(router, tmp_path, 
         page.select_option("#ed-files", "e2e_web")
         page.click("#ed-load")
         wait_for(lambda: page_value(page, "lunarsim.editor.scenario.rovers.length") == 3, 10, "the reloaded scenario")
+        assert page_value(page, "lunarsim.editor.scenario.obstacles.walls[0].points.length") == 3
+        assert page.locator("#ed-walls .item").count() == 1 and page.locator("#ed-fields .item").count() == 1
         assert page.input_value("#ed-name") == "e2e_web"
 
         with page.expect_download() as download:
@@ -208,6 +217,44 @@ def test_editor_scenario_saved_reloaded_profiled_and_launched(router, tmp_path, 
         stop(view)  # stops the launched mission too
     runs = list((tmp_path / "runs").glob("e2e_web-web-*"))
     assert len(runs) == 1 and (runs[0] / "scenario.yaml").is_file()
+
+
+def draw_wall_and_rock_field(page, at) -> None:
+    """A wall of three points (double-click ends it), one point dragged, its thickness edited; a second wall
+    drawn (Enter ends it), selected by its line and deleted with the Delete key; a rock field placed."""
+    page.check("input[name=tool][value=wall]")
+    page.mouse.click(*at(30, 30))
+    page.mouse.click(*at(40, 30))
+    page.mouse.dblclick(*at(40, 45))
+    wait_for(lambda: page_value(page, "lunarsim.editor.scenario.obstacles.walls.length") == 1, 5, "the drawn wall")
+    assert page_value(page, "lunarsim.editor.scenario.obstacles.walls[0].points.length") == 3
+    page.mouse.click(*at(-30, 20))
+    page.mouse.click(*at(-30, 40))
+    page.keyboard.press("Enter")
+    assert page_value(page, "lunarsim.editor.scenario.obstacles.walls.length") == 2
+    page.check("input[name=tool][value=select]")
+    page.mouse.click(*at(-30, 30))  # on the second wall's line, between its points
+    assert page_value(page, "lunarsim.editor.selected") == {"kind": "wall", "index": 1}
+    page.keyboard.press("Delete")
+    assert page_value(page, "lunarsim.editor.scenario.obstacles.walls.length") == 1
+    page.mouse.move(*at(40, 30))  # drag the first wall's middle point
+    page.mouse.down()
+    page.mouse.move(*at(45, 25), steps=5)
+    page.mouse.up()
+    thickness = page.locator("#ed-walls .item input[data-field=thickness_m]")
+    thickness.fill("1.5")
+    thickness.dispatch_event("change")
+    page.check("input[name=tool][value=rockfield]")
+    page.fill("#ed-field-r", "10")
+    page.fill("#ed-field-n", "12")
+    page.mouse.click(*at(60, -20))
+    field = page_value(page, "lunarsim.editor.scenario.obstacles.rock_fields[0]")
+    assert field["count"] == 12 and abs(field["x"] - 60) < 1.5, field
+    page.fill("#ed-fields .item input[data-field=x]", "60")
+    page.locator("#ed-fields .item input[data-field=x]").dispatch_event("change")
+    page.fill("#ed-fields .item input[data-field=z]", "-20")
+    page.locator("#ed-fields .item input[data-field=z]").dispatch_event("change")
+    shot(page, "editor_wall_rock_field")
 
 
 def test_a_replay_is_shown_and_paused_from_the_page(router, tmp_path, browser):

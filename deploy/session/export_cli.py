@@ -1,10 +1,10 @@
 """``lunarsim export-foxglove``: a recording as Foxglove channels, to open in the Foxglove app.
 
 Writes ``/scene`` (the static scene once, then the rovers, trails and radio links of every world state),
-``/tf`` (world -> rover_<id>) and ``/rover_<id>/photo`` (the PNG photos), all in Foxglove's own protobuf
-schemas. The scenario comes from the recording's metadata (``lunarsim record --scenario``) or
-``--scenario``; without one only the moving parts are drawn. ``--keep-raw`` copies the original msgpack
-channels too, so one file serves both Foxglove and ``lunarsim`` tools.
+``/tf`` (world -> rover_<id>), ``/rover_<id>/photo`` (the PNG photos) and ``/map`` (the lander's traverse
+map as a Grid), all in Foxglove's own protobuf schemas. The scenario comes from the recording's metadata
+(``lunarsim record --scenario``) or ``--scenario``; without one only the moving parts are drawn.
+``--keep-raw`` copies the original msgpack channels too, so one file serves both Foxglove and ``lunarsim`` tools.
 """
 
 from __future__ import annotations
@@ -140,10 +140,10 @@ class _Converter:
     def add(self, sample: Sample) -> None:
         from deploy.session.format import decode
         from schemas.codec import DecodeError
-        from schemas.messages import Photo, WorldState
+        from schemas.messages import LanderMap, Photo, WorldState
 
         fx = self.fx
-        if not (fx.is_state_key(sample.key) or fx.is_photo_key(sample.key)):
+        if not (fx.is_state_key(sample.key) or fx.is_photo_key(sample.key) or fx.is_map_key(sample.key)):
             return
         self._start(sample.log_time_ns)
         try:
@@ -161,6 +161,11 @@ class _Converter:
         elif isinstance(message, Photo):
             rover = fx.rover_of_key(sample.key)
             self.out.write(fx.photo_topic(rover), fx.photo_image(message, rover, ns), ns)
+        elif isinstance(message, LanderMap):
+            try:
+                self.out.write(fx.MAP_TOPIC, fx.map_grid(message, ns, fx.map_elevation(self.grid)), ns)
+            except ValueError as exc:
+                print(f"warning: skipped a lander map on {sample.key}: {exc}", file=sys.stderr)
 
     def _start(self, ns: int) -> None:
         """The static scene goes first, stamped with the recording's first time, so it is there from the start."""

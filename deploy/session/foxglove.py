@@ -1,7 +1,7 @@
 """LunarSim messages as Foxglove 3D-scene messages: pure conversion, no Zenoh, no files.
 
 Used by ``lunarsim export-foxglove`` (a recording) and ``lunarsim view --foxglove`` (a live world), so
-the two show the same scene.
+the two show the same scene. The lander's traverse map (``lander/map``) becomes a ``Grid`` on ``/map``.
 
 Axes: LunarSim's ground plane is x/z with the height along y, heading 0 = +z and 90 = +x; Foxglove is
 z-up. A LunarSim point (x, z, height) becomes the Foxglove point (x, y, z) = (x, z, height). The map
@@ -21,12 +21,18 @@ from dataclasses import dataclass
 import foxglove.messages as fm
 import numpy as np
 
-from schemas.messages import Photo, WorldState
+from schemas import keyspace as ks
+from schemas.messages import LanderMap, Photo, WorldState
 from schemas.scenario import Scenario
 
 FRAME = "world"
 SCENE_TOPIC = "/scene"
 TF_TOPIC = "/tf"
+MAP_TOPIC = "/map"
+MAP_ALPHA = 160
+"""Opacity (of 255) of a known map cell, so the terrain shows through; unknown cells are clear."""
+MAP_LIFT_M = 0.3
+"""The flat map grid floats this far above the highest terrain node, so the relief never hides it."""
 TERRAIN_CELLS = 128
 """Terrain nodes along the longer side of the exported mesh: enough to see craters, small to load fast."""
 ROVER_SIZE = (1.4, 1.0, 0.6)
@@ -318,3 +324,43 @@ def is_state_key(key: str) -> bool:
 def is_photo_key(key: str) -> bool:
     return rover_of_key(key) is not None and key.endswith("/photo")
 
+
+
+def is_map_key(key: str) -> bool:
+    """``lunar/<w>/lander/map`` of any world."""
+    parts = key.split("/")
+    try:
+        return len(parts) > 2 and key == ks.Keyspace(parts[1]).lander(ks.MAP)
+    except ValueError:
+        return False
+
+
+def map_elevation(grid: TerrainGrid | None) -> float:
+    return float(np.max(grid.heights)) + MAP_LIFT_M if grid is not None else 0.0
+
+
+def map_grid(msg: LanderMap, ns: int, elevation: float = 0.0) -> fm.Grid:
+    """The lander's map as a Foxglove Grid: per cell its class code (``class``, uint8) and its colour.
+
+    The colours are the map PNG's (``lander_agent.mapping.COLOURS``, looked up by class name) with ``MAP_ALPHA``,
+    unknown cells fully clear; Foxglove's 3D panel shows them in its "RGBA (separate fields)" colour mode.
+    Row j, column i of the map is Foxglove's (x, y) = (origin_x + i * cell_m, origin_z + j * cell_m).
+    A payload that does not fit its shape, or a class code without a name, is a ValueError.
+    """
+    from lander_agent.mapping import CLASSES, COLOURS, from_message
+
+    spec, codes = from_message(msg)
+    if codes.size and int(codes.max()) >= len(msg.classes):
+        raise ValueError(f"lander map: class code {int(codes.max())} but only {len(msg.classes)} classes named")
+    palette = np.zeros((max(len(msg.classes), 1), 4), np.uint8)
+    for code, name in enumerate(msg.classes):
+        if name in CLASSES and name != "unknown":
+            palette[code] = (*COLOURS[CLASSES.index(name)], MAP_ALPHA)
+    cells = np.concatenate([codes[..., None], palette[codes]], axis=-1)
+    fields = [fm.PackedElementField(name=name, offset=offset, type=fm.PackedElementFieldNumericType.Uint8)
+              for offset, name in enumerate(("class", "red", "green", "blue", "alpha"))]
+    return fm.Grid(timestamp=timestamp(ns), frame_id=FRAME,
+                   pose=fm.Pose(position=fm.Vector3(x=spec.origin_x, y=spec.origin_z, z=elevation),
+                                orientation=fm.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
+                   column_count=spec.width, cell_size=fm.Vector2(x=spec.cell_m, y=spec.cell_m),
+                   row_stride=spec.width * 5, cell_stride=5, fields=fields, data=cells.tobytes())

@@ -3,8 +3,8 @@
 Plain ``lunarsim view`` serves the web digital twin (``deploy.web``) at http://127.0.0.1:8080/: 3D view,
 statistics, ground commands and the scenario editor. With ``--foxglove`` it serves Foxglove instead:
 
-Subscribes to the world state and the rover photos of ``--world`` and serves the same channels as
-``lunarsim export-foxglove`` (``/scene``, ``/tf``, ``/rover_<id>/photo``), so a live run and a recording
+Subscribes to the world state, the rover photos and the lander's map of ``--world`` and serves the same channels as
+``lunarsim export-foxglove`` (``/scene``, ``/tf``, ``/rover_<id>/photo``, ``/map``), so a live run and a recording
 look alike. Open the Foxglove app, "Open connection", ``ws://localhost:8765``, and add a 3D panel.
 The static scene (terrain, obstacles, lander, goals) is drawn from ``--scenario`` and sent again to
 each client that subscribes, since a WebSocket server keeps no history for late joiners.
@@ -70,6 +70,7 @@ class LiveScene:
         self.scene = SceneUpdateChannel(fx.SCENE_TOPIC, context=self.context)
         self.tf = _channel("FrameTransformChannel", fx.TF_TOPIC, self.context)
         self.photos: dict[int, object] = {}
+        self.map: object | None = None
         self.static_wanted = threading.Event()
         self.static_wanted.set()
 
@@ -81,7 +82,7 @@ class LiveScene:
         """Convert and log one sample; False if it is not a world state or photo (or is malformed)."""
         from deploy.session.format import decode
         from schemas.codec import DecodeError
-        from schemas.messages import Photo, WorldState
+        from schemas.messages import LanderMap, Photo, WorldState
 
         fx, ns = self.fx, sample.log_time_ns
         if self.static_wanted.is_set():
@@ -101,6 +102,15 @@ class LiveScene:
                 self.photos[rover] = _channel("CompressedImageChannel", fx.photo_topic(rover), self.context)
             self.photos[rover].log(fx.photo_image(message, rover, ns), log_time=ns)
             return True
+        if isinstance(message, LanderMap):
+            try:
+                grid = fx.map_grid(message, ns, fx.map_elevation(self.grid))
+            except ValueError:
+                return False
+            if self.map is None:
+                self.map = _channel("GridChannel", fx.MAP_TOPIC, self.context)
+            self.map.log(grid, log_time=ns)
+            return True
         return False
 
     def serve(self, host: str = "127.0.0.1", port: int = 8765) -> foxglove.WebSocketServer:
@@ -111,7 +121,7 @@ class LiveScene:
                                      server_listener=_Listener(self))
 
     def close(self) -> None:
-        for channel in (self.scene, self.tf, *self.photos.values()):
+        for channel in (self.scene, self.tf, *self.photos.values(), *([self.map] if self.map else [])):
             channel.close()
 
 
@@ -160,7 +170,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     import zenoh
 
     from deploy.zenoh_config import config_from_args, describe_endpoints, open_session
-    from schemas.keyspace import PHOTO, Keyspace, check_world_name
+    from schemas.keyspace import MAP, PHOTO, Keyspace, check_world_name
     from schemas.scenario import load_scenario
 
     try:
@@ -184,7 +194,7 @@ def run_from_args(args: argparse.Namespace) -> int:
                            who="lunarsim view")
     feed = Feed()
     subscribers = [session.declare_subscriber(key, zenoh.handlers.Callback(feed, indirect=False))
-                   for key in (keys.state, keys.rovers(PHOTO))]
+                   for key in (keys.state, keys.rovers(PHOTO), keys.lander(MAP))]
     try:
         server = live.serve(args.host, args.port)
     except Exception as exc:  # the SDK raises its own error types for a port in use or a bad address

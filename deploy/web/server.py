@@ -148,8 +148,14 @@ async def validate(request: web.Request) -> web.Response:
         return _error(str(exc))
     preview = await asyncio.to_thread(scenario_scene, scenario) if data.get("scene") else None
     return web.json_response({"ok": True, "scenario": editor.scenario_json(scenario), "scene": preview,
-                              "summary": f"{scenario.name}: {len(scenario.rovers)} rovers, {len(scenario.craters)} "
-                                         f"craters, {len(scenario.mission)} goals"})
+                              "summary": _summary(scenario)})
+
+
+def _summary(scenario: Scenario) -> str:
+    obstacles = scenario.obstacles
+    return (f"{scenario.name}: {len(scenario.rovers)} rovers, {len(scenario.craters)} craters, "
+            f"{len(scenario.mission)} goals, {len(obstacles.rocks)} rocks, {len(obstacles.walls)} walls, "
+            f"{len(obstacles.rock_fields)} rock fields")
 
 
 async def save(request: web.Request) -> web.Response:

@@ -1,5 +1,6 @@
-// The scenario editor: a top-down map of the terrain on which the lander, rovers, craters, goals and rocks are
-// placed and dragged; lists to edit them by number; validate, save, load, launch, and profile import/export.
+// The scenario editor: a top-down map of the terrain on which the lander, rovers, craters, goals, rocks, walls
+// (polylines) and rock fields are placed and dragged; lists to edit them by number; validate, save, load, launch,
+// and profile import/export.
 // The scenario is held in the model's own JSON shape and every check is the server's (the CLI's pydantic models).
 import { get, post } from "./api.js";
 
@@ -20,6 +21,23 @@ function blank() {
 
 const round = (v) => Math.round(v * 10) / 10;
 
+// A wall's point is an [x, z] pair in the model; dragging moves anything with x and z, so a point is seen through
+// this handle, which reads and writes the pair in place.
+function pointHandle(wall, i) {
+  return {
+    wall, index: i,
+    get x() { return wall.points[i][0]; }, set x(v) { wall.points[i][0] = v; },
+    get z() { return wall.points[i][1]; }, set z(v) { wall.points[i][1] = v; },
+  };
+}
+
+// Distance from p to the segment a-b, all in screen pixels.
+function segmentDistance(p, a, b) {
+  const dx = b[0] - a[0], dy = b[1] - a[1], len2 = dx * dx + dy * dy;
+  const t = len2 ? Math.max(0, Math.min(1, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2)) : 0;
+  return Math.hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy);
+}
+
 export class Editor {
   constructor(page) {
     this.page = page;
@@ -27,7 +45,11 @@ export class Editor {
     this.ctx = this.canvas.getContext("2d");
     this.preview = null;
     this.drag = null;
-    this.state = page.editor = { scenario: null, status: "", ok: null, files: [], toScreen: (x, z) => this.toScreen(x, z) };
+    this.drawing = null; // the wall being drawn: its points, until a double-click or Enter ends it
+    this.state = page.editor = {
+      scenario: null, status: "", ok: null, files: [], selected: null, drawing: null,
+      toScreen: (x, z) => this.toScreen(x, z),
+    };
     this.load(blank());
     this.bind();
     this.refreshFiles();
@@ -36,7 +58,10 @@ export class Editor {
   bind() {
     this.canvas.addEventListener("pointerdown", (ev) => this.down(ev));
     this.canvas.addEventListener("pointermove", (ev) => this.move(ev));
-    window.addEventListener("pointerup", () => { if (this.drag) { this.drag = null; this.lists(); } });
+    window.addEventListener("pointerup", () => this.up());
+    this.canvas.addEventListener("dblclick", () => this.finishWall());
+    window.addEventListener("keydown", (ev) => this.key(ev));
+    for (const radio of document.querySelectorAll("input[name=tool]")) radio.addEventListener("change", () => this.finishWall());
     $("ed-name").addEventListener("change", () => { this.sc.name = $("ed-name").value; });
     $("ed-seed").addEventListener("change", () => { this.sc.seed = Number($("ed-seed").value); });
     $("ed-new").addEventListener("click", () => { this.load(blank()); this.status("new scenario", true); });
@@ -55,8 +80,10 @@ export class Editor {
   load(sc) {
     this.sc = structuredClone(sc);
     this.sc.obstacles = this.sc.obstacles || { rocks: [], walls: [], rock_fields: [] };
-    this.sc.obstacles.rocks = this.sc.obstacles.rocks || [];
+    for (const key of ["rocks", "walls", "rock_fields"]) this.sc.obstacles[key] = this.sc.obstacles[key] || [];
     this.state.scenario = this.sc;
+    this.select(null);
+    this.drawing = this.state.drawing = null;
     $("ed-name").value = this.sc.name;
     $("ed-seed").value = this.sc.seed ?? 0;
     $("ed-params").value = JSON.stringify(this.sc.rover_params || {}, null, 1);
@@ -99,6 +126,7 @@ export class Editor {
     if (r && r.ok) {
       this.load(r.scenario);
       this.preview = r.scene;
+      this.previewPlaced = r.scenario.obstacles.rocks.length;
       this.draw();
       this.status(`valid: ${r.summary}`, true);
     }
@@ -157,7 +185,11 @@ export class Editor {
     let sc;
     try { sc = this.current(); } catch { return; }
     const r = await post("/api/scenario/validate", { scenario: sc, scene: true });
-    if (asked === this.previewAsked && r.ok) { this.preview = r.scene; this.draw(); }
+    if (asked === this.previewAsked && r.ok) {
+      this.preview = r.scene;
+      this.previewPlaced = sc.obstacles.rocks.length;
+      this.draw();
+    }
   }
 
   // ---- map ----
@@ -172,7 +204,8 @@ export class Editor {
     } else {
       const xs = [], zs = [];
       for (const p of [this.sc.lander, ...this.sc.rovers, ...this.sc.mission]) { xs.push(p.x); zs.push(p.z); }
-      for (const c of this.sc.craters) { xs.push(c.x - c.radius_m * 1.3, c.x + c.radius_m * 1.3); zs.push(c.z - c.radius_m * 1.3, c.z + c.radius_m * 1.3); }
+      for (const c of [...this.sc.craters, ...this.sc.obstacles.rock_fields]) { xs.push(c.x - c.radius_m * 1.3, c.x + c.radius_m * 1.3); zs.push(c.z - c.radius_m * 1.3, c.z + c.radius_m * 1.3); }
+      for (const w of this.sc.obstacles.walls) for (const [x, z] of w.points) { xs.push(x); zs.push(z); }
       x0 = Math.min(...xs) - MARGIN_M; x1 = Math.max(...xs) + MARGIN_M;
       z0 = Math.min(...zs) - MARGIN_M; z1 = Math.max(...zs) + MARGIN_M;
     }
@@ -202,7 +235,47 @@ export class Editor {
     this.sc.craters.forEach((c) => out.push(["crater", c]));
     this.sc.mission.forEach((g) => out.push(["goal", g]));
     this.sc.obstacles.rocks.forEach((r) => out.push(["rock", r]));
+    this.sc.obstacles.rock_fields.forEach((f) => out.push(["rockfield", f]));
+    this.sc.obstacles.walls.forEach((w) => w.points.forEach((_, i) => out.push(["wallpoint", pointHandle(w, i)])));
     return out;
+  }
+
+  // The wall whose line passes within PICK_PX of a screen point (for selecting and deleting a whole wall).
+  nearestWall(px, py) {
+    let best = null, bestD = PICK_PX;
+    for (const w of this.sc.obstacles.walls) {
+      const pts = w.points.map(([x, z]) => this.toScreen(x, z));
+      for (let i = 1; i < pts.length; i++) {
+        const d = segmentDistance([px, py], pts[i - 1], pts[i]);
+        if (d < bestD) { best = ["wall", w]; bestD = d; }
+      }
+    }
+    return best;
+  }
+
+  // A point first (to drag it), else a wall's line (to select the wall).
+  pick(px, py) {
+    return this.nearest(px, py) || this.nearestWall(px, py);
+  }
+
+  select(hit) {
+    if (!hit) { this.selected = null; } else {
+      const [kind, item] = hit;
+      this.selected = kind === "wallpoint" ? ["wall", item.wall] : [kind, item];
+    }
+    const s = this.selected;
+    this.state.selected = s ? { kind: s[0], index: this.indexOf(s) } : null;
+  }
+
+  indexOf([kind, item]) {
+    const list = this.listOf(kind);
+    return list ? list.indexOf(item) : 0;
+  }
+
+  listOf(kind) {
+    const sc = this.sc;
+    return { rover: sc.rovers, crater: sc.craters, goal: sc.mission, rock: sc.obstacles.rocks,
+      rockfield: sc.obstacles.rock_fields, wall: sc.obstacles.walls }[kind];
   }
 
   nearest(px, py) {
@@ -221,23 +294,83 @@ export class Editor {
     const [x, z] = this.toWorld(px, py);
     const tool = document.querySelector("input[name=tool]:checked").value;
     const sc = this.sc;
-    if (tool === "select") { this.drag = this.nearest(px, py); return; }
+    if (tool === "select") {
+      const hit = this.pick(px, py);
+      this.select(hit);
+      this.drag = hit && hit[0] !== "wall" ? hit : null;
+      this.lists();
+      return;
+    }
+    if (tool === "wall") { this.addWallPoint(px, py, x, z); return; }
     if (tool === "lander") sc.lander = { ...sc.lander, x, z };
     else if (tool === "rover") sc.rovers.push({ x, z, heading_deg: sc.rovers.length ? sc.rovers[sc.rovers.length - 1].heading_deg : 180 });
     else if (tool === "crater") sc.craters.push({ x, z, radius_m: Number($("ed-crater-r").value) || 20 });
     else if (tool === "goal-crater") sc.mission.push({ x, z, kind: "crater" });
     else if (tool === "goal-waypoint") sc.mission.push({ x, z, kind: "waypoint" });
     else if (tool === "rock") sc.obstacles.rocks.push({ x, z, radius_m: Number($("ed-rock-r").value) || 1 });
-    else if (tool === "delete") this.remove(this.nearest(px, py));
+    else if (tool === "rockfield") {
+      sc.obstacles.rock_fields.push({ x, z, radius_m: Number($("ed-field-r").value) || 20, count: Number($("ed-field-n").value) || 0 });
+    } else if (tool === "delete") this.remove(this.pick(px, py));
     this.lists();
-    if (tool === "crater") this.requestPreview();
+    if (["crater", "rockfield", "delete"].includes(tool)) this.requestPreview();
+  }
+
+  up() {
+    if (!this.drag) return;
+    const moved = this.drag[0];
+    this.drag = null;
+    this.lists();
+    if (["crater", "rockfield"].includes(moved)) this.requestPreview();
+  }
+
+  // ---- walls: click points, double-click or Enter ends the wall (Escape drops it) ----
+
+  addWallPoint(px, py, x, z) {
+    if (!this.drawing) {
+      this.drawing = { points: [] };
+      if ($("ed-wall-t").value !== "") this.drawing.thickness_m = Number($("ed-wall-t").value);
+      this.state.drawing = this.drawing;
+    }
+    const pts = this.drawing.points;
+    if (pts.length) {
+      const [lx, ly] = this.toScreen(...pts[pts.length - 1]);
+      if (Math.hypot(lx - px, ly - py) < PICK_PX / 2) { this.draw(); return; } // a double-click's second press
+    }
+    pts.push([x, z]);
+    this.draw();
+  }
+
+  finishWall() {
+    const wall = this.drawing;
+    this.drawing = this.state.drawing = null;
+    if (!wall) return;
+    if (wall.points.length < 2) { this.status("a wall needs at least two points: click them, then double-click or Enter", false); this.draw(); return; }
+    this.sc.obstacles.walls.push(wall);
+    this.select(["wall", wall]);
+    this.status(`wall ${this.sc.obstacles.walls.length - 1}: ${wall.points.length} points`, true);
+    this.lists();
+  }
+
+  key(ev) {
+    if (!$("editor").classList.contains("active") && !this.drawing) return;
+    const el = document.activeElement;
+    const typing = ["TEXTAREA", "SELECT"].includes(el?.tagName) || (el?.tagName === "INPUT" && !["radio", "checkbox"].includes(el.type));
+    if (ev.key === "Enter" && this.drawing) { ev.preventDefault(); this.finishWall(); }
+    else if (ev.key === "Escape" && this.drawing) { this.drawing = this.state.drawing = null; this.draw(); }
+    else if ((ev.key === "Delete" || ev.key === "Backspace") && this.selected && !typing) {
+      ev.preventDefault();
+      this.remove(this.selected);
+      this.lists();
+      this.requestPreview();
+    }
   }
 
   remove(hit) {
     if (!hit || hit[0] === "lander") return;
-    const [kind, item] = hit;
-    const list = { rover: this.sc.rovers, crater: this.sc.craters, goal: this.sc.mission, rock: this.sc.obstacles.rocks }[kind];
+    const [kind, item] = hit[0] === "wallpoint" ? ["wall", hit[1].wall] : hit;
+    const list = this.listOf(kind);
     list.splice(list.indexOf(item), 1);
+    if (this.selected && this.selected[1] === item) this.select(null);
   }
 
   move(ev) {
@@ -270,7 +403,16 @@ export class Editor {
       ctx.beginPath(); ctx.arc(sx, sy, cr.radius_m * scale, 0, Math.PI * 2); ctx.stroke();
       dot(cr.x, cr.z, 4, "#e69933", `crater ${i}`);
     }
+    for (const r of this.scatteredRocks()) dot(r.x, r.z, Math.max(1.5, r.r * scale), "#6e655b");
     for (const r of this.sc.obstacles.rocks) dot(r.x, r.z, Math.max(2, r.radius_m * scale), "#8c8073");
+    for (const [i, f] of this.sc.obstacles.rock_fields.entries()) {
+      const [sx, sy] = this.toScreen(f.x, f.z);
+      ctx.strokeStyle = this.isSelected(f) ? "#ffffff" : "#6b4f2e"; ctx.lineWidth = 1.5; ctx.setLineDash([6, 4]);
+      ctx.beginPath(); ctx.arc(sx, sy, f.radius_m * scale, 0, Math.PI * 2); ctx.stroke(); ctx.setLineDash([]);
+      dot(f.x, f.z, 4, "#6b4f2e", `rock field ${i} (${f.count})`);
+    }
+    this.sc.obstacles.walls.forEach((w, i) => this.drawWall(w, scale, this.isSelected(w) ? "#ffffff" : "#d9534f", `wall ${i}`));
+    if (this.drawing) this.drawWall(this.drawing, scale, "#ff9f9a", "new wall");
     ctx.strokeStyle = "#33ff66"; ctx.lineWidth = 1; ctx.setLineDash([4, 4]);
     ctx.beginPath();
     this.sc.mission.forEach((g, i) => { const [sx, sy] = this.toScreen(g.x, g.z); if (i) ctx.lineTo(sx, sy); else ctx.moveTo(sx, sy); });
@@ -278,6 +420,27 @@ export class Editor {
     this.sc.mission.forEach((g, i) => dot(g.x, g.z, 5, g.kind === "crater" ? "#33ff66" : "#33ccff", `goal ${i}`));
     this.sc.rovers.forEach((r, i) => dot(r.x, r.z, 4, "#3399ff", `${i + 1}`));
     dot(this.sc.lander.x, this.sc.lander.z, 7, "#f2d94d", "lander");
+  }
+
+  isSelected(item) { return this.selected !== null && this.selected[1] === item; }
+
+  drawWall(w, scale, color, label) {
+    const ctx = this.ctx;
+    const pts = w.points.map(([x, z]) => this.toScreen(x, z));
+    ctx.strokeStyle = color; ctx.lineCap = "round"; ctx.lineJoin = "round";
+    ctx.lineWidth = Math.max(2, (w.thickness_m || 0) * scale);
+    ctx.beginPath();
+    pts.forEach(([sx, sy], i) => (i ? ctx.lineTo(sx, sy) : ctx.moveTo(sx, sy)));
+    ctx.stroke();
+    ctx.fillStyle = color;
+    for (const [sx, sy] of pts) { ctx.beginPath(); ctx.arc(sx, sy, 3.5, 0, Math.PI * 2); ctx.fill(); }
+    if (pts.length) { ctx.fillStyle = "#eee"; ctx.fillText(label, pts[0][0] + 6, pts[0][1] - 6); }
+  }
+
+  // The rocks the server scattered for the rock fields (the preview lists the placed rocks first).
+  scatteredRocks() {
+    const rocks = (this.preview && this.preview.rocks) || [];
+    return this.sc.obstacles.rock_fields.length ? rocks.slice(this.previewPlaced ?? rocks.length) : [];
   }
 
   drawTerrain() {
@@ -308,10 +471,16 @@ export class Editor {
 
   lists() {
     const sc = this.sc;
+    // A field the model defaults (left out of the scenario) shows empty with "default"; emptying a field restores it.
     const num = (obj, key, label) => {
       const input = document.createElement("input");
-      input.type = "number"; input.step = "any"; input.value = obj[key]; input.title = label; input.dataset.field = key;
-      input.addEventListener("change", () => { obj[key] = Number(input.value); this.draw(); });
+      input.type = "number"; input.step = "any"; input.value = obj[key] ?? ""; input.placeholder = "default";
+      input.title = label; input.dataset.field = key;
+      input.addEventListener("change", () => {
+        if (input.value === "" && label !== "x" && label !== "z") delete obj[key]; else obj[key] = Number(input.value);
+        this.draw();
+        if (obj.count !== undefined) this.requestPreview();
+      });
       return input;
     };
     const button = (text, fn) => { const b = document.createElement("button"); b.textContent = text; b.addEventListener("click", fn); return b; };
@@ -336,6 +505,25 @@ export class Editor {
     });
     fill("ed-rocks", sc.obstacles.rocks, (el, r, i) => row(el, `rock ${i}`, num(r, "x", "x"), num(r, "z", "z"), num(r, "radius_m", "radius m"),
       button("×", () => { sc.obstacles.rocks.splice(i, 1); this.lists(); })));
+    const drop = (list, i) => button("×", () => { this.remove([list === sc.obstacles.walls ? "wall" : "rockfield", list[i]]); this.lists(); this.requestPreview(); });
+    fill("ed-walls", sc.obstacles.walls, (el, w, i) => {
+      const points = document.createElement("input");
+      points.className = "points"; points.dataset.field = "points"; points.title = "points: x z; x z; ...";
+      points.value = w.points.map(([x, z]) => `${x} ${z}`).join("; ");
+      points.addEventListener("change", () => {
+        const parsed = points.value.split(";").map((p) => p.trim().split(/[\s,]+/).map(Number)).filter((p) => p.length === 2 && p.every(Number.isFinite));
+        if (parsed.length < 2) { this.status(`wall ${i}: give at least two points as "x z; x z"`, false); return; }
+        w.points = parsed;
+        this.lists();
+      });
+      row(el, `wall ${i}`, num(w, "thickness_m", "thickness m"), num(w, "height_m", "height m"), points, drop(sc.obstacles.walls, i));
+      if (this.isSelected(w)) el.lastChild.classList.add("selected");
+    });
+    fill("ed-fields", sc.obstacles.rock_fields, (el, f, i) => {
+      row(el, `field ${i}`, num(f, "x", "x"), num(f, "z", "z"), num(f, "radius_m", "radius m"), num(f, "count", "rocks"),
+        num(f, "min_radius_m", "smallest rock radius m"), num(f, "max_radius_m", "largest rock radius m"), drop(sc.obstacles.rock_fields, i));
+      if (this.isSelected(f)) el.lastChild.classList.add("selected");
+    });
     this.draw();
   }
 }
