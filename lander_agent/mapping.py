@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from schemas import messages as m
-from schemas import radio
+from schemas import png, radio
 from schemas.scenario import Scenario
 
 CLASSES = ("unknown", "free", "obstacle", "crater", "rover")
@@ -173,12 +173,6 @@ def load(path: Path) -> tuple[GridSpec, np.ndarray]:
 
 def render_png(classes: np.ndarray) -> bytes:
     """The map as a PNG, +z up (north up, as the session plots draw it), each cell a square of pixels."""
-    import io
-
-    from matplotlib.image import imsave
-
     scale = max(1, PNG_MIN_SIDE_PX // max(classes.shape))
     rgb = COLOURS[np.flipud(classes)].repeat(scale, axis=0).repeat(scale, axis=1)
-    buffer = io.BytesIO()
-    imsave(buffer, rgb, format="png")
-    return buffer.getvalue()
+    return png.encode(rgb.shape[1], rgb.shape[0], rgb.tobytes(), channels=3)

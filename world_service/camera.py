@@ -12,13 +12,12 @@ Frames follow ``schemas.frames``: heading 0 looks along +z, 90 along +x; y is up
 from __future__ import annotations
 
 import math
-import struct
-import zlib
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
+from schemas import png
 from schemas.params import CameraParams
 from world_service.scene import LANDER, Scene
 
@@ -343,66 +342,22 @@ def _shade(hits: _Hits, sun_dir: np.ndarray) -> np.ndarray:
 
 # ---- PNG ----
 
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+PNG_SIGNATURE = png.SIGNATURE
 
 
 def encode_png(image: np.ndarray) -> bytes:
-    """A minimal RGB8 PNG: enough to save a photo without an imaging library (one IDAT, no row filtering)."""
+    """An RGB8 PNG of a (height, width, 3) uint8 image (``schemas.png``: one IDAT, no row filtering)."""
     image = np.asarray(image)
     if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8 or 0 in image.shape:
         raise ValueError(f"encode_png wants a non-empty (height, width, 3) uint8 array, got {image.shape} "
                          f"{image.dtype}")
     height, width = image.shape[:2]
-    rows = np.concatenate([np.zeros((height, 1), np.uint8), image.reshape(height, width * 3)], axis=1)
-    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
-    return (PNG_SIGNATURE + _chunk(b"IHDR", header) + _chunk(b"IDAT", zlib.compress(rows.tobytes(), 6))
-            + _chunk(b"IEND", b""))
-
-
-def _chunk(kind: bytes, data: bytes) -> bytes:
-    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+    return png.encode(width, height, image.tobytes(), channels=3)
 
 
 def decode_png(data: bytes) -> np.ndarray:
-    """Read back exactly what ``encode_png`` writes (RGB8, unfiltered rows); anything else is a ValueError."""
-    if not data.startswith(PNG_SIGNATURE):
-        raise ValueError("not a PNG: the signature is missing")
-    chunks = _read_chunks(data)
-    if [kind for kind, _ in chunks] != [b"IHDR", b"IDAT", b"IEND"]:
-        raise ValueError(f"unsupported PNG layout {[k.decode('latin-1') for k, _ in chunks]}: "
-                         "expected IHDR, IDAT, IEND")
-    header = chunks[0][1]
-    if len(header) != 13:
-        raise ValueError("PNG IHDR chunk has the wrong length")
-    width, height, depth, colour, compression, filtering, interlace = struct.unpack(">IIBBBBB", header)
-    if (depth, colour, compression, filtering, interlace) != (8, 2, 0, 0, 0) or not width or not height:
-        raise ValueError(f"unsupported PNG format (bit depth {depth}, colour type {colour}, interlace "
-                         f"{interlace}): only 8-bit RGB without interlacing is read")
-    try:
-        raw = zlib.decompress(chunks[1][1])
-    except zlib.error as exc:
-        raise ValueError(f"PNG image data is corrupt: {exc}") from None
-    if len(raw) != height * (1 + 3 * width):
-        raise ValueError(f"PNG image data has {len(raw)} bytes, expected {height * (1 + 3 * width)}")
-    rows = np.frombuffer(raw, np.uint8).reshape(height, 1 + 3 * width)
-    if rows[:, 0].any():
-        raise ValueError("PNG rows use a filter other than 0 (None): not written by encode_png")
-    return rows[:, 1:].reshape(height, width, 3).copy()
-
-
-def _read_chunks(data: bytes) -> list[tuple[bytes, bytes]]:
-    """Split a PNG after its signature into (type, data) chunks, checking lengths and CRCs."""
-    chunks, pos = [], len(PNG_SIGNATURE)
-    while pos < len(data):
-        if pos + 12 > len(data):
-            raise ValueError("PNG is truncated inside a chunk header")
-        (length,) = struct.unpack(">I", data[pos:pos + 4])
-        kind, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + length]
-        if len(body) != length or pos + 12 + length > len(data):
-            raise ValueError(f"PNG chunk {kind!r} is truncated")
-        (crc,) = struct.unpack(">I", data[pos + 8 + length:pos + 12 + length])
-        if crc != zlib.crc32(kind + body) & 0xFFFFFFFF:
-            raise ValueError(f"PNG chunk {kind!r} fails its CRC check")
-        chunks.append((kind, body))
-        pos += 12 + length
-    return chunks
+    """Read back an RGB8 PNG that ``encode_png`` writes; anything else is a ValueError."""
+    width, height, channels, pixels = png.decode(data)
+    if channels != 3:
+        raise ValueError(f"expected an RGB PNG, got {channels} channel(s)")
+    return np.frombuffer(pixels, np.uint8).reshape(height, width, 3).copy()

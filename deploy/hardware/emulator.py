@@ -15,11 +15,9 @@ import base64
 import binascii
 import os
 import select
-import struct
 import threading
 import time
 import tty
-import zlib
 from collections import deque
 from dataclasses import dataclass, field
 from typing import ClassVar
@@ -27,6 +25,7 @@ from typing import ClassVar
 from deploy import process
 from deploy.hardware import protocol as p
 from deploy.hardware.device_model import BaseParams, DeviceModel, Refused, Rock
+from schemas import png
 
 DEVICE_NAME = "LUNARSIM-EMU"
 PROTOCOL_VERSION = "1"
@@ -173,17 +172,7 @@ def render_view(model: DeviceModel) -> bytes:
             half = min(horizon, int(2 * hit[1].radius * height / max(hit[0], 0.1)))
             for y in range(horizon - half, horizon + half // 2):
                 rows[y][col] = 200
-    return encode_png(width, height, rows)
-
-
-def encode_png(width: int, height: int, rows: list[bytearray]) -> bytes:
-    """8-bit grey-scale PNG, standard library only."""
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    raw = b"".join(b"\x00" + bytes(row) for row in rows)
-    header = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
-    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+    return png.encode(width, height, b"".join(bytes(row) for row in rows), channels=1)
 
 
 class Emulator:
