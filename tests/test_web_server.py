@@ -195,3 +195,23 @@ def test_the_scene_carries_the_sun_and_battery_capacity_of_a_sunlit_scenario():
     assert 0 < polar["sun"]["elevation_deg"] < 5  # the low polar sun of the scenario's comment
     plain = scenario_scene(load_scenario(SCENARIO), cells=24)
     assert plain["sun"] is None and plain["power"] is None
+
+
+def test_a_post_that_is_not_json_is_refused_before_it_does_anything(tmp_path: Path):
+    """A cross-site form can send text/plain without the browser asking the server first: it must do nothing."""
+    viewer = Viewer("test", live.Latest(), Commands(_unsent), editor.Workspace(tmp_path / "ws"),
+                    editor.Launcher(tmp_path / "runs", "tcp/127.0.0.1:1", "test"))
+
+    async def go() -> list[tuple[int, dict]]:
+        async with TestClient(TestServer(build_app(viewer))) as client:
+            out = []
+            for path in ("/api/command", "/api/scenario/launch", "/api/scenario/save", "/api/launch/stop"):
+                res = await client.post(path, data=json.dumps({"command": "stop", "rover_id": 1}),
+                                        headers={"Content-Type": "text/plain"})
+                out.append((res.status, await res.json()))
+            return out
+
+    for status, body in asyncio.run(go()):
+        assert status == 415 and "application/json" in body["error"]
+    assert not (tmp_path / "ws").exists() or not any((tmp_path / "ws").iterdir())
+    assert not (tmp_path / "runs").exists()

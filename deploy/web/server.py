@@ -81,6 +81,12 @@ def _error(message: str, status: int = 400) -> web.Response:
 
 
 async def _body(request: web.Request) -> dict:
+    """The JSON object a request carries. Only ``application/json`` is read: a page on another site can post
+    that to this server only after the browser has asked it (CORS preflight, which it never allows), so such a
+    page cannot launch runs or send ground commands through a browser on the viewer's machine."""
+    if request.content_type != "application/json":
+        raise web.HTTPUnsupportedMediaType(text=json.dumps({"ok": False, "error": "send the request body as "
+                                                            "application/json"}), content_type="application/json")
     try:
         data = await request.json()
     except (json.JSONDecodeError, UnicodeDecodeError):
@@ -200,6 +206,7 @@ async def launch_status(request: web.Request) -> web.Response:
 
 
 async def launch_stop(request: web.Request) -> web.Response:
+    await _body(request)  # only a JSON request: see _body
     viewer = _viewer(request)
     await asyncio.to_thread(viewer.launcher.stop)
     return web.json_response({"ok": True, **viewer.launcher.status()})
