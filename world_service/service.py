@@ -204,9 +204,11 @@ def _note_ack(world: World, agents: Agents, item: Received) -> None:
         agents.plan.acked(agent, ack.tick, ack.wake)
 
 
-def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> Agents:
+def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event,
+                    agents: Agents) -> None:
+    """Until every rover's and the lander's token is there (or ``start_timeout``), answering id requests."""
     keys = world.keys
-    agents = Agents(keys, desk=IdDesk(world.bodies))
+    agents.desk = IdDesk(world.bodies)
     bus.serve(keys.rover_ids, lambda requester: codec.encode(agents.desk.grant(requester.decode(errors="replace"))))
     wanted = {keys.alive_rover(rid) for rid in world.bodies}
     if settings.wait_for_lander:
@@ -223,7 +225,6 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
     missing = sorted(wanted - agents.present)
     if missing:
         log.warning("starting without %d agent(s): %s", len(missing), ", ".join(missing))
-    return agents
 
 
 def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) -> None:
@@ -264,10 +265,11 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
     """Run the mission until every rover is done or stuck, ``max_sim_time`` passes, or ``stop`` is set."""
     world.time_scale, world.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
     camera = CameraProcess(world.scenario) if world.RENDERS_PHOTOS else None  # starts while the agents connect
-    agents = wait_for_agents(world, bus, settings, stop)
-    agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
+    agents = Agents(world.keys)
     photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings, camera)
     try:
+        wait_for_agents(world, bus, settings, stop, agents)
+        agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
     finally:
         photographer.close()
