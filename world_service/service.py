@@ -64,10 +64,6 @@ class Photographer:
         self.queued: list[tuple[PhotoJob, Future]] = []
         self.waited_s = 0.0  # lockstep: how long the clock waited for renders
 
-    @property
-    def pending(self) -> int:
-        return len(self.queued)
-
     def take(self, tick: int) -> None:
         """Start the new jobs; publish what is due by ``tick``, the tick about to be stepped."""
         jobs, self.world.photo_jobs = self.world.photo_jobs, []
