@@ -25,11 +25,15 @@ class Received(NamedTuple):
 
 
 class Bus:
-    def __init__(self, session: zenoh.Session) -> None:
+    def __init__(self, session: zenoh.Session, lossless: bool = False) -> None:
+        """``lossless``: publications wait for a congested link instead of being dropped (Zenoh's default for
+        puts), for a replay, which must deliver the whole recording, and a lockstep world, whose agents must
+        see every sample. In real time the fresh sample beats the one held back, so the default drops."""
         self.session = session
         self.inbox: queue.SimpleQueue[Received] = queue.SimpleQueue()
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._declared: list = []
+        self._congestion = zenoh.CongestionControl.BLOCK if lossless else zenoh.CongestionControl.DROP
 
     def subscribe(self, key_expr: str) -> None:
         handler = zenoh.handlers.Callback(self._on_sample, indirect=False)
@@ -65,7 +69,8 @@ class Bus:
     def put(self, key: str, payload: bytes) -> None:
         publisher = self._publishers.get(key)
         if publisher is None:
-            publisher = self._publishers[key] = self.session.declare_publisher(key)
+            publisher = self._publishers[key] = self.session.declare_publisher(key,
+                                                                                congestion_control=self._congestion)
         publisher.put(payload, timestamp=self.session.new_timestamp())  # the recorder keeps it (0.3 us)
 
     def receive(self, timeout: float | None) -> Received | None:

@@ -119,7 +119,7 @@ def _play(args: argparse.Namespace, recording: Recording, world: str, make_playe
     keys = Keyspace(world)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
                            who="lunarsim replay")
-    with Bus(session) as bus:
+    with Bus(session, lossless=True) as bus:
         own = OwnCommands(keys.ground_command)
         player = make_player(own.wrap(bus.put))
         commands = session.declare_subscriber(keys.ground_command, _command_handler(player, own))
