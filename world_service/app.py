@@ -55,7 +55,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
                                      lockstep=args.lockstep, photo_dir=args.photos)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="world")
-    with Bus(session) as bus, process.stop_on_signals() as stop:
+    with Bus(session, lossless=args.lockstep) as bus, process.stop_on_signals() as stop:
         declare_io(bus, world.keys)
         report = service.run(world, bus, settings, stop)
         if args.report:
