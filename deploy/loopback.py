@@ -54,23 +54,21 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
         clock = clock.model_copy(update={"acks": plan.ask(world.tick, {ks.LANDER_ID, *agents})})
         if clock.acks:  # as the world service: no clock on a tick that waits for nobody
             answers = _deliver(keys.clock, codec.encode(clock), world, lander, agents, keys)
-            _note_acks(answers, plan, keys, clock)
+            _note_acks(answers, plan, clock)
             cascade(answers)  # handled before the next tick, as the service handles what came before the acks
     world.observed_state()  # the final state, as the world service publishes it before its final report
     lander.final_map()
     return world
 
 
-def _note_acks(answers: list[tuple[str, m.Message]], plan: AckPlan, keys: ks.Keyspace, clock: m.Clock) -> None:
+def _note_acks(answers: list[tuple[str, m.Message]], plan: AckPlan, clock: m.Clock) -> None:
     """Take the acks out of the agents' answers to the clock; anything from an agent not asked is an error."""
     for key, message in list(answers):
         if isinstance(message, m.Ack):
             answers.remove((key, message))
-            agent = ks.LANDER_ID if key == keys.lander(ks.ACK) else keys.parse_rover_key(key)[0]
-            plan.acked(agent, message.tick, message.wake)
+            plan.acked(plan.agent_of(key), message.tick, message.wake)
     for key, _ in answers:
-        agent = ks.LANDER_ID if key.startswith(keys.lander("")) else keys.parse_rover_key(key)[0]
-        if agent not in clock.acks:
+        if plan.agent_of(key) not in clock.acks:
             raise AssertionError(f"{key} published on tick {clock.tick}, which the world does not wait for "
                                  f"(asked: {clock.acks}): the agent's next_wake() misses a timer")
 

@@ -60,6 +60,14 @@ def test_a_wake_time_in_the_past_still_means_the_next_tick():
     assert plan.ask(41, {1}) == [1]
 
 
+def test_the_agent_of_a_key_is_the_lander_or_the_rover_it_names():
+    plan = AckPlan(KEYS, DT)
+    assert plan.agent_of(KEYS.lander(ks.ACK)) == ks.LANDER_ID == plan.agent_of(KEYS.lander(ks.COMM_OUT))
+    assert plan.agent_of(KEYS.rover(7, ks.ACK)) == 7
+    with pytest.raises(ValueError):
+        plan.agent_of(KEYS.clock)
+
+
 def test_agents_that_left_are_not_waited_for():
     plan = AckPlan(KEYS, DT)
     plan.note(KEYS.rover(5, ks.PERCEPTION))

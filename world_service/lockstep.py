@@ -21,7 +21,15 @@ class AckPlan:
         self.wake: dict[int, int] = {}  # agent id -> first tick its timers may fire; unknown: every tick
         self.sent: set[int] = set()  # agents sent a sample they may answer since the last clock
         self._rover_head = f"{keys.prefix}/rover/"
+        self._lander_head = keys.lander("")
         self._lander_keys = {keys.lander(topic) for topic in ks.ANSWERED_TOPICS}
+
+    def agent_of(self, key: str) -> int:
+        """The agent that publishes on ``key`` (an ack, an answer): 0 for the lander's keys, else the rover's id;
+        ValueError for a key of neither."""
+        if key.startswith(self._lander_head):
+            return ks.LANDER_ID
+        return self.keys.parse_rover_key(key)[0]
 
     def note(self, key: str) -> None:
         """A sample the world publishes: remember whom it may make act."""

@@ -10,8 +10,8 @@ with a liveliness token, so no rover misses the start. Then the clock runs in on
   key order, so the run depends on the scenario and seed only, not on machine load, and goes as fast as
   the processes allow.
 
-Photos take the camera's ``capture_time_s`` of simulated time in both modes: a worker thread renders them
-meanwhile, and in lockstep the clock waits for a render that is not done when its photo is due.
+Photos take the camera's ``capture_time_s`` of simulated time in both modes: a camera process renders them
+meanwhile (``world_service.photos``), and in lockstep the clock waits for a render not done when its photo is due.
 """
 
 from __future__ import annotations
@@ -135,11 +135,6 @@ class Agents:
         if self.plan is not None and agent is not None:
             self.plan.forget(agent)
 
-    def agent_of_ack(self, ack_key: str) -> int:
-        if ack_key == self.keys.lander(ks.ACK):
-            return ks.LANDER_ID
-        return self.keys.parse_rover_key(ack_key)[0]
-
 
 def declare_io(bus: Bus, keys: ks.Keyspace) -> None:
     for topic in World.INPUT_TOPICS:
@@ -189,13 +184,15 @@ def _publish(bus: Bus, agents: Agents, key: str, message: m.Message) -> None:
 
 
 def _note_ack(world: World, agents: Agents, item: Received) -> None:
+    if agents.plan is None:
+        return  # acks matter only in lockstep
     try:
         ack = codec.decode(m.Ack, item.payload)
-        agent = agents.agent_of_ack(item.key)
+        agent = agents.plan.agent_of(item.key)
     except (codec.DecodeError, ValueError) as exc:
         log.warning("rejected ack on %s: %s", item.key, exc)
         return
-    if ack.tick == world.tick and agents.plan is not None:
+    if ack.tick == world.tick:
         agents.waiting.discard(agent)
         agents.plan.acked(agent, ack.tick, ack.wake)
 
