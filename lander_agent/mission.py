@@ -13,11 +13,11 @@ from collections import defaultdict
 from collections.abc import Callable
 
 from lander_agent.daisy_chain import Chain, plan_chain
-from lander_agent.stations import station_offsets
+from lander_agent.stations import pick_station, station_offsets
 from schemas import messages as m
 from schemas.frames import bearing_deg
 from schemas.mission import RoverMissions
-from schemas.radio import GoalReport
+from schemas.radio import GoalReport, StationRequest
 from schemas.scenario import Goal, Scenario
 
 OBSTACLE_GAP_M = 1.0
@@ -37,10 +37,6 @@ class MissionPlan:
         self.finished: dict[int, set[int]] = {}  # goal index -> rovers done with it, held while a chain stands
         self.stations: dict[tuple[int, Goal], dict[int, tuple[float, float]]] = {}
         self._form_chain(0)
-        first = self.missions.goal(1, 0)  # nearest rover first: it arrives first and takes the far side
-        for rid in sorted(self.goal_of, key=lambda r: (math.hypot(first.x - scenario.rovers[r - 1].x,
-                                                                  first.z - scenario.rovers[r - 1].z), r)):
-            self.direction_for(rid)
 
     @property
     def rover_ids(self) -> list[int]:
@@ -54,26 +50,39 @@ class MissionPlan:
         chain = self.chains.get(index)
         if chain and rover_id in chain.spots:
             (x, z), kind = chain.spots[rover_id], "relay"
-        station = self._station(rover_id, index) if kind == "waypoint" else None
+        shared = kind == "waypoint" and len(self._team(rover_id, index)) > 1
+        station = self.stations.get((index, goal), {}).get(rover_id) if shared else None
         return m.MissionDirection(goal_index=index, goals_total=self.missions.final_index(rover_id) + 1,
                                   kind=kind, bearing_deg=round(bearing_deg(x, z), 6),
-                                  distance_m=round(math.hypot(x, z), 6), station=station)
+                                  distance_m=round(math.hypot(x, z), 6), station=station, shared=shared)
 
-    def _station(self, rover_id: int, index: int) -> tuple[float, float] | None:
-        """This rover's station at a waypoint it shares with others, handed out in the order rovers ask."""
+    def _team(self, rover_id: int, index: int) -> list[int]:
+        """The rovers that share this rover's waypoint ``index`` and stand in formation there (none: the
+        report's rule, every rover stops once the waypoint is in view)."""
         goal = self.missions.goal(rover_id, index)
-        formation = self.scenario.formation
-        if goal.kind != "waypoint" or formation.shape == "none":
-            return None
-        team = [rid for rid, goals in self.missions.goals.items() if len(goals) > index and goals[index] == goal]
-        if len(team) < 2:
-            return None
+        if goal.kind != "waypoint" or self.scenario.formation.shape == "none":
+            return []
+        return [rid for rid, goals in self.missions.goals.items() if len(goals) > index and goals[index] == goal]
+
+    def request_station(self, rover_id: int, request: StationRequest) -> bool:
+        """A rover near a shared waypoint asks for its station, so stations go out in the order rovers arrive
+        (``stations.pick_station``). False: nothing to send (a stale request, or no formation here)."""
+        index = request.goal_index
+        if self.goal_of.get(rover_id) != index or rover_id in self.outcome:
+            return False
+        team = self._team(rover_id, index)
+        if len(team) < 2 or (index in self.chains and rover_id in self.chains[index].spots):
+            return False
+        goal = self.missions.goal(rover_id, index)
         taken = self.stations.setdefault((index, goal), {})
         if rover_id not in taken:
+            formation = self.scenario.formation
             offsets = station_offsets(len(team), formation.spacing_m, self._travel_bearing(rover_id, index),
                                       formation.shape, self._clear_of_lander(goal))
-            taken[rover_id] = offsets[len(taken) % len(offsets)]
-        return taken[rover_id]
+            lx, lz = self.scenario.lander.x, self.scenario.lander.z
+            near = (request.x - (goal.x - lx), request.z - (goal.z - lz))
+            taken[rover_id] = pick_station(offsets, taken.values(), near, formation.spacing_m)
+        return True
 
     def _clear_of_lander(self, goal: Goal) -> Callable[[tuple[float, float]], bool]:
         """Stations a rover can stand on: a waypoint at the lander (``return``) must not put one inside it."""

@@ -112,6 +112,10 @@ class Lander:
             self.archive.store(msg.sender, report)
             ack = radio.pack(radio.PhotoAck(labels=[report.label]))
             return [(self.keys.lander(ks.COMM_OUT), m.OutboundComm(targets=[msg.sender], payload=ack))]
+        if isinstance(report, radio.StationRequest):
+            if not self.plan.request_station(msg.sender, report):
+                return []
+            return [self._transmit([msg.sender], self.plan.direction_for(msg.sender), "mission_direction")]
         if isinstance(report, radio.GoalReport):
             moving = self.plan.on_report(msg.sender, report)
             log.info("rover %d: goal %d %s; new goals for %s", msg.sender, report.goal_index, report.outcome, moving)

@@ -3,23 +3,31 @@
 The report sends every rover to the same waypoint and stops each once the goal is in view (6.6); with
 20 rovers the first arrivals ring the goal and the later ones, outside the ring, never see it free. The
 lander instead gives each rover its own station, laid out in the scenario's formation around the
-waypoint (a hexagonal disc, or a line abreast across the direction of travel). Stations are handed out
-far side first, in the order the rovers are sent, so a rover rarely has to squeeze between others
-already standing. Pure logic: offsets in metres from the waypoint, in the lander's frame.
+waypoint (a hexagonal disc, or a line abreast across the direction of travel).
+
+A rover asks for its station as it comes near (``radio.StationRequest``), so stations go out in the order
+rovers arrive, and the formation fills from the inside out: each rover gets the free station nearest the
+waypoint, and of those equally near, the one nearest itself. A later rover's station is then never behind
+rovers already standing, whichever side it comes from (rovers leaving a crater rim arrive from all round).
+Pure logic: offsets in metres from the waypoint, in the lander's frame.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from typing import Literal
 
 Shape = Literal["disc", "line"]
+Offset = tuple[float, float]
+
+SAME_RING = 0.05
+"""Stations whose distances from the waypoint differ by less than this share of the spacing are equally near."""
 
 
 def station_offsets(count: int, spacing: float, travel_bearing_deg: float, shape: Shape = "disc",
-                    allowed: Callable[[tuple[float, float]], bool] | None = None) -> list[tuple[float, float]]:
-    """``count`` offsets ``spacing`` apart, far side (along the direction of travel) first.
+                    allowed: Callable[[Offset], bool] | None = None) -> list[Offset]:
+    """``count`` offsets ``spacing`` apart, nearest the waypoint first.
 
     ``allowed`` rules offsets out (one on the lander's body, say); the disc then takes the next nearest.
     """
@@ -29,14 +37,22 @@ def station_offsets(count: int, spacing: float, travel_bearing_deg: float, shape
     fx, fz = math.sin(rad), math.cos(rad)  # forward: the direction of travel
     rx, rz = fz, -fx  # right of it
 
-    def world(p: tuple[float, float]) -> tuple[float, float]:
+    def world(p: tuple[float, float]) -> Offset:
         a, f = p
         return round(spacing * (a * rx + f * fx), 3), round(spacing * (a * rz + f * fz), 3)
 
     lattice = _line(count) if shape == "line" else _hex_disc(count + 16)
-    chosen = [p for p in lattice if allowed is None or allowed(world(p))][:count]
-    rows = sorted(chosen, key=lambda p: (-round(p[1], 6), abs(p[0]), p[0]))
-    return [world(p) for p in rows]
+    return [o for o in map(world, lattice) if allowed is None or allowed(o)][:count]
+
+
+def pick_station(offsets: list[Offset], taken: Collection[Offset], near: Offset, spacing: float) -> Offset:
+    """The station for a rover asking from ``near`` (an offset from the waypoint, like the stations): the free
+    one nearest the waypoint, then nearest the rover. With every station taken (more rovers than stations),
+    the nearest to the rover."""
+    free = [o for o in offsets if o not in taken] or offsets
+    inner = min(math.hypot(*o) for o in free)
+    ring = [o for o in free if math.hypot(*o) - inner < SAME_RING * spacing]
+    return min(ring, key=lambda o: (round(math.dist(o, near), 6), o))
 
 
 def _hex_disc(count: int) -> list[tuple[float, float]]:
@@ -48,4 +64,6 @@ def _hex_disc(count: int) -> list[tuple[float, float]]:
 
 
 def _line(count: int) -> list[tuple[float, float]]:
-    return [((i - (count - 1) / 2), 0.0) for i in range(count)]
+    """Centre first, then outwards, alternating sides."""
+    half = (count - 1) / 2
+    return sorted(((i - half, 0.0) for i in range(count)), key=lambda p: (abs(p[0]), p[0]))

@@ -43,6 +43,10 @@ PHOTO_TIMEOUT_S = 10.0
 """A photo not back by then is given up (a rover without a working camera must not wait for ever)."""
 PHOTO_RETRY_S = 5.0
 """Photos not yet acknowledged by the lander are sent again this often (store and forward)."""
+STATION_ASK_M = 15.0
+"""Near a shared waypoint, closer than this, the rover asks the lander for its station: just before it reaches
+a 20-rover formation (8.5 m in radius at the default spacing), so stations go out in the order rovers arrive."""
+STATION_ASK_RETRY_S = 2.0
 
 
 @dataclass
@@ -76,6 +80,7 @@ class RoverAgent:
         self.partners: list[int] = []
         self.photo_outbox: dict[str, radio.PhotoReport] = {}
         self._last_photo_send = -math.inf
+        self._last_station_ask = -math.inf
         self.craters_found: set[int] = set()
         self.map = MapRecorder(params)
         self.battery: m.Battery | None = None  # power sensors: only from a world with a sun (issue 8)
@@ -147,7 +152,7 @@ class RoverAgent:
     def _on_mission_direction(self, msg: m.MissionDirection) -> list[Out]:
         rad = math.radians(msg.bearing_deg)
         goal = Goal(msg.goal_index, msg.goals_total, msg.kind, msg.distance_m * math.sin(rad),
-                    msg.distance_m * math.cos(rad), msg.station)
+                    msg.distance_m * math.cos(rad), msg.station, msg.shared)
         current = self.goal
         if current is not None and goal.index < current.index:
             return []
@@ -239,16 +244,29 @@ class RoverAgent:
     def _on_perception(self, msg: m.Perception) -> list[Out]:
         self.now = max(self.now, msg.stamp)
         hits = tuple(Hit(a, d, k) for a, d, k in zip(msg.angles_deg, msg.distances_m, msg.kinds, strict=True))
+        ask = self._ask_station()  # answered with perception, which the lockstep world always waits for
         if self.in_flight is not None:
-            return self._watch(hits)
+            return ask + self._watch(hits)
         if self.pose is not None and msg.stamp >= self.settled_at:  # standing still where dead reckoning says
             self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
         ready = (self.pose is not None and self.goal is not None and self.finished_goal is None
                  and self.state not in ("done", "stuck", "stopped") and not self.powered_off
                  and msg.stamp >= self.settled_at and self.pitch[1] >= self.settled_at)
         if not ready:
+            return ask
+        return ask + self._act(self.behaviour.decide(self._view(msg.stamp, self.pose, hits)))
+
+    def _ask_station(self) -> list[Out]:
+        """Near a waypoint the team shares and with no station yet: ask the lander for one, again every
+        ``STATION_ASK_RETRY_S`` until it comes (a lost request, or a lander out of reach for now)."""
+        goal, pose = self.goal, self.pose
+        if (goal is None or pose is None or not goal.shared or goal.station is not None or self.finished_goal
+                or self.now - self._last_station_ask < STATION_ASK_RETRY_S
+                or math.hypot(goal.x - pose.x, goal.z - pose.z) > STATION_ASK_M):
             return []
-        return self._act(self.behaviour.decide(self._view(msg.stamp, self.pose, hits)))
+        self._last_station_ask = self.now
+        return [self._radio([ks.LANDER_ID], radio.StationRequest(goal_index=goal.index, x=round(pose.x, 3),
+                                                                        z=round(pose.z, 3)))]
 
     def _watch(self, hits: tuple[Hit, ...]) -> list[Out]:
         flight = self.in_flight

@@ -51,14 +51,14 @@ already there block the way."""
 RELAY_CLOSE_M = 1.5
 """A relay holds its spot within this distance: the chain's spacing margin is for drift, not for slack."""
 STATION_CLOSE_M = 1.5
-STATION_CROWDED_M = 4.0
 """A station (the rover's own spot at a shared waypoint) is reached within ``STATION_CLOSE_M``; when the
-rovers standing at theirs leave no way in, within ``STATION_CROWDED_M`` or with the waypoint in view."""
+rovers standing at theirs leave no way in, wherever the waypoint is in view (the report's rule), but not
+short of the station with the waypoint out of view: that would not be at the goal."""
 MAX_BLOCKED_ROTATIONS = 12
 """Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
 MAX_CROWD_WAIT_S = 90.0
 """Seconds without progress among other rovers before giving up: rovers move on, rocks do not."""
-NO_PROGRESS_ROUTE_M = 40.0
+NO_PROGRESS_ROUTE_M = 20.0
 """Metres walked without getting any closer to the goal before the rover plans a route on its map: the
 greedy scan can pace along a long wall (turn to the goal, slide right, turn, slide left...) without ever
 being blocked everywhere in view, which is what otherwise switches routing on."""
@@ -93,6 +93,7 @@ class Goal:
     x: float  # lander frame
     z: float
     station: tuple[float, float] | None = None  # this rover's spot at a shared waypoint, offset from it
+    shared: bool = False  # a waypoint the team shares: the lander gives out stations on request
 
     @property
     def final(self) -> bool:
@@ -270,9 +271,10 @@ class DefaultBehaviour(BaseBehaviour):
         danger = imminent if self._close_quarters else b.collision_danger_dist
         if self._sun is not None and self.uses_sunlight and self._sun.should_turn_back(view):
             return True
-        return any(h.kind == "rover" and abs(h.angle_deg) < 45
-                   and h.distance_m < (danger if h.angle_deg >= -RIGHT_OF_WAY_DEG else imminent)
-                   for h in view.hits)
+        return any(h.kind == "rover" and (
+            (abs(h.angle_deg) < 45 and h.distance_m < (danger if h.angle_deg >= -RIGHT_OF_WAY_DEG else imminent))
+            or (abs(h.angle_deg) < 90 and h.distance_m < imminent))  # closing in from the side: a crossing course
+            for h in view.hits)
 
     def decide(self, view: View) -> Decision:
         self._now = view.time
@@ -355,10 +357,8 @@ class DefaultBehaviour(BaseBehaviour):
         radius = self.params.perception.perception_radius
         pose, goal = view.pose, view.goal
         in_view = math.hypot(goal.x - pose.x, goal.z - pose.z) <= WAYPOINT_IN_VIEW * radius
-        if goal.station is not None:
-            return distance <= STATION_CLOSE_M or (
-                (distance <= STATION_CROWDED_M or in_view) and self._crowded(view))
-        return distance <= WAYPOINT_CLOSE * radius or (in_view and self._crowded(view))
+        close = STATION_CLOSE_M if goal.station is not None else WAYPOINT_CLOSE * radius
+        return distance <= close or (in_view and self._crowded(view))
 
     def _crowded(self, view: View) -> bool:
         """Rovers in view leave no room for a step towards the goal."""

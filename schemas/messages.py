@@ -157,7 +157,8 @@ class MissionDirection(Message):
     """Where the lander sends a rover now: bearing and distance from the lander (report 10.4.3).
 
     Usually the rover's current mission goal; ``kind == "relay"`` sends it to hold a daisy-chain spot. At a
-    waypoint the team shares, ``station`` is this rover's own spot there (``lander_agent.stations``).
+    waypoint the team shares (``shared``), the rover asks for its own spot there when it comes near
+    (``radio.StationRequest``), and the lander's answer carries it in ``station`` (``lander_agent.stations``).
     """
 
     goal_index: int = Field(ge=0)
@@ -167,6 +168,7 @@ class MissionDirection(Message):
     distance_m: float = Field(ge=0)
     station: tuple[float, float] | None = Field(
         None, description="offset (x, z) in metres from the waypoint, lander axes, of this rover's spot at it")
+    shared: bool = Field(False, description="a waypoint the team shares: ask the lander for a station near it")
 
 
 class Calibration(Message):

@@ -92,13 +92,27 @@ class MapAck(Message):
     seqs: list[int]
 
 
+class StationRequest(Message):
+    """A rover near a waypoint its team shares asks the lander for its station there (need N7).
+
+    Stations go out in the order rovers ask, from the inside of the formation out, each on the asking rover's
+    side, so no rover has to squeeze between others already standing (``lander_agent.stations``). ``x``, ``z``:
+    the rover's dead-reckoned position in the lander's frame.
+    """
+
+    goal_index: int = Field(ge=0)
+    x: float
+    z: float
+
+
 class StopCommand(Message):
     """The lander tells a rover to stop where it is until it is given a new goal (need N6)."""
 
 
 RADIO_TYPES: dict[str, type[Message]] = {"goal_report": GoalReport, "photo_report": PhotoReport, "photo_ack": PhotoAck,
                                          "crater_found": CraterFound, "stop_command": StopCommand,
-                                         "map_report": MapReport, "map_ack": MapAck}
+                                         "map_report": MapReport, "map_ack": MapAck,
+                                         "station_request": StationRequest}
 _TAGS = {model: tag for tag, model in RADIO_TYPES.items()}
 
 

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from rover_agent.agent import RoverAgent
+from rover_agent.agent import STATION_ASK_M, STATION_ASK_RETRY_S, RoverAgent
 from rover_agent.behaviour import (
     MAX_BLOCKED_ROTATIONS,
     MAX_CROWD_WAIT_S,
@@ -211,6 +211,15 @@ def test_should_cancel_for_a_rover_close_ahead_only():
     assert not b.should_cancel(_view(hits=[Hit(0.0, 2.0, "obstacle")]))
     assert not b.should_cancel(_view(hits=[Hit(0.0, 6.0, "rover")]))
     assert not b.should_cancel(_view())
+
+
+def test_a_rover_closing_in_from_the_side_stops_the_move():
+    """Crossing courses: a rover abeam is no danger until contact is close, whatever the right of way."""
+    b = _behaviour()
+    assert b.should_cancel(_view(hits=[Hit(70.0, 1.2, "rover")]))
+    assert b.should_cancel(_view(hits=[Hit(-70.0, 1.2, "rover")]))
+    assert not b.should_cancel(_view(hits=[Hit(70.0, 2.0, "rover")]))
+    assert not b.should_cancel(_view(hits=[Hit(120.0, 1.2, "rover")]))  # behind: it is for that one to stop
 
 
 def test_traffic_from_the_left_gives_way_to_this_rover_unless_contact_is_close():
@@ -499,3 +508,28 @@ def test_on_the_rim_a_photo_every_30_degrees_once_round_then_done():
     assert [d for d in decisions if isinstance(d, Rotate)] == [Rotate(30.0)] * 11
     assert len({p.label for p in photos}) == 12 and photos[1].label == "goal0_030.0deg"
     assert b.decide(view) == Finish("reached")
+
+
+def _station_requests(out) -> list[radio.StationRequest]:
+    messages = [radio.unpack(msg.payload) for key, msg in out if key == KEYS.rover(1, ks.COMM_OUT)]
+    return [msg for msg in messages if isinstance(msg, radio.StationRequest)]
+
+
+def test_near_a_shared_waypoint_the_agent_asks_for_its_station_until_it_comes():
+    agent = RoverAgent(1, KEYS, PARAMS)
+    _feed(agent, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
+    shared = {"goal_index": 0, "goals_total": 1, "kind": "waypoint", "bearing_deg": 0.0, "distance_m": 40.0,
+              "shared": True}
+    _feed(agent, m.MissionDirection(**shared))
+
+    def perceive(stamp):
+        return _station_requests(_feed(agent, m.Perception(stamp=stamp, angles_deg=[], distances_m=[], kinds=[])))
+
+    assert perceive(0.2) == []  # 40 m away: not yet
+    agent.pose = Pose(0.0, 40.0 - STATION_ASK_M + 1.0, 0.0)
+    assert perceive(0.4) == [radio.StationRequest(goal_index=0, x=0.0, z=26.0)]
+    assert perceive(0.6) == []  # not again at once...
+    assert len(perceive(0.4 + STATION_ASK_RETRY_S)) == 1  # ...but again when no answer came
+    _feed(agent, m.MissionDirection(**shared, station=(3.2, 0.0)))
+    assert agent.goal.target == (3.2, 40.0)
+    assert perceive(10.0) == []

@@ -9,9 +9,12 @@ from pathlib import Path
 import pytest
 
 from lander_agent.mission import MissionPlan
-from lander_agent.stations import station_offsets
+from lander_agent.runtime import Lander
+from lander_agent.stations import pick_station, station_offsets
+from schemas import codec, radio
+from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.radio import GoalReport
+from schemas.radio import GoalReport, StationRequest
 from schemas.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
@@ -27,12 +30,20 @@ def test_disc_stations_are_spacing_apart_and_compact(count):
     assert max(math.hypot(*o) for o in offsets) <= 3.2 * (math.sqrt(count / 3) + 1)
 
 
-@pytest.mark.parametrize("bearing", [0.0, 90.0, 180.0, 245.0])
-def test_stations_are_handed_out_far_side_first_along_the_direction_of_travel(bearing):
-    offsets = station_offsets(20, 3.2, bearing)
-    fx, fz = math.sin(math.radians(bearing)), math.cos(math.radians(bearing))
-    along = [x * fx + z * fz for x, z in offsets]
-    assert all(a >= b - 0.01 for a, b in itertools.pairwise(along))  # offsets are rounded to mm
+def test_stations_are_listed_nearest_the_waypoint_first():
+    radii = [math.hypot(*o) for o in station_offsets(20, 3.2, 245.0)]
+    assert all(a <= b + 0.01 for a, b in itertools.pairwise(radii))  # offsets are rounded to mm
+
+
+def test_the_formation_fills_from_the_inside_out_each_rover_on_its_own_side():
+    offsets = station_offsets(19, 3.2, 0.0)
+    assert pick_station(offsets, [], (0.0, 30.0), 3.2) == (0.0, 0.0)  # the first to ask: the centre
+    assert pick_station(offsets, [(0.0, 0.0)], (30.0, 0.0), 3.2) == (3.2, 0.0)  # from the east: the east side
+    assert pick_station(offsets, [(0.0, 0.0)], (-30.0, 0.0), 3.2) == (-3.2, 0.0)
+    inner = [o for o in offsets if math.hypot(*o) < 3.3]
+    outer = pick_station(offsets, inner, (0.0, -30.0), 3.2)
+    assert 5.0 < math.hypot(*outer) < 5.6 and outer[1] < 0  # the ring is full: the next one out, on its side
+    assert pick_station(offsets, offsets, (30.0, 0.0), 3.2) in offsets  # more rovers than stations: share one
 
 
 def test_a_line_stands_abreast_across_the_direction_of_travel():
@@ -45,14 +56,43 @@ def _twenty_rover_return():
     return load_scenario(SCENARIOS / "crater_and_return.yaml").with_overrides(rovers=20)
 
 
-def test_the_lander_gives_each_rover_of_a_team_its_own_station_at_a_shared_waypoint():
+def _ask_all(plan: MissionPlan) -> None:
+    """Every rover asks for its station at its current goal from 15 m north of it, in id order."""
+    for rid in plan.rover_ids:
+        index = plan.goal_of[rid]
+        goal = plan.missions.goal(rid, index)
+        x, z = goal.x - plan.scenario.lander.x, goal.z - plan.scenario.lander.z
+        assert plan.request_station(rid, StationRequest(goal_index=index, x=x, z=z + 15.0))
+
+
+def test_the_lander_gives_each_rover_of_a_team_its_own_station_at_a_shared_waypoint_when_it_asks():
     plan = MissionPlan(_twenty_rover_return())
-    assert all(plan.direction_for(r).station is None for r in plan.rover_ids)  # a crater goal first
+    assert not any(plan.direction_for(r).shared for r in plan.rover_ids)  # a crater goal first
+    assert not plan.request_station(1, StationRequest(goal_index=0, x=0.0, z=0.0))
     for rid in plan.rover_ids:
         plan.on_report(rid, GoalReport(goal_index=0, outcome="reached"))
+    assert all(plan.direction_for(r).shared and plan.direction_for(r).station is None for r in plan.rover_ids)
+    assert not plan.request_station(1, StationRequest(goal_index=0, x=0.0, z=0.0))  # a stale request
+    _ask_all(plan)
     stations = [plan.direction_for(r).station for r in plan.rover_ids]
     assert None not in stations and len(set(stations)) == 20
-    assert stations[0] == station_offsets(20, 3.2, plan._travel_bearing(1, 1))[0]  # first told, far side
+    assert stations[0] == (0.0, 0.0)  # the first to ask stands in the middle, the others round it
+    assert plan.request_station(1, StationRequest(goal_index=1, x=0.0, z=0.0))  # asked again: the same station
+    assert plan.direction_for(1).station == (0.0, 0.0)
+
+
+def test_the_lander_answers_a_station_request_over_the_radio():
+    plan = MissionPlan(_twenty_rover_return())
+    for rid in plan.rover_ids:
+        plan.on_report(rid, GoalReport(goal_index=0, outcome="reached"))
+    keys = ks.Keyspace("w")
+    lander = Lander(plan, keys)
+    request = radio.pack(StationRequest(goal_index=1, x=0.0, z=60.0))
+    (key, out), = lander.on_comm_in(m.InboundComm(sender=7, payload=request))
+    direction = codec.decode(m.MissionDirection, out.payload)
+    assert key == keys.lander(ks.COMM_OUT) and out.targets == [7] and direction.station == (0.0, 0.0)
+    stale = radio.pack(StationRequest(goal_index=0, x=0.0, z=60.0))
+    assert lander.on_comm_in(m.InboundComm(sender=8, payload=stale)) == []
 
 
 def test_formation_none_keeps_the_reports_shared_waypoint():
@@ -61,14 +101,15 @@ def test_formation_none_keeps_the_reports_shared_waypoint():
     plan = MissionPlan(scenario)
     for rid in plan.rover_ids:
         plan.on_report(rid, GoalReport(goal_index=0, outcome="reached"))
-    assert all(plan.direction_for(r).station is None for r in plan.rover_ids)
+    assert not any(plan.direction_for(r).shared for r in plan.rover_ids)
+    assert not plan.request_station(1, StationRequest(goal_index=1, x=0.0, z=0.0))
 
 
 def test_a_rover_alone_at_a_waypoint_gets_no_station():
     scenario = load_scenario(SCENARIOS / "crater_and_return.yaml").with_overrides(rovers=1)
     plan = MissionPlan(scenario)
     plan.on_report(1, GoalReport(goal_index=0, outcome="reached"))
-    assert plan.direction_for(1).station is None
+    assert not plan.direction_for(1).shared and plan.direction_for(1).station is None
 
 
 def test_no_station_is_placed_on_the_lander_when_every_rover_returns():
@@ -76,6 +117,7 @@ def test_no_station_is_placed_on_the_lander_when_every_rover_returns():
     plan = MissionPlan(scenario)
     lander = scenario.lander
     plan.on_command(m.GroundCommand(command="set_target", x=lander.x, z=lander.z))
+    _ask_all(plan)
     for rid in plan.rover_ids:
         direction = plan.direction_for(rid)
         assert direction.station is not None
