@@ -5,6 +5,10 @@ position, each within radio range of the one before, so every rover keeps a rout
 (need N3). The optimised chain uses the fewest relays the distance needs: spots evenly spaced on the
 line from the lander to the goal, no farther apart than ``SPACING`` of the radio range, which leaves a
 margin for dead-reckoning drift. Pure logic: the lander's plan asks for a chain per goal.
+
+The rovers nearest the goal relay, the nearest taking the spot farthest out, and the others go on to the
+goal behind them: the chain forms ahead of the rovers that pass it, so none of them outruns the last relay
+(a relay held up by a rock or by traffic would otherwise leave the rovers ahead of it out of reach).
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-SPACING = 0.85
+SPACING = 0.87
 """Relay spacing as a share of the radio range."""
 
 
@@ -37,8 +41,9 @@ def plan_chain(goal_xz: tuple[float, float], reach_m: float, rover_ids: list[int
                comm_range: float) -> Chain:
     """Relay spots toward a goal whose nearest useful point is ``reach_m`` from the lander.
 
-    The rovers with the highest ids relay, the highest nearest the lander; at least one rover always
-    goes on to the goal, so a team too small for the distance gets as long a chain as it can form.
+    ``rover_ids`` come nearest the goal first: the first ones relay, the first farthest out. At least one
+    rover always goes on to the goal, so a team too small for the distance gets as long a chain as it can
+    form.
     """
     count = min(relays_needed(reach_m, lander_range, comm_range), max(len(rover_ids) - 1, 0))
     if count == 0:
@@ -46,6 +51,6 @@ def plan_chain(goal_xz: tuple[float, float], reach_m: float, rover_ids: list[int
     gx, gz = goal_xz
     length = math.hypot(gx, gz)
     step = reach_m / (count + 1)  # even spacing: lander, relays and the goal's reach alike
-    relays = sorted(rover_ids, reverse=True)[:count]
+    outward = list(reversed(rover_ids[:count]))
     return Chain({rid: (round(gx / length * step * (i + 1), 3), round(gz / length * step * (i + 1), 3))
-                  for i, rid in enumerate(relays)})
+                  for i, rid in enumerate(outward)})

@@ -111,9 +111,18 @@ class MissionPlan:
         crater = self.scenario.crater_of(goal) if goal.kind == "crater" else None
         reach = math.hypot(goal.x - lx, goal.z - lz) - (crater.radius_m if crater else 0.0)
         c = self.scenario.rover_params.communication
+        rovers.sort(key=lambda rid: math.dist(self._setting_out(rid, index), (goal.x - lx, goal.z - lz)))
         chain = plan_chain((goal.x - lx, goal.z - lz), reach, rovers, c.lander_comm_range, c.comm_range)
         if chain.spots:
             self.chains[index] = chain
+
+    def _setting_out(self, rover_id: int, index: int) -> tuple[float, float]:
+        """Where the rover sets out for goal ``index``, in the lander's frame: its start, or the goal before."""
+        if index == 0:
+            start = self.calibration[rover_id]
+            return start.x, start.z
+        before = self.missions.goal(rover_id, index - 1)
+        return before.x - self.scenario.lander.x, before.z - self.scenario.lander.z
 
     @property
     def relay_chain(self) -> list[int]:

@@ -71,6 +71,12 @@ CROWD_LOOKS = 3
 RIGHT_OF_WAY_DEG = 10.0
 """A rover ahead, or to the right of this many degrees left of ahead, has right of way (report 7.2.1)."""
 MAX_CREST_LOOKS = 3
+BOWL_PITCH = 6.0
+"""Degrees nose-down, facing the crater after a climb, that only the bowl's inner wall gives: a step took the
+rover over the crest (the outer rim is still steep just below it, so steps there are whole). Standing there
+would hide it from rovers outside the rim, so it turns round and steps back; the crest is then known, and it
+observes from where it stands once, facing the crater, the pitch says it is out of the bowl."""
+MAX_BACKS = 3
 CHARGE_CHECK_S = 1.0
 """While charging in sunlight the rover looks at its battery again this often."""
 ROVER_GAP_CLOSE = 0.5
@@ -206,6 +212,8 @@ class DefaultBehaviour(BaseBehaviour):
     _now: float = 0.0  # time of the latest view
     _closest: tuple[float, float] = (math.inf, 0.0)  # (nearest the goal has been, odometer then)
     _crest_looks: int = 0
+    _backs: int = 0  # steps back out of the crater's bowl onto the crest
+    _backing: bool = False  # turned away from the bowl, to step out of it next
     _rejected: list[float] = field(default_factory=list)
     _hold_until: float = 0.0
     _photos_taken: int = 0
@@ -230,7 +238,7 @@ class DefaultBehaviour(BaseBehaviour):
         self._crowd_since, self._crowd_waits = None, 0
         self._parking = False
         self._closest = (math.inf, self._odometer)
-        self._crest_looks = 0
+        self._crest_looks, self._backs, self._backing = 0, 0, False
         self._rejected.clear()
 
     def moved(self, distance: float) -> None:
@@ -379,7 +387,7 @@ class DefaultBehaviour(BaseBehaviour):
         self._photo_due = True
         return Rotate(step)
 
-    def _climb(self, view: View) -> Finish | Rotate | None:
+    def _climb(self, view: View) -> Finish | Rotate | MoveTo | None:
         if self._crater_seen_at is None and any(h.kind == "crater_terrain" for h in view.hits):
             self._crater_seen_at = self._odometer
             self.state = "climbing"
@@ -391,9 +399,18 @@ class DefaultBehaviour(BaseBehaviour):
         if facing:
             self._max_pitch = max(self._max_pitch, view.pitch_deg)
         walked = self._odometer - self._crater_seen_at
-        if not (self._max_pitch >= CLIMB_PITCH and walked >= self.params.perception.perception_radius):
+        climbed = self._max_pitch >= CLIMB_PITCH
+        if self._backing:
+            self._backing = False
+            return MoveTo(0.0, self.params.behaviour.min_move_size / 2)
+        if climbed and facing and view.pitch_deg <= -BOWL_PITCH and self._backs < MAX_BACKS:
+            # Past the crest, on the bowl's wall: turn round and step back onto the crest (a move must be in
+            # view), where the radio sees over the rim.
+            self._backs, self._backing = self._backs + 1, True
+            return Rotate(180.0)
+        if not (climbed and (self._backs or walked >= self.params.perception.perception_radius)):
             return None
-        if view.pitch_deg > CREST_PITCH:
+        if view.pitch_deg > CREST_PITCH and not self._backs:
             return None
         if facing or self._crest_looks >= MAX_CREST_LOOKS:
             return Finish("reached")

@@ -8,6 +8,8 @@ import pytest
 
 from rover_agent.agent import STATION_ASK_M, STATION_ASK_RETRY_S, RoverAgent
 from rover_agent.behaviour import (
+    BOWL_PITCH,
+    MAX_BACKS,
     MAX_BLOCKED_ROTATIONS,
     MAX_CROWD_WAIT_S,
     NO_PROGRESS_ROUTE_M,
@@ -356,6 +358,34 @@ def test_a_new_goal_forgets_the_climb():
     b.start_goal(_goal(0.0, 60.0, kind="crater", index=1, total=2))
     assert b.state == "migration"
     assert not _on_crest(b, b.decide(_crater_view(pitch=0.0, hits=())))
+
+
+def test_a_step_over_the_crest_turns_the_rover_round_and_back_onto_it():
+    goal = _goal(0.0, 60.0, kind="crater")
+    b = _behaviour(goal)
+    b.decide(_crater_view(pitch=0.0))
+    b.moved(2.0)
+    b.decide(_crater_view(pitch=9.0, hits=()))  # up the outer rim, a whole step
+    b.moved(2.0)
+    # 4 m from first seeing the crater and pitched down the bowl's wall: over the crest, not on it
+    assert b.decide(_crater_view(pitch=-BOWL_PITCH - 2, hits=())) == Rotate(180.0)
+    assert b.decide(_view(goal, pose=Pose(0.0, 0.0, 180.0), pitch=15.0)) == MoveTo(
+        0.0, PARAMS.behaviour.min_move_size / 2)  # one short step out of the bowl, facing away
+    b.moved(1.0)
+    # facing the crater again the pitch is still down the wall but no longer steep: observe from here
+    assert _on_crest(b, b.decide(_crater_view(pitch=-2.0, hits=())))
+
+
+def test_a_rover_never_steps_back_out_of_the_bowl_more_than_a_few_times():
+    b = _behaviour(_goal(0.0, 60.0, kind="crater"))
+    b.decide(_crater_view(pitch=9.0))
+    steep = _crater_view(pitch=-BOWL_PITCH - 5, hits=())
+    backs = 0
+    for _ in range(MAX_BACKS):
+        assert b.decide(steep) == Rotate(180.0)
+        assert isinstance(b.decide(steep), MoveTo)  # (a refused step leaves it where it was)
+        backs += 1
+    assert backs == MAX_BACKS and _on_crest(b, b.decide(steep))
 
 
 # ---- the agent ----

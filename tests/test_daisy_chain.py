@@ -16,7 +16,7 @@ from schemas.scenario import load_scenario
 
 
 @pytest.mark.parametrize(("reach", "lander_range", "comm_range", "needed"), [
-    (20.0, 30.0, 30.0, 0), (25.5, 30.0, 30.0, 0), (50.0, 30.0, 30.0, 1), (130.0, 30.0, 30.0, 5),
+    (20.0, 30.0, 30.0, 0), (25.5, 30.0, 30.0, 0), (50.0, 30.0, 30.0, 1), (130.0, 30.0, 30.0, 4),
     (130.0, 1000.0, 10.0, 0),
 ])
 def test_the_fewest_relays_that_bridge_the_distance(reach, lander_range, comm_range, needed):
@@ -25,8 +25,8 @@ def test_the_fewest_relays_that_bridge_the_distance(reach, lander_range, comm_ra
 
 
 def test_relay_spots_are_evenly_spaced_on_the_line_within_range():
-    chain = plan_chain((0.0, 150.0), 130.0, list(range(1, 9)), 30.0, 30.0)
-    assert chain.relays == [8, 7, 6, 5, 4]  # the highest ids relay, the highest nearest the lander
+    chain = plan_chain((0.0, 150.0), 130.0, [3, 1, 4, 2, 5, 6], 30.0, 30.0)
+    assert chain.relays == [2, 4, 1, 3]  # the rovers nearest the goal relay, the nearest farthest out
     spots = [chain.spots[rid] for rid in chain.relays]
     assert all(x == 0.0 for x, _ in spots)
     gaps = [b[1] - a[1] for a, b in zip([(0.0, 0.0), *spots], [*spots, (0.0, 130.0)], strict=True)]
@@ -34,20 +34,23 @@ def test_relay_spots_are_evenly_spaced_on_the_line_within_range():
 
 
 def test_a_team_too_small_still_sends_one_rover_to_the_goal():
-    assert list(plan_chain((0.0, 150.0), 130.0, [1, 2], 30.0, 30.0).spots) == [2]
+    assert list(plan_chain((0.0, 150.0), 130.0, [1, 2], 30.0, 30.0).spots) == [1]
 
 
 def test_the_lander_holds_finished_rovers_until_the_chain_is_released():
     scenario = load_scenario(SCENARIOS / "daisy_chain.yaml")
     plan = MissionPlan(scenario)
-    assert plan.direction_for(8).kind == "relay" and plan.direction_for(1).kind == "crater"
-    assert plan.relay_chain == [8, 7, 6, 5, 4]
-    assert plan.on_report(8, GoalReport(goal_index=0, outcome="relay")) == []
-    assert plan.on_report(1, GoalReport(goal_index=0, outcome="reached")) == []
-    assert plan.on_report(2, GoalReport(goal_index=0, outcome="reached")) == []
-    assert plan.on_report(3, GoalReport(goal_index=0, outcome="reached")) == []  # last goal: released
-    assert plan.outcome == {1: "reached", 2: "reached", 3: "reached", 4: "relay", 5: "relay", 6: "relay",
-                            7: "relay", 8: "relay"}
+    # The front row (1-4) starts nearest the crater and forms the chain, the centre pair farthest out; the
+    # back row goes on to the rim behind it, so nobody outruns the last relay.
+    assert plan.relay_chain == [4, 1, 3, 2]
+    assert plan.direction_for(2).kind == "relay" and plan.direction_for(5).kind == "crater"
+    assert plan.on_report(2, GoalReport(goal_index=0, outcome="relay")) == []
+    assert plan.on_report(5, GoalReport(goal_index=0, outcome="reached")) == []
+    assert plan.on_report(6, GoalReport(goal_index=0, outcome="reached")) == []
+    assert plan.on_report(7, GoalReport(goal_index=0, outcome="reached")) == []
+    assert plan.on_report(8, GoalReport(goal_index=0, outcome="reached")) == []  # last goal: released
+    assert plan.outcome == {1: "relay", 2: "relay", 3: "relay", 4: "relay", 5: "reached", 6: "reached",
+                            7: "reached", 8: "reached"}
 
 
 def test_the_daisy_chain_scenario_keeps_rovers_connected_and_photos_reach_the_lander():
@@ -56,7 +59,9 @@ def test_the_daisy_chain_scenario_keeps_rovers_connected_and_photos_reach_the_la
     world = run_mission(scenario, 400, archive)
     report = world.report()
     assert report.complete and report.rover_collisions == 0 and report.obstacle_collisions == 0
-    assert report.max_rovers_in_daisy_chain >= 4
-    assert report.rovers_reached_final_goal == 3  # the three that are not relays stand on the rim
-    assert len(archive.received) == 3 * 12  # every crater photo reached the lander through the chain
-    assert report.worst_rover_connected_fraction >= 0.8
+    # 130 m from the lander to the rim at 30 m range takes 4 relays; the issue allows one more, counted by
+    # the world as every rover that carries another's traffic (an observer over the crest included).
+    assert 4 <= report.max_rovers_in_daisy_chain <= math.ceil(130 / 30)
+    assert report.rovers_reached_final_goal == 4  # the four that are not relays stand on the rim
+    assert len(archive.received) == 4 * 12  # every crater photo reached the lander through the chain
+    assert report.worst_rover_connected_fraction >= 0.95
