@@ -51,10 +51,12 @@ class MissionPlan:
         if chain and rover_id in chain.spots:
             (x, z), kind = chain.spots[rover_id], "relay"
         shared = kind == "waypoint" and len(self._team(rover_id, index)) > 1
+        relayed = chain is not None and kind != "relay"
         station = self.stations.get((index, goal), {}).get(rover_id) if shared else None
         return m.MissionDirection(goal_index=index, goals_total=self.missions.final_index(rover_id) + 1,
                                   kind=kind, bearing_deg=round(bearing_deg(x, z), 6),
-                                  distance_m=round(math.hypot(x, z), 6), station=station, shared=shared)
+                                  distance_m=round(math.hypot(x, z), 6), station=station, shared=shared,
+                                  relayed=relayed)
 
     def _team(self, rover_id: int, index: int) -> list[int]:
         """The rovers that share this rover's waypoint ``index`` and stand in formation there (none: the

@@ -152,7 +152,7 @@ class RoverAgent:
     def _on_mission_direction(self, msg: m.MissionDirection) -> list[Out]:
         rad = math.radians(msg.bearing_deg)
         goal = Goal(msg.goal_index, msg.goals_total, msg.kind, msg.distance_m * math.sin(rad),
-                    msg.distance_m * math.cos(rad), msg.station, msg.shared)
+                    msg.distance_m * math.cos(rad), msg.station, msg.shared, msg.relayed)
         current = self.goal
         if current is not None and goal.index < current.index:
             return []

@@ -73,9 +73,11 @@ RIGHT_OF_WAY_DEG = 10.0
 MAX_CREST_LOOKS = 3
 BOWL_PITCH = 6.0
 """Degrees nose-down, facing the crater after a climb, that only the bowl's inner wall gives: a step took the
-rover over the crest (the outer rim is still steep just below it, so steps there are whole). Standing there
-would hide it from rovers outside the rim, so it turns round and steps back; the crest is then known, and it
-observes from where it stands once, facing the crater, the pitch says it is out of the bowl."""
+rover over the crest (the outer rim is still steep just below it, so steps there are whole). When its radio
+route runs through a daisy chain, standing there would hide it from the last relay outside the rim, so it
+turns round and steps back; the crest is then known, and it observes from where it stands once, facing the
+crater, the pitch says it is out of the bowl. Without a chain it observes from the wall, as the report's
+rover does."""
 MAX_BACKS = 3
 CHARGE_CHECK_S = 1.0
 """While charging in sunlight the rover looks at its battery again this often."""
@@ -100,6 +102,7 @@ class Goal:
     z: float
     station: tuple[float, float] | None = None  # this rover's spot at a shared waypoint, offset from it
     shared: bool = False  # a waypoint the team shares: the lander gives out stations on request
+    relayed: bool = False  # a daisy chain stands for this goal: the radio route runs through relays before it
 
     @property
     def final(self) -> bool:
@@ -402,10 +405,13 @@ class DefaultBehaviour(BaseBehaviour):
         climbed = self._max_pitch >= CLIMB_PITCH
         if self._backing:
             self._backing = False
-            return MoveTo(0.0, self.params.behaviour.min_move_size / 2)
-        if climbed and facing and view.pitch_deg <= -BOWL_PITCH and self._backs < MAX_BACKS:
-            # Past the crest, on the bowl's wall: turn round and step back onto the crest (a move must be in
-            # view), where the radio sees over the rim.
+            step = self.params.behaviour.min_move_size / 2
+            if self._free_distance(0.0, view.hits) >= step:
+                return MoveTo(0.0, step)
+            self._backs = MAX_BACKS  # a rover right behind: stay, rather than squeeze into it
+        if goal.relayed and climbed and facing and view.pitch_deg <= -BOWL_PITCH and self._backs < MAX_BACKS:
+            # Past the crest, on the bowl's wall, out of the chain's sight: turn round and step back onto the
+            # crest (a move must be in view), where the radio sees over the rim to the last relay.
             self._backs, self._backing = self._backs + 1, True
             return Rotate(180.0)
         if not (climbed and (self._backs or walked >= self.params.perception.perception_radius)):

@@ -169,6 +169,8 @@ class MissionDirection(Message):
     station: tuple[float, float] | None = Field(
         None, description="offset (x, z) in metres from the waypoint, lander axes, of this rover's spot at it")
     shared: bool = Field(False, description="a waypoint the team shares: ask the lander for a station near it")
+    relayed: bool = Field(False, description="a daisy chain stands for this goal: the rover's radio route to the "
+                          "lander runs through relays holding on the way to it")
 
 
 class Calibration(Message):

@@ -307,8 +307,11 @@ def test_a_station_walled_in_by_rovers_counts_as_reached_with_the_waypoint_in_vi
 CRATER_AHEAD = (Hit(0.0, 8.0, "crater_terrain"),)
 
 
-def _crater_view(pitch, hits=CRATER_AHEAD):
-    return _view(_goal(0.0, 60.0, kind="crater"), hits=hits, pitch=pitch)
+def _crater_view(pitch, hits=CRATER_AHEAD, goal=None):
+    return _view(goal or _goal(0.0, 60.0, kind="crater"), hits=hits, pitch=pitch)
+
+
+RELAYED_CRATER = Goal(0, 1, "crater", 0.0, 60.0, relayed=True)  # a daisy chain stands for it
 
 
 def _on_crest(b, decision) -> bool:
@@ -360,32 +363,46 @@ def test_a_new_goal_forgets_the_climb():
     assert not _on_crest(b, b.decide(_crater_view(pitch=0.0, hits=())))
 
 
-def test_a_step_over_the_crest_turns_the_rover_round_and_back_onto_it():
-    goal = _goal(0.0, 60.0, kind="crater")
+def test_a_step_over_the_crest_turns_a_relayed_rover_round_and_back_onto_it():
+    goal = RELAYED_CRATER
     b = _behaviour(goal)
-    b.decide(_crater_view(pitch=0.0))
+    b.decide(_crater_view(pitch=0.0, goal=goal))
     b.moved(2.0)
-    b.decide(_crater_view(pitch=9.0, hits=()))  # up the outer rim, a whole step
+    b.decide(_crater_view(pitch=9.0, hits=(), goal=goal))  # up the outer rim, a whole step
     b.moved(2.0)
-    # 4 m from first seeing the crater and pitched down the bowl's wall: over the crest, not on it
-    assert b.decide(_crater_view(pitch=-BOWL_PITCH - 2, hits=())) == Rotate(180.0)
+    # 4 m from first seeing the crater and pitched down the bowl's wall: over the crest, out of the chain's sight
+    assert b.decide(_crater_view(pitch=-BOWL_PITCH - 2, hits=(), goal=goal)) == Rotate(180.0)
     assert b.decide(_view(goal, pose=Pose(0.0, 0.0, 180.0), pitch=15.0)) == MoveTo(
         0.0, PARAMS.behaviour.min_move_size / 2)  # one short step out of the bowl, facing away
     b.moved(1.0)
     # facing the crater again the pitch is still down the wall but no longer steep: observe from here
-    assert _on_crest(b, b.decide(_crater_view(pitch=-2.0, hits=())))
+    assert _on_crest(b, b.decide(_crater_view(pitch=-2.0, hits=(), goal=goal)))
+
+
+def test_without_a_chain_the_rover_observes_from_where_the_step_took_it():
+    b = _behaviour(_goal(0.0, 60.0, kind="crater"))
+    b.decide(_crater_view(pitch=9.0))
+    b.moved(10.0)
+    assert _on_crest(b, b.decide(_crater_view(pitch=-BOWL_PITCH - 2, hits=())))  # as the report's rover
 
 
 def test_a_rover_never_steps_back_out_of_the_bowl_more_than_a_few_times():
-    b = _behaviour(_goal(0.0, 60.0, kind="crater"))
-    b.decide(_crater_view(pitch=9.0))
-    steep = _crater_view(pitch=-BOWL_PITCH - 5, hits=())
-    backs = 0
+    b = _behaviour(RELAYED_CRATER)
+    b.decide(_crater_view(pitch=9.0, goal=RELAYED_CRATER))
+    steep = _crater_view(pitch=-BOWL_PITCH - 5, hits=(), goal=RELAYED_CRATER)  # every step back refused
     for _ in range(MAX_BACKS):
         assert b.decide(steep) == Rotate(180.0)
-        assert isinstance(b.decide(steep), MoveTo)  # (a refused step leaves it where it was)
-        backs += 1
-    assert backs == MAX_BACKS and _on_crest(b, b.decide(steep))
+        assert isinstance(b.decide(steep), MoveTo)
+    assert _on_crest(b, b.decide(steep))  # then it observes from there rather than turn for ever
+
+
+def test_a_rover_right_behind_keeps_a_relayed_rover_on_the_wall():
+    b = _behaviour(RELAYED_CRATER)
+    b.decide(_crater_view(pitch=9.0, goal=RELAYED_CRATER))
+    assert b.decide(_crater_view(pitch=-BOWL_PITCH - 2, hits=(), goal=RELAYED_CRATER)) == Rotate(180.0)
+    behind = _view(RELAYED_CRATER, pose=Pose(0.0, 0.0, 180.0), hits=(Hit(0.0, 1.6, "rover"),), pitch=15.0)
+    assert not isinstance(b.decide(behind), MoveTo)  # no squeezing into it
+    assert _on_crest(b, b.decide(_crater_view(pitch=-BOWL_PITCH - 2, hits=(), goal=RELAYED_CRATER)))
 
 
 # ---- the agent ----

@@ -44,6 +44,7 @@ def test_the_lander_holds_finished_rovers_until_the_chain_is_released():
     # back row goes on to the rim behind it, so nobody outruns the last relay.
     assert plan.relay_chain == [4, 1, 3, 2]
     assert plan.direction_for(2).kind == "relay" and plan.direction_for(5).kind == "crater"
+    assert plan.direction_for(5).relayed and not plan.direction_for(2).relayed  # observers know of the chain
     assert plan.on_report(2, GoalReport(goal_index=0, outcome="relay")) == []
     assert plan.on_report(5, GoalReport(goal_index=0, outcome="reached")) == []
     assert plan.on_report(6, GoalReport(goal_index=0, outcome="reached")) == []
