@@ -2,7 +2,10 @@
 
 Each run is a whole ``lunarsim run`` (its own router port and world name) with seed BASE + i. Every
 run's report and the aggregate go to ``DIR/batch.json``; a run that fails is recorded with the end of
-its output, and the others go on.
+its output, and the others go on. Beside Table 2's columns the table shows the radio: the worst rover's
+share of the mission connected to the lander, the most rovers relaying at once, and the photos the lander
+archived (``photos_at_lander``, counted from the run's ``lander_archive/index.jsonl``): the daisy chain's
+figures.
 """
 
 from __future__ import annotations
@@ -18,6 +21,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from deploy import process
+
+TABLE_WIDTH = 140
+"""Columns of the printed table when the output is not a terminal (a log, CI): wide enough for every figure."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -53,7 +59,7 @@ def run_from_args(args: argparse.Namespace) -> int:
         raise process.UsageError("--runs and --jobs must be at least 1")
     params = load_rover_params(args.params) if args.params else None
     scenario = load_scenario(args.scenario).with_overrides(rovers=args.rovers, rover_params=params)
-    console = Console()
+    console = Console(width=None if sys.stdout.isatty() else TABLE_WIDTH)
     if args.out.exists() and any(args.out.glob("run-*")):
         raise process.UsageError(f"{args.out} already holds a batch (run-* folders): choose another --out, so "
                                  "no run overwrites another's report")
@@ -114,7 +120,14 @@ def _collect(run: Run) -> dict:
     except (OSError, ValueError):
         tail = (run.out / "run.log").read_text(errors="replace").strip().splitlines()[-3:]
         return {"seed": run.seed, "error": f"exit {run.proc.returncode}: " + " | ".join(tail)}
-    return {**report, "run": run.index + 1}
+    return {**report, "run": run.index + 1, "photos_at_lander": _photos_archived(run.out)}
+
+
+def _photos_archived(out: Path) -> int:
+    try:
+        return len((out / "lander_archive" / "index.jsonl").read_text().splitlines())
+    except OSError:
+        return 0
 
 
 def _free_port() -> int:
@@ -147,30 +160,38 @@ def aggregate(reports: list[dict]) -> dict:
         "rovers_stuck": sum(r["rovers_stuck"] for r in reports),
         "mission_duration_s": mean("mission_duration_s"),
         "complete_runs": sum(bool(r["complete"]) for r in reports),
+        "worst_rover_connected_fraction": min(r["worst_rover_connected_fraction"] for r in reports),
+        "max_rovers_in_daisy_chain": max(r["max_rovers_in_daisy_chain"] for r in reports),
+        "photos_at_lander": sum(r["photos_at_lander"] for r in reports),
     }
 
 
 def table_2(name: str, reports: list[dict], agg: dict):
-    """The report's Table 2, one row per run and an average row."""
+    """The report's Table 2, one row per run and an average row (the radio's: worst, most and sum)."""
     from rich.table import Table
 
     table = Table(title=f"{name}: {len(reports)} runs", title_justify="left")
     for column in ("run", "rel. path m", "avg covered m", "efficiency", "total m", "reached", "collisions",
-                   "stuck", "mm:ss"):
+                   "stuck", "mm:ss", "connected", "relays", "photos"):
         table.add_column(column, justify="right")
     for r in reports:
         table.add_row(str(r["run"]), f"{r['relative_path_length_m']:.2f}", f"{r['average_distance_covered_m']:.2f}",
                       f"{r['average_path_efficiency']:.3f}", f"{r['total_distance_covered_m']:.1f}",
                       f"{r['rovers_reached_final_goal']}/{r['rovers_total']}",
                       str(r["rover_collisions"] + r["obstacle_collisions"]), str(r["rovers_stuck"]),
-                      _mmss(r["mission_duration_s"]))
+                      _mmss(r["mission_duration_s"]), *_radio(r))
     if agg:
         table.add_row("mean", f"{agg['relative_path_length_m']:.2f}", f"{agg['average_distance_covered_m']:.2f}",
                       f"{agg['average_path_efficiency']:.3f}", f"{agg['total_distance_covered_m']:.1f}",
                       f"{agg['rovers_reached_final_goal']}/{agg['rovers_total']} ({agg['reached_fraction']:.0%})",
                       str(agg["rover_collisions"] + agg["obstacle_collisions"]), str(agg["rovers_stuck"]),
-                      _mmss(agg["mission_duration_s"]), style="bold")
+                      _mmss(agg["mission_duration_s"]), *_radio(agg), style="bold")
     return table
+
+
+def _radio(r: dict) -> tuple[str, str, str]:
+    return (f"{r['worst_rover_connected_fraction']:.2f}", str(r["max_rovers_in_daisy_chain"]),
+            str(r["photos_at_lander"]))
 
 
 def _mmss(seconds: float) -> str:

@@ -135,7 +135,11 @@ def test_batch_runs_seeded_missions_and_summarises_them(tmp_path):
     assert agg["runs"] == 2 and agg["rovers_total"] == 4
     assert agg["rovers_reached_final_goal"] == sum(r["rovers_reached_final_goal"] for r in batch["runs"])
     assert batch["runs"][0]["total_distance_covered_m"] != batch["runs"][1]["total_distance_covered_m"]
-    assert "mean" in stdout and (out / "run-001-seed11" / "report.json").exists()
+    for run in batch["runs"]:  # every rover on the rim photographs it once round, and the lander has them all
+        assert run["photos_at_lander"] == 12 * run["rovers_reached_final_goal"]
+    assert agg["photos_at_lander"] == sum(r["photos_at_lander"] for r in batch["runs"])
+    assert agg["worst_rover_connected_fraction"] == min(r["worst_rover_connected_fraction"] for r in batch["runs"])
+    assert "mean" in stdout and "photos" in stdout and (out / "run-001-seed11" / "report.json").exists()
 
 
 def test_batch_refuses_a_folder_that_holds_another_batch(tmp_path):
