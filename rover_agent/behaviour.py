@@ -6,7 +6,8 @@ edge of what is known to be free, and rotate 60 degrees when everything in view 
 first such block on, it aims along a route planned on its own map of the obstacles it has seen
 (``planner``), which leads out of dead ends. For a crater goal it climbs the rim with the gyroscope and
 stops on the crest only after having climbed and walked at least the perception radius since first
-seeing crater terrain (the report's 7.2.2 fix for stopping on a local optimum), then photographs the
+seeing crater terrain (the report's 7.2.2 fix for stopping on a local optimum; behind a daisy chain it
+steps back off the bowl's wall onto the crest, in the last relay's sight), then photographs the
 crater once round. A waypoint is reached once close, or in view with rovers crowding it (6.6); a relay
 spot of the daisy chain once the rover stands on it; a station (the rover's own spot at a waypoint the
 team shares, from the lander) once on it, in short steps with close-quarters gaps.
