@@ -55,6 +55,7 @@ from world_scale import SCENARIO
 
 from deploy.children import Children, wait_for_port
 from deploy.zenoh_config import RouterUnreachable, build_config, open_session
+from rover_agent.app import PRELOAD
 from schemas import keyspace as ks
 from schemas.scenario import Scenario, dump_scenario, load_scenario
 from world_service.sim import CLOCK_HZ, tick_length, ticks_per_period
@@ -110,7 +111,7 @@ class Cluster:
     """The router, world, lander and rover processes of one measurement; ``stop`` ends every one of them."""
 
     def __init__(self, logs: Path, plan: Plan, scenario_file: Path, scenario: Scenario) -> None:
-        self.children = Children(logs)
+        self.children = Children(logs, preload=PRELOAD)
         self.plan, self.scenario_file, self.scenario = plan, scenario_file, scenario
         self.port = free_port()
         self.endpoint = f"tcp/{HOST}:{self.port}"
@@ -128,7 +129,7 @@ class Cluster:
     def start_rovers(self) -> None:
         for ids in self.plan.rover_groups():
             self.children.start(f"rover{ids[1]}", "rover_agent", *ids, "--params", str(self.scenario_file),
-                                "--behaviour", self.scenario.behaviour, *self.common)
+                                "--behaviour", self.scenario.behaviour, *self.common, warm=True)
 
     def start_witness(self, out: Path, sampled: list[int]) -> None:
         """The second observer (scale_witness.py), stopped with the others; it writes ``out`` when stopped."""

@@ -16,11 +16,15 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from deploy.warm_start import WarmProcess
 
 PR_SET_PDEATHSIG = 1
 
 
-def _die_with_parent() -> None:
+def die_with_parent() -> None:
     with contextlib.suppress(OSError):  # not Linux: the launcher's own shutdown still stops children
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
 
@@ -28,13 +32,22 @@ def _die_with_parent() -> None:
 @dataclass
 class Children:
     log_dir: Path
-    procs: dict[str, subprocess.Popen] = field(default_factory=dict)
+    procs: dict[str, subprocess.Popen | WarmProcess] = field(default_factory=dict)
+    preload: tuple[str, ...] = ()
+    """What the warm server imports before it forks (``start(..., warm=True)``, see ``deploy.warm_start``)."""
 
-    def start(self, name: str, module: str, *args: str) -> subprocess.Popen:
+    def start(self, name: str, module: str, *args: str, warm: bool = False) -> subprocess.Popen | WarmProcess:
+        """``python -m module args``, logging into ``<log_dir>/<name>.log``; ``warm``: forked from the warm
+        server, for the many agents of one run, which would otherwise each spend their start importing."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
+        if warm:
+            from deploy import warm_start
+
+            proc = self.procs[name] = warm_start.start(module, args, self.log_dir / f"{name}.log", self.preload)
+            return proc
         log = open(self.log_dir / f"{name}.log", "wb")  # noqa: SIM115 - owned by the child for its lifetime
         proc = subprocess.Popen([sys.executable, "-m", module, *args], stdout=log, stderr=subprocess.STDOUT,
-                                stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent, env=environment())
+                                stdin=subprocess.DEVNULL, preexec_fn=die_with_parent, env=environment())
         log.close()
         self.procs[name] = proc
         return proc

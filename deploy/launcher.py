@@ -99,13 +99,14 @@ def with_map_figures(report, scenario, folder: Path):
 class Mission:
     def __init__(self, args, scenario, scenario_file: Path, out: Path, console) -> None:
         from deploy.children import Children
+        from rover_agent.app import PRELOAD
 
         self.args = args
         self.scenario = scenario
         self.scenario_file = scenario_file
         self.out = out
         self.console = console
-        self.children = Children(out / "logs")
+        self.children = Children(out / "logs", preload=PRELOAD)
         self.endpoint = args.connect or f"tcp/127.0.0.1:{args.port}"
         self.reported_dead: set[str] = set()
 
@@ -162,7 +163,7 @@ class Mission:
             self.children.start(f"rover{rover_id}", "rover_agent", "--id", str(rover_id),
                                 "--params", str(self.scenario_file), "--behaviour", self.scenario.behaviour,
                                 "--state",
-                                str(self.out / "state" / f"rover{rover_id}.json"), *common)
+                                str(self.out / "state" / f"rover{rover_id}.json"), *common, warm=True)
 
     def _start_recorder(self, common: list[str]) -> None:
         """The recorder subscribes before the world starts, so the session is complete from the first tick."""

@@ -11,6 +11,11 @@ from pathlib import Path
 from deploy import process
 from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
 
+PRELOAD = ("rover_agent.app", "deploy.bus", "rover_agent.identity", "rover_agent.runtime", "rover_agent.agent",
+           "rover_agent.behaviours", "schemas.keyspace", "schemas.scenario")
+"""What ``run_from_args`` imports: a launcher's warm server (``deploy.warm_start``) has it loaded before it
+forks the rover agents of a run, so none of them spends its start importing."""
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     which = parser.add_mutually_exclusive_group()

@@ -1,0 +1,50 @@
+"""Agents forked from the warm server (``deploy.warm_start``) behave as ``python -m`` processes would: their own
+pid, their output in their log, their exit code, and they stop on SIGTERM."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+from procs import free_port, processes_mentioning, wait_for
+
+from deploy.children import Children
+from deploy.process import EXIT_USAGE
+from rover_agent.app import PRELOAD
+
+
+def _finished(children: Children, name: str, timeout_s: float = 30.0) -> int:
+    proc = children.procs[name]
+    wait_for(lambda: proc.poll() is not None, timeout_s, f"{name} to exit")
+    return proc.returncode
+
+
+def test_warm_child_writes_its_log_and_exits_with_its_code(tmp_path: Path) -> None:
+    children = Children(tmp_path, preload=PRELOAD)
+    children.start("help", "rover_agent", "--help", warm=True)
+    children.start("bad", "rover_agent", "--world", "w", warm=True)
+    try:
+        assert _finished(children, "help") == 0
+        assert "usage: python -m rover_agent" in (tmp_path / "help.log").read_text()
+        assert _finished(children, "bad") == EXIT_USAGE
+        assert "give the rover's --id" in children.log_tail("bad")
+    finally:
+        children.stop()
+
+
+def test_warm_child_is_its_own_process_and_stops_on_sigterm(tmp_path: Path) -> None:
+    children = Children(tmp_path, preload=PRELOAD)
+    endpoint = f"tcp/127.0.0.1:{free_port()}"  # no router there: the agent waits for one, saying so
+    proc = children.start("rover1", "rover_agent", "--id", "1", "--connect", endpoint, warm=True)
+    try:
+        wait_for(lambda: "waiting for a Zenoh router" in children.log_tail("rover1"), 30.0, "the rover's notice")
+        assert proc.pid != os.getpid() and Path(f"/proc/{proc.pid}").exists()
+        assert processes_mentioning(f"-m rover_agent --id 1 --connect {endpoint}") == [proc.pid]  # as in ps
+        assert children.dead() == {}
+        started = time.monotonic()
+        children.stop(grace_s=10.0)
+        assert proc.returncode is not None and time.monotonic() - started < 10.0
+        assert children.dead() == {"rover1": proc.returncode}
+    finally:
+        children.stop()
