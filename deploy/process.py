@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import importlib
 import logging
 import signal
@@ -37,6 +38,17 @@ def stop_on_signals() -> Iterator[threading.Event]:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+def freeze_start_up_heap() -> None:
+    """Take what start-up made (modules, models, the world's terrain) out of the garbage collector's scans.
+
+    A full collection of a rover agent's start-up heap takes about 17 ms on this machine, the world's longer,
+    and steady traffic sets one off every few seconds: a stall of a third of a gyroscope period, which in a
+    crowded run tips samples past their period, and plain wall time in lockstep. What start-up made lives for
+    the whole run, so it is collected once and then never scanned again (``gc.freeze``)."""
+    gc.collect()
+    gc.freeze()
 
 
 def setup_logging(verbose: bool = False) -> None:

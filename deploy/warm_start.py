@@ -21,6 +21,7 @@ import signal
 import subprocess
 import sys
 from collections.abc import Sequence
+from multiprocessing import forkserver
 from multiprocessing.context import ForkServerContext
 from pathlib import Path
 
@@ -36,7 +37,7 @@ def _server(preload: Sequence[str]) -> ForkServerContext:
     global _context
     if _context is None:
         _context = multiprocessing.get_context("forkserver")
-        _context.set_forkserver_preload(list(preload))
+        _context.set_forkserver_preload([*preload, "deploy.warm_freeze"])
     return _context
 
 
@@ -48,12 +49,27 @@ def _child(module: str, args: list[str], log_path: str) -> None:
     os.close(log)
     for stream in (sys.stdout, sys.stderr):
         stream.reconfigure(write_through=True)  # as PYTHONUNBUFFERED: a log read while the process runs
+    _let_go_of_server()
     die_with_parent()
     signal.signal(signal.SIGINT, signal.default_int_handler)  # the server ignores Ctrl-C; an agent must not
     sys.argv = [module, *args]
     # ps, top and pkill -f show and find it as the command it stands for, not as the fork server
     setproctitle.setproctitle(shlex.join([sys.executable, "-m", module, *args]))
     runpy.run_module(module, run_name="__main__", alter_sys=True)
+
+
+def _let_go_of_server() -> None:
+    """Close the child's copy of the pipe by which the fork server learns that its launcher is gone.
+
+    The standard library hands it to every child, so that they may fork from the server themselves; an agent
+    never does, and while it held the pipe open a launcher killed outright (SIGKILL) would leave the server
+    waiting for the pipe to close and the agents waiting for the server to die (their SIGTERM-on-parent-death
+    is tied to the server, their parent). Closed, the launcher's death ends the server, and that ends them."""
+    server = forkserver._forkserver
+    if server._forkserver_alive_fd is not None:
+        with contextlib.suppress(OSError):
+            os.close(server._forkserver_alive_fd)
+        server._forkserver_alive_fd = None
 
 
 class WarmProcess:

@@ -9,6 +9,7 @@ import threading
 from pathlib import Path
 
 from deploy.bus import Bus
+from deploy.process import freeze_start_up_heap
 from deploy.world_watch import ClockWatch
 from lander_agent.mapping import TraverseMap
 from lander_agent.mission import MissionPlan
@@ -166,6 +167,7 @@ def run(lander: Lander, bus: Bus, stop: threading.Event) -> None:
         bus.subscribe(key)
     bus.declare_token(keys.alive_lander)
     watch = ClockWatch("lander", keys.clock)
+    freeze_start_up_heap()
     while not stop.is_set():
         item = bus.receive(timeout=0.2)
         watch.check()

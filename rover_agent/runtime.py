@@ -6,6 +6,7 @@ import logging
 import threading
 
 from deploy.bus import Bus
+from deploy.process import freeze_start_up_heap
 from deploy.world_watch import ClockWatch
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
 from rover_agent.dead_reckoning import POSE_WRITER
@@ -29,6 +30,7 @@ def run(agents: RoverAgent | list[RoverAgent], bus: Bus, stop: threading.Event) 
     bus.subscribe(keys.clock)
     who = f"rover {agents[0].id}" if len(agents) == 1 else f"rovers {agents[0].id}..{agents[-1].id}"
     watch = ClockWatch(who, keys.clock)
+    freeze_start_up_heap()
     try:
         _loop(agents, bus, stop, watch, by_prefix)
     finally:

@@ -4,6 +4,8 @@ pid, their output in their log, their exit code, and they stop on SIGTERM."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -48,3 +50,37 @@ def test_warm_child_is_its_own_process_and_stops_on_sigterm(tmp_path: Path) -> N
         assert children.dead() == {"rover1": proc.returncode}
     finally:
         children.stop()
+
+
+LAUNCHER = """
+import sys, time
+from pathlib import Path
+from deploy.children import Children
+from rover_agent.app import PRELOAD
+children = Children(Path(sys.argv[1]), preload=PRELOAD)
+proc = children.start("rover1", "rover_agent", "--id", "1", "--connect", sys.argv[2], warm=True)
+print(proc.pid, flush=True)
+time.sleep(600)
+"""
+
+
+def test_warm_children_end_when_their_launcher_is_killed(tmp_path: Path) -> None:
+    """SIGKILL leaves the launcher no time to stop anything: the fork server and its agents must end by
+    themselves, as Popen children do (they get SIGTERM when their parent dies)."""
+    launcher = subprocess.Popen([sys.executable, "-c", LAUNCHER, str(tmp_path), f"tcp/127.0.0.1:{free_port()}"],
+                                stdout=subprocess.PIPE, text=True, cwd=Path(__file__).resolve().parents[1])
+    try:
+        rover = int(launcher.stdout.readline())
+        log = Children(tmp_path)
+        wait_for(lambda: "waiting for a Zenoh router" in log.log_tail("rover1"), 30.0, "the rover to run")
+    finally:
+        launcher.kill()
+        launcher.wait()
+    wait_for(lambda: not _alive(rover), 15.0, f"rover process {rover} to end after its launcher was killed")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
+    except OSError:
+        return False

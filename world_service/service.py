@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from deploy.bus import Bus, Received
+from deploy.process import freeze_start_up_heap
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -262,6 +263,7 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
     photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings, camera)
     try:
         wait_for_agents(world, bus, settings, stop, agents)
+        freeze_start_up_heap()
         agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
     finally:
