@@ -49,6 +49,7 @@ from scale_observe import (
     drop_events,
     missing_samples,
     sim_rate,
+    with_descendants,
 )
 from scale_report import RTF_TOLERANCE, print_report, slopes, targets
 from world_scale import SCENARIO
@@ -148,7 +149,9 @@ class Cluster:
         procs = self.children.procs
         roles = {"router": ["router"], "world": ["world"], "lander": ["lander"],
                  "rovers": [n for n in procs if n.startswith("rover")], "witness": ["witness"]}
-        return {role: [procs[n].pid for n in names if n in procs] for role, names in roles.items()}
+        groups = {role: [procs[n].pid for n in names if n in procs] for role, names in roles.items()}
+        groups["world"] = [p for pid in groups["world"] for p in with_descendants(pid)]
+        return groups
 
     def check(self) -> None:
         dead = self.children.dead()

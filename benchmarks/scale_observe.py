@@ -293,6 +293,23 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime, stime: fields 14 and 15 of stat(5)
 
 
+def with_descendants(pid: int) -> list[int]:
+    """``pid`` and every process under it (the world's camera process renders photos: its CPU is the world's)."""
+    pids, i = [pid], 0
+    while i < len(pids):
+        try:
+            tasks = list(Path(f"/proc/{pids[i]}/task").iterdir())
+        except OSError:
+            tasks = []
+        for task in tasks:
+            try:
+                pids += [int(c) for c in (task / "children").read_text().split()]
+            except OSError:
+                continue
+        i += 1
+    return pids
+
+
 def memory_kib(pid: int) -> tuple[int, int]:
     """(Rss, Pss) in KiB: resident pages, and resident pages with shared ones split among their sharers."""
     values = {}
