@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
 
@@ -60,12 +61,22 @@ def build_ground(scenario: Scenario) -> camera.HeightField:
     return terrain
 
 
-class CameraProcess:
-    """One worker process that renders photo jobs; ``submit`` returns a future of the ``m.Photo``."""
+BACKGROUND_NICE = 10
+"""Niceness of the camera process in real time (see ``CameraProcess``)."""
 
-    def __init__(self, scenario: Scenario) -> None:
+
+class CameraProcess:
+    """One worker process that renders photo jobs; ``submit`` returns a future of the ``m.Photo``.
+
+    ``nice``: in real time a photo may come a little late, a sensor sample may not. A hundred rovers at a crater
+    keep the camera rendering a third of a core, and at equal priority it takes that from the rover agents just
+    when their gyroscope samples are due; at ``BACKGROUND_NICE`` it renders on what they leave. In lockstep
+    the clock waits for the render, so it keeps the world's priority (0).
+    """
+
+    def __init__(self, scenario: Scenario, nice: int = 0) -> None:
         self.pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
-                                        initializer=_start, initargs=(scenario,))
+                                        initializer=_start, initargs=(scenario, nice))
         self.pool.submit(int)  # start the process now, not at the first photo
 
     def submit(self, job: PhotoJob) -> Future:
@@ -78,8 +89,10 @@ class CameraProcess:
 _ground: tuple[camera.HeightField, Scene, RoverParams] | None = None
 
 
-def _start(scenario: Scenario) -> None:
+def _start(scenario: Scenario, nice: int) -> None:
     global _ground
+    if nice:
+        os.nice(nice)
     _ground = (build_ground(scenario), Scene.from_scenario(scenario), scenario.rover_params)
 
 
