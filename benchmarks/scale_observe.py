@@ -320,6 +320,13 @@ def memory_kib(pid: int) -> tuple[int, int]:
     return values["Rss"], values["Pss"]
 
 
+def _memory_or_none(pid: int) -> tuple[int, int]:
+    try:
+        return memory_kib(pid)
+    except OSError:  # ended since the groups were listed
+        return 0, 0
+
+
 def machine_cpu_seconds() -> tuple[float, float]:
     """(busy, stolen) CPU seconds of the whole machine so far, every core summed (/proc/stat, proc(5))."""
     with open("/proc/stat") as f:
@@ -342,14 +349,18 @@ class ProcessMeter:
     _marks: list[Mark] = field(default_factory=list)
 
     def mark(self) -> None:
-        per_pid = {pid: cpu_seconds(pid) for pids in self.groups.values() for pid in pids}
+        per_pid = {}
+        for pid in (pid for pids in self.groups.values() for pid in pids):
+            with contextlib.suppress(OSError):  # a helper process (of the world's camera pool) may have ended
+                per_pid[pid] = cpu_seconds(pid)
         self._marks.append(Mark(time.monotonic(), per_pid, machine_cpu_seconds()))
 
     def cpu(self) -> dict[str, float]:
-        """CPU seconds each group used per wall second between the first and the last mark (1.0 = one core)."""
+        """CPU seconds each group used per wall second between the first and the last mark (1.0 = one core);
+        a process that ended in between counts for nothing (its CPU is left to 'others')."""
         a, b = self._marks[0], self._marks[-1]
-        return {name: sum(b.per_pid[p] - a.per_pid[p] for p in pids) / (b.wall - a.wall)
-                for name, pids in self.groups.items()}
+        return {name: sum(b.per_pid[p] - a.per_pid[p] for p in pids if p in a.per_pid and p in b.per_pid)
+                / (b.wall - a.wall) for name, pids in self.groups.items()}
 
     def machine(self) -> dict[str, float]:
         """Busy and stolen (by the hypervisor) cores of the whole machine over the same time."""
@@ -360,6 +371,6 @@ class ProcessMeter:
     def memory(self) -> dict[str, dict[str, float]]:
         out = {}
         for name, pids in self.groups.items():
-            rss, pss = zip(*(memory_kib(p) for p in pids), strict=True)
-            out[name] = {"rss_mib": sum(rss) / 1024, "pss_mib": sum(pss) / 1024}
+            mem = [_memory_or_none(p) for p in pids]
+            out[name] = {"rss_mib": sum(r for r, _ in mem) / 1024, "pss_mib": sum(p for _, p in mem) / 1024}
         return out
