@@ -2,14 +2,17 @@
 and in lockstep, on this machine; real-time factor, CPU and memory per rover, sensor delivery, start-up.
 
 Each measurement starts its own Zenoh router on loopback, the world service, the lander and the rover agents as
-OS processes (``python -m world_service`` and so on, exactly as ``lunarsim run`` does), on the scenario with N
+OS processes (``python -m world_service`` and so on, the rovers forked from a warm server exactly as
+``lunarsim run`` does, see deploy/warm_start.py), on the scenario with N
 rovers in its formation. The benchmark process watches through the same router (see scale_observe.py):
 
 - real time (``--time-scale 1``): after every agent is connected and ``--warmup`` seconds of running clock,
   a window of ``--seconds``: simulated seconds per wall second (from the world's own clock samples), CPU of
   every process (/proc), memory at the end (Rss and Pss), and delivery of the sampled rovers' sensors;
 - lockstep: the whole mission (or ``--lockstep-sim-time`` simulated seconds), timed from the first running
-  clock to the world's final statistics, so start-up is left out;
+  clock to the world's final statistics, so start-up is left out; unwatched by default (only the clock and the
+  statistics), since following sensors would make the router copy them here and slow the clock it times
+  (``--lockstep-sample K`` follows K rovers anyway);
 - start-up: from spawning the rover processes until the benchmark sees every rover's liveliness token.
 
 Then it fits cost against rover count (the slope) and checks the targets of issue 9.
