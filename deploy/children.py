@@ -43,8 +43,9 @@ class Children:
         if warm:
             from deploy import warm_start
 
-            proc = self.procs[name] = warm_start.start(module, args, self.log_dir / f"{name}.log", self.preload)
-            return proc
+            if warm_start.available():
+                proc = self.procs[name] = warm_start.start(module, args, self.log_dir / f"{name}.log", self.preload)
+                return proc
         log = open(self.log_dir / f"{name}.log", "wb")  # noqa: SIM115 - owned by the child for its lifetime
         proc = subprocess.Popen([sys.executable, "-m", module, *args], stdout=log, stderr=subprocess.STDOUT,
                                 stdin=subprocess.DEVNULL, preexec_fn=die_with_parent, env=environment())

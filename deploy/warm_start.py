@@ -41,6 +41,11 @@ def _server(preload: Sequence[str]) -> ForkServerContext:
     return _context
 
 
+def available() -> bool:
+    """Whether this platform can fork from a server (not Windows); where not, agents start cold, as before."""
+    return "forkserver" in multiprocessing.get_all_start_methods()
+
+
 def _child(module: str, args: list[str], log_path: str) -> None:
     """In the forked process: what ``python -m module args`` would do, writing into ``log_path``."""
     log = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
