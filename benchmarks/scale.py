@@ -504,7 +504,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--lockstep-sample", type=int, default=0, metavar="K",
                         help="rovers whose sensors are followed in lockstep (default 0: the speed-up is the run's "
                              "own; following sensors makes the router copy them to this process and a witness, "
-                             "which on two cores slows the clock by about a fifth)")
+                             "which on two cores slowed a 5-rover mission from 10.1 to 7.1 times real time)")
     parser.add_argument("--startup-timeout", type=float, default=180.0, metavar="S",
                         help="seconds for every rover to connect (default 180)")
     parser.add_argument("--scenario", type=Path, default=SCENARIO, help="default: crater_observation.yaml")
