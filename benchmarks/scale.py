@@ -69,6 +69,8 @@ WITNESS = Path(__file__).resolve().parent / "scale_witness.py"
 HOST = "127.0.0.1"
 MIN_SHARED = 50
 """The shared series halves its last count until one holds real time, down to this."""
+REFINE_STEP = 50
+"""Then it narrows the gap between the count that held and the lowest that did not, to this many rovers."""
 STARTED_TIMEOUT_S = 60.0
 """After the last token: the world needs a clock period or two to see them all and start."""
 QUICK = {"counts": [5, 10], "seconds": 5.0, "warmup": 2.0, "shared_counts": [20], "per_process": 10,
@@ -452,19 +454,39 @@ def attempt(plan: Plan, s: Setting) -> dict:
 
 
 def step_down(args: argparse.Namespace, s: Setting, rows: list[dict], tried: list[int]) -> int | None:
-    """Shared processes, largest count first, until one holds real time; that count (None if none does). After
-    the counts asked for, the last one is halved until a count holds or it is below ``MIN_SHARED``."""
-    counts = sorted(args.shared_counts, reverse=True)
-    while counts:
-        n = counts.pop(0)
+    """Shared processes, largest count first, until one holds real time; then the highest count holding, found
+    by halving the gap to the lowest that did not, to ``REFINE_STEP`` (None if no count holds). After the counts
+    asked for, the last one is halved until a count holds or it is below ``MIN_SHARED``."""
+
+    def held(n: int) -> bool:
         tried.append(n)
         row = attempt(Plan(n, per_process=args.per_process), s)
         rows.append(row)
-        if holds(row):
-            return n
+        return holds(row)
+
+    counts = sorted(args.shared_counts, reverse=True)
+    failed = None
+    while counts:
+        n = counts.pop(0)
+        if held(n):
+            return refine(n, failed, held)
+        failed = n
         if not counts and n // 2 >= MIN_SHARED:
             counts.append(n // 2)
     return None
+
+
+def refine(holding: int, failed: int | None, held) -> int:
+    """The highest count that holds, between ``holding`` (holds) and ``failed`` (does not), to REFINE_STEP."""
+    while failed is not None and failed - holding > REFINE_STEP:
+        middle = round((holding + failed) / 2 / REFINE_STEP) * REFINE_STEP
+        if middle in (holding, failed):
+            break
+        if held(middle):
+            holding = middle
+        else:
+            failed = middle
+    return holding
 
 
 def holds(row: dict) -> bool:
