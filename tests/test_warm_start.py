@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from procs import free_port, processes_mentioning, wait_for
+from procs import REPO, free_port, processes_mentioning, wait_for
 
 from deploy.children import Children
 from deploy.process import EXIT_USAGE
@@ -68,7 +68,7 @@ def test_warm_children_end_when_their_launcher_is_killed(tmp_path: Path) -> None
     """SIGKILL leaves the launcher no time to stop anything: the fork server and its agents must end by
     themselves, as Popen children do (they get SIGTERM when their parent dies)."""
     launcher = subprocess.Popen([sys.executable, "-c", LAUNCHER, str(tmp_path), f"tcp/127.0.0.1:{free_port()}"],
-                                stdout=subprocess.PIPE, text=True, cwd=Path(__file__).resolve().parents[1])
+                                stdout=subprocess.PIPE, text=True, cwd=REPO)
     try:
         rover = int(launcher.stdout.readline())
         log = Children(tmp_path)
