@@ -2,10 +2,8 @@
 through their pure ``handle`` functions, every message still encoded and decoded with the codec.
 
 Deterministic and fast: the behaviour checker and the tests of mission logic use it. As in lockstep, photos
-arrive on their due tick and agents act on the clock only when asked; an agent not asked though its timers are
-due (its ``next_wake`` misses one) is an error here. Unlike the world service, which pipelines the ticks
-(``world_service.lockstep``), what an agent answers takes effect at once, before the next tick. The
-cross-process path is tested separately over a real router.
+arrive on their due tick, and an agent that publishes on a tick the world would not wait for (its
+``next_wake`` misses a timer) is an error here. The cross-process path is tested separately over a real router.
 """
 
 from __future__ import annotations
@@ -54,31 +52,25 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
         clock = next(message for key, message in out if key == keys.clock)
         cascade([*due, *((key, message) for key, message in out if key != keys.clock)])
         clock = clock.model_copy(update={"acks": plan.ask(world.tick, {ks.LANDER_ID, *agents})})
-        _check_wakes(clock, {ks.LANDER_ID: lander, **agents})
         if clock.acks:  # as the world service: no clock on a tick that waits for nobody
             answers = _deliver(keys.clock, codec.encode(clock), world, lander, agents, keys)
-            _note_acks(answers, plan)
+            _note_acks(answers, plan, clock)
             cascade(answers)  # handled before the next tick, as the service handles what came before the acks
     world.observed_state()  # the final state, as the world service publishes it before its final report
     lander.final_map()
     return world
 
 
-def _note_acks(answers: list[tuple[str, m.Message]], plan: AckPlan) -> None:
-    """Take the acks out of the agents' answers to the clock."""
+def _note_acks(answers: list[tuple[str, m.Message]], plan: AckPlan, clock: m.Clock) -> None:
+    """Take the acks out of the agents' answers to the clock; anything from an agent not asked is an error."""
     for key, message in list(answers):
         if isinstance(message, m.Ack):
             answers.remove((key, message))
             plan.acked(plan.agent_of(key), message.tick, message.wake)
-
-
-def _check_wakes(clock: m.Clock, agents: dict[int, Lander | RoverAgent]) -> None:
-    """An agent the world does not ask has no timer due: else its ``next_wake`` missed one when it last acked,
-    and in lockstep that timer would wait for whatever the world asks the agent next."""
-    for agent_id, agent in agents.items():
-        if agent_id not in clock.acks and agent.next_wake() <= clock.sim_time:
-            raise AssertionError(f"agent {agent_id} has a timer due at {agent.next_wake():.3f} s on tick "
-                                 f"{clock.tick} but the world does not ask it: its next_wake() misses a timer")
+    for key, _ in answers:
+        if plan.agent_of(key) not in clock.acks:
+            raise AssertionError(f"{key} published on tick {clock.tick}, which the world does not wait for "
+                                 f"(asked: {clock.acks}): the agent's next_wake() misses a timer")
 
 
 def _deliver(key, payload, world, lander, agents, keys):

@@ -16,7 +16,7 @@ from lander_agent.mission import MissionPlan
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.lockstep import acts_on, lockstep_answer
+from schemas.lockstep import lockstep_answer
 from schemas.mission import CommandRefused
 
 log = logging.getLogger("lunarsim.lander")
@@ -77,10 +77,8 @@ class Lander:
     def on_clock(self, clock: m.Clock) -> list[tuple[str, m.Message]]:
         if not clock.running:  # the world waiting for agents, or done: nothing moves, nothing to answer
             return self.final_map() if self.now > 0 else []
-        self.now = clock.sim_time
-        if not acts_on(clock, ks.LANDER_ID):  # lockstep, and the world does not wait for the lander this tick
-            return []
         out = []
+        self.now = clock.sim_time
         if clock.sim_time >= self.next_send:
             self.next_send = clock.sim_time + SEND_PERIOD_S
             out = self.broadcast(clock.sim_time)
@@ -90,11 +88,10 @@ class Lander:
         if self.map_folder is not None and clock.sim_time >= self.next_map_save:
             self.next_map_save = clock.sim_time + MAP_SAVE_PERIOD_S
             self.map.save(self.map_folder)
-        return lockstep_answer(out, clock, self.keys.lander(ks.ACK), self.next_wake())
-
-    def next_wake(self) -> float:
-        """When ``on_clock`` next sends by itself: the next broadcast or map (saving the map sends nothing)."""
-        return min(self.next_send, self.next_map)
+        if clock.lockstep:  # its timers: the next broadcast and the next map
+            wake = min(self.next_send, self.next_map)
+            out = lockstep_answer(out, clock, ks.LANDER_ID, self.keys.lander(ks.ACK), wake)
+        return out
 
     def final_map(self) -> list[tuple[str, m.Message]]:
         """Once, when the mission is over (the world stopped its clock, or the lander is stopped): the map as

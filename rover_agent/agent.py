@@ -28,7 +28,7 @@ from rover_agent.map_report import MapRecorder
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.lockstep import acts_on, lockstep_answer
+from schemas.lockstep import lockstep_answer
 from schemas.params import RoverParams
 
 log = logging.getLogger("lunarsim.rover")
@@ -105,10 +105,9 @@ class RoverAgent:
             return []
 
     def on_clock(self, clock: m.Clock) -> list[Out]:
-        if clock.running:
-            self.now = max(self.now, clock.sim_time)
-        if not acts_on(clock, self.id):  # stopped (nothing moves, nothing to answer), or not asked in lockstep
+        if not clock.running:  # the world waiting for agents, or done: nothing moves, nothing to answer
             return []
+        self.now = max(self.now, clock.sim_time)
         out: list[Out] = []
         reporting = self.finished_goal is not None and self.finished_goal[1] != "stopped"
         if reporting and self.now - self._last_report >= GOAL_REPORT_RETRY_S:
@@ -125,11 +124,13 @@ class RoverAgent:
         if self.pose is not None:
             out += [self._radio([ks.LANDER_ID], report)
                     for report in self.map.due(self.now, self.pose.x, self.pose.z, reachable=bool(self.partners))]
-        return lockstep_answer(out, clock, self.keys.rover(self.id, ks.ACK), self.next_wake())
+        if clock.lockstep:
+            out = lockstep_answer(out, clock, self.id, self.keys.rover(self.id, ks.ACK), self.next_wake())
+        return out
 
     def next_wake(self) -> float:
         """When ``on_clock`` will next act by itself: the earliest of its timers. Every timer in ``on_clock``
-        must be here, or in lockstep it waits until the world asks the agent for something else."""
+        must be here, or a lockstep world would not wait for what it sends (``lockstep_answer`` says so)."""
         timers = [self._last_status + STATUS_PERIOD_S]
         if self.finished_goal is not None and self.finished_goal[1] != "stopped":
             timers.append(self._last_report + GOAL_REPORT_RETRY_S)

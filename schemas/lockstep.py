@@ -1,16 +1,19 @@
-"""The agents' side of lockstep: act on the clock only when the world waits for it, then acknowledge it.
+"""The agents' side of lockstep: answer a tick with an ``Ack`` when the world waits for one.
 
 The world does not wait for every agent after every tick, only for those it sent a sample that may make them
 act (``keyspace.ANSWERED_TOPICS``) and those whose own timers are due by the ``wake`` time of their last ack
-(see ``world_service.lockstep``). An agent asked for nothing still handles every sample, in order, but its
-timers wait for a tick it is asked on: what it sent on any other would take effect whenever it arrived, and the
-run would no longer be reproducible. The world learns a wake time only when the ack carrying it takes effect,
-two ticks on, so a timer due sooner fires then.
+(see ``world_service.lockstep``). An agent asked for nothing still handles every sample, in order; if its timers
+fire on a tick nobody waits for, what it sends is applied whenever it arrives and the run is no longer
+reproducible. That is a bug in the agent's ``next_wake``, so it is logged loudly rather than hidden.
 """
 
 from __future__ import annotations
 
+import logging
+
 from schemas import messages as m
+
+log = logging.getLogger("lunarsim.lockstep")
 
 Out = tuple[str, m.Message]
 
@@ -20,13 +23,13 @@ def asked(clock: m.Clock, agent_id: int) -> bool:
     return clock.acks is None or agent_id in clock.acks
 
 
-def acts_on(clock: m.Clock, agent_id: int) -> bool:
-    """Whether the agent's timers may fire on this clock: it runs, and in lockstep the world waits for it."""
-    return clock.running and (not clock.lockstep or asked(clock, agent_id))
-
-
-def lockstep_answer(out: list[Out], clock: m.Clock, ack_key: str, wake: float) -> list[Out]:
-    """``out``, and in lockstep the ack the world waits for, after everything the agent sent for the tick."""
-    if not clock.lockstep:
-        return out
-    return [*out, (ack_key, m.Ack(tick=clock.tick, wake=wake))]
+def lockstep_answer(out: list[Out], clock: m.Clock, agent_id: int, ack_key: str, wake: float) -> list[Out]:
+    """``out`` plus the ack if the world waits for it; a warning if the agent publishes on a tick it was not
+    asked for (its timers and ``wake`` disagree)."""
+    if asked(clock, agent_id):
+        return [*out, (ack_key, m.Ack(tick=clock.tick, wake=wake))]
+    if out:
+        log.warning("agent %d publishes %s on tick %d, which the world does not wait for: its next_wake() misses "
+                    "a timer, so this lockstep run is not reproducible", agent_id,
+                    ", ".join(key.rsplit("/", 1)[-1] for key, _ in out), clock.tick)
+    return out

@@ -1,25 +1,24 @@
-"""Lockstep without waiting for every agent after every tick: whom the world waits for, when what agents
-answer takes effect, what agents answer, and photos rendered in a camera process on their due tick. The
-cross-process runs (determinism, shared processes) are in test_e2e_run.py and test_shared_process.py; these
-need no router."""
+"""Lockstep without waiting for every agent after every tick: whom the world waits for, what agents answer, and
+photos rendered in a camera process on their due tick. The cross-process runs (determinism, shared processes)
+are in test_e2e_run.py and test_shared_process.py; these need no router."""
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from deploy.bus import Received
 from deploy.loopback import run_mission
 from rover_agent.agent import RoverAgent
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.lockstep import acts_on, lockstep_answer
+from schemas.lockstep import lockstep_answer
 from schemas.scenario import load_scenario
 from world_service import camera
-from world_service.lockstep import AckPlan, AnswerBook
+from world_service.lockstep import AckPlan
 from world_service.photos import CameraProcess, build_ground
 from world_service.sim import World
 from world_service.terrain import DenseView
@@ -47,13 +46,11 @@ def test_a_tick_waits_only_for_agents_sent_a_sample_they_may_answer():
 def test_agents_are_asked_again_when_their_timers_are_due():
     plan = AckPlan(KEYS, DT)
     present = {1, 2}
-    assert plan.ask(1, present) == [1, 2], "an agent that has not acked yet is asked"
-    assert plan.ask(2, present) == [], "and then not again until its ack says when its timers are due"
+    assert plan.ask(1, present) == [1, 2], "an agent that has not acked yet is asked every tick"
     plan.acked(1, 1, wake=1.0)  # due at tick 20
     plan.acked(2, 1, wake=None)  # may act on any tick
-    asks = {tick: plan.ask(tick, present) for tick in range(3, 25)}
-    assert [tick for tick, asked in asks.items() if 1 in asked] == [20], "asked once its timers are due"
-    assert [tick for tick, asked in asks.items() if 2 in asked] == [3], "no wake time: the next tick"
+    assert [t for t in range(2, 25) if 1 in plan.ask(t, present)] == list(range(20, 25))
+    assert all(2 in plan.ask(t, present) for t in range(25, 30))
 
 
 def test_a_wake_time_in_the_past_still_means_the_next_tick():
@@ -78,69 +75,6 @@ def test_agents_that_left_are_not_waited_for():
     assert plan.ask(1, {1}) == [1]
 
 
-# ---- the world's side: when answers take effect ----
-
-
-def _sample(rover: int, topic: str = ks.MOVE_ACTION, payload: bytes = b"") -> Received:
-    return Received(KEYS.rover(rover, topic), payload)
-
-
-def _book(asked_on: dict[int, set[int]]) -> AnswerBook:
-    """A book whose plan asked ``asked_on[tick]`` on each tick (the agents were sent perception)."""
-    book = AnswerBook(AckPlan(KEYS, DT))
-    for tick, agents in sorted(asked_on.items()):
-        for agent in agents:
-            book.plan.note(KEYS.rover(agent, ks.PERCEPTION))
-        assert book.ask(tick, agents) == sorted(agents)
-    return book
-
-
-def test_answers_take_effect_with_the_tick_they_answer_not_as_they_arrive():
-    """The world steps tick 2 while the rovers work on tick 1: rover 1 is quick and answers tick 2 before rover
-    2 has answered tick 1. Tick 1's answers are rover 1's first and rover 2's, in key order; not the second."""
-    book = _book({1: {1, 2}, 2: {1, 2}})
-    book.add(_sample(1, payload=b"1 at tick 1"), 1)
-    book.ack(1, 1, wake=5.0)
-    book.add(_sample(1, payload=b"1 at tick 2"), 1)
-    book.ack(1, 2, wake=5.0)
-    assert not book.ready(1), "rover 2 has not answered tick 1"
-    book.add(_sample(2, ks.ROTATE_ACTION, b"2 at tick 1"), 2)
-    book.ack(2, 1, wake=5.0)
-    assert book.ready(1) and not book.ready(2)
-    assert [item.payload for item in book.take(1)] == [b"1 at tick 1", b"2 at tick 1"]
-    book.ack(2, 2, wake=5.0)
-    assert [item.payload for item in book.take(2)] == [b"1 at tick 2"]
-
-
-def test_a_wake_time_counts_once_the_ack_carrying_it_takes_effect():
-    book = _book({1: {1}})
-    book.ack(1, 1, wake=0.0)  # due at once: but the world steps tick 2 before this ack takes effect
-    assert book.plan.ask(2, {1}) == []
-    book.take(1)
-    assert book.plan.ask(3, {1}) == [1]
-
-
-def test_giving_up_on_an_agent_applies_its_late_answer_with_the_next_tick():
-    book = _book({1: {1, 2}, 2: {1}})
-    book.ack(1, 1, wake=9.0)
-    assert book.give_up(1) == [2]
-    assert book.take(1) == []
-    book.add(_sample(2, payload=b"late"), 2)
-    book.ack(2, 1, wake=0.5)
-    book.ack(1, 2, wake=9.0)
-    assert [item.payload for item in book.take(2)] == [b"late"]
-    assert book.plan.ask(11, {2}) == [2], "the late ack's wake time counts too"
-
-
-def test_an_agent_that_leaves_is_not_waited_for_and_what_it_sent_still_takes_effect():
-    book = _book({1: {1, 2}})
-    book.add(_sample(2, payload=b"last words"), 2)
-    book.ack(1, 1, wake=9.0)
-    book.leave(2)
-    assert book.ready(1)
-    assert [item.payload for item in book.take(1)] == [b"last words"]
-
-
 # ---- the agents' side ----
 
 
@@ -148,26 +82,21 @@ def _clock(tick: int, acks: list[int] | None) -> m.Clock:
     return m.Clock(tick=tick, sim_time=tick * DT, time_scale=0.0, lockstep=True, acks=acks)
 
 
-def test_an_agent_acts_on_a_lockstep_clock_only_when_asked_and_acks_after_its_answers():
-    assert acts_on(_clock(3, [1, 4]), 1) and acts_on(_clock(3, None), 1)
-    assert not acts_on(_clock(3, [4]), 1)
-    assert not acts_on(_clock(3, None).model_copy(update={"running": False}), 1)
-    realtime = m.Clock(tick=3, sim_time=0.15, time_scale=1.0)
-    assert acts_on(realtime, 1)
+def test_an_agent_acks_with_its_wake_time_only_when_asked():
     status = (KEYS.rover(1, ks.STATUS), m.RoverStatus(stamp=0.0, state="waiting"))
-    answer = lockstep_answer([status], _clock(3, [1, 4]), KEYS.rover(1, ks.ACK), 1.5)
-    assert answer == [status, (KEYS.rover(1, ks.ACK), m.Ack(tick=3, wake=1.5))]
-    assert lockstep_answer([status], realtime, KEYS.rover(1, ks.ACK), 1.5) == [status]
+    asked = lockstep_answer([status], _clock(3, [1, 4]), 1, KEYS.rover(1, ks.ACK), 1.5)
+    assert asked == [status, (KEYS.rover(1, ks.ACK), m.Ack(tick=3, wake=1.5))]
+    assert lockstep_answer([], _clock(3, [4]), 1, KEYS.rover(1, ks.ACK), 1.5) == []
+    everyone = lockstep_answer([], _clock(3, None), 1, KEYS.rover(1, ks.ACK), 1.5)
+    assert everyone == [(KEYS.rover(1, ks.ACK), m.Ack(tick=3, wake=1.5))]
 
 
-def test_a_rover_agents_timers_wait_for_a_tick_it_is_asked_on():
-    """Its status is due every second: on a tick the world does not ask it for, it stays silent (what it sent
-    would take effect whenever it arrived); it sends the status on the next tick it is asked on."""
-    agent = RoverAgent(1, KEYS, load_scenario(SCENARIOS / "crater_observation.yaml").rover_params)
-    assert [key for key, _ in agent.on_clock(_clock(1, [1]))] == [KEYS.rover(1, ks.STATUS), KEYS.rover(1, ks.ACK)]
-    assert agent.next_wake() == pytest.approx(1.05)
-    assert agent.on_clock(_clock(21, [2])) == [], "due, but not asked"
-    assert next(key for key, _ in agent.on_clock(_clock(23, [1]))) == KEYS.rover(1, ks.STATUS)
+def test_publishing_on_a_tick_nobody_waits_for_is_reported(caplog):
+    status = (KEYS.rover(1, ks.STATUS), m.RoverStatus(stamp=0.0, state="waiting"))
+    with caplog.at_level(logging.WARNING, logger="lunarsim.lockstep"):
+        out = lockstep_answer([status], _clock(7, [2]), 1, KEYS.rover(1, ks.ACK), 9.0)
+    assert out == [status], "what it sends still goes out"
+    assert "agent 1 publishes status on tick 7" in caplog.text and "next_wake" in caplog.text
 
 
 def test_a_rover_agents_timers_fire_no_earlier_than_its_wake_time():

@@ -4,11 +4,11 @@ Startup waits (up to ``start_timeout``) for the lander and every rover agent to 
 with a liveliness token, so no rover misses the start. Then the clock runs in one of two ways:
 
 - real time, scaled by ``time_scale`` (``<= 0``: as fast as the world can step);
-- lockstep: before it steps tick N+2 the world waits until every agent that may answer tick N has
-  acknowledged it (``Ack`` on its own ``ack`` key, sent after it has handled the tick and published its
-  answers), and applies those answers in key order; meanwhile it has stepped tick N+1. Which agents may
-  answer, and why the pipeline keeps runs reproducible, is ``world_service.lockstep``'s business. The run
-  depends on the scenario and seed only, not on machine load, and goes as fast as the processes allow.
+- lockstep: after each tick the world waits until every agent that may answer it has acknowledged it
+  (``Ack`` on its own ``ack`` key, sent after it has handled the tick and published its answers; which
+  agents may answer is ``world_service.lockstep``'s business). What arrived in the meantime is handled in
+  key order, so the run depends on the scenario and seed only, not on machine load, and goes as fast as
+  the processes allow.
 
 Photos take the camera's ``capture_time_s`` of simulated time in both modes: a camera process renders them
 meanwhile (``world_service.photos``), and in lockstep the clock waits for a render not done when its photo is due.
@@ -29,7 +29,7 @@ from deploy.process import freeze_start_up_heap
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from world_service.lockstep import AckPlan, AnswerBook
+from world_service.lockstep import AckPlan
 from world_service.photos import BACKGROUND_NICE, CameraProcess, PhotoJob
 from world_service.rover_ids import IdDesk
 from world_service.sim import World
@@ -116,13 +116,14 @@ class Photographer:
 
 @dataclass
 class Agents:
-    """Which agents are present (liveliness) and, in lockstep, what they answered to which tick."""
+    """Which agents are present (liveliness) and, in lockstep, whose ack of the current tick is still due."""
 
     keys: ks.Keyspace
     present: set[str] = field(default_factory=set)
     ids: dict[str, int] = field(default_factory=dict)  # liveliness key -> agent id (0 the lander)
     desk: IdDesk | None = None
-    book: AnswerBook | None = None
+    plan: AckPlan | None = None
+    waiting: set[int] = field(default_factory=set)
 
     def arrive(self, alive_key: str, agent: int) -> None:
         self.present.add(alive_key)
@@ -131,8 +132,9 @@ class Agents:
     def leave(self, alive_key: str) -> None:
         self.present.discard(alive_key)
         agent = self.ids.pop(alive_key, None)
-        if self.book is not None and agent is not None:
-            self.book.leave(agent)
+        self.waiting.discard(agent)
+        if self.plan is not None and agent is not None:
+            self.plan.forget(agent)
 
 
 def declare_io(bus: Bus, keys: ks.Keyspace) -> None:
@@ -166,47 +168,34 @@ def note_liveliness(world: World, agents: Agents, item: Received) -> None:
 
 
 def handle(world: World, bus: Bus, item: Received, agents: Agents) -> None:
-    """Route one inbox item: liveliness updates the watchdog, acks the lockstep; data goes to the world, or in
-    lockstep an agent's into the answer book until the tick it answers takes effect."""
+    """Route one inbox item: liveliness updates the watchdog, acks the lockstep, data goes to the world."""
     if item.alive is not None:
         note_liveliness(world, agents, item)
     elif item.key.endswith(f"/{ks.ACK}"):
-        _note_ack(agents, item)
-    elif not _booked(agents, item):
-        apply(world, bus, item, agents)
-
-
-def apply(world: World, bus: Bus, item: Received, agents: Agents) -> None:
-    for key, message in world.receive(item.key, item.payload):
-        _publish(bus, agents, key, message)
-
-
-def _booked(agents: Agents, item: Received) -> bool:
-    if agents.book is None:
-        return False
-    try:
-        agents.book.add(item, agents.book.plan.agent_of(item.key))
-    except ValueError:
-        return False  # not an agent's (a ground command): it takes effect at once
-    return True
+        _note_ack(world, agents, item)
+    else:
+        for key, message in world.receive(item.key, item.payload):
+            _publish(bus, agents, key, message)
 
 
 def _publish(bus: Bus, agents: Agents, key: str, message: m.Message) -> None:
-    if agents.book is not None:
-        agents.book.plan.note(key)
+    if agents.plan is not None:
+        agents.plan.note(key)
     bus.publish(key, message)
 
 
-def _note_ack(agents: Agents, item: Received) -> None:
-    if agents.book is None:
+def _note_ack(world: World, agents: Agents, item: Received) -> None:
+    if agents.plan is None:
         return  # acks matter only in lockstep
     try:
         ack = codec.decode(m.Ack, item.payload)
-        agent = agents.book.plan.agent_of(item.key)
+        agent = agents.plan.agent_of(item.key)
     except (codec.DecodeError, ValueError) as exc:
         log.warning("rejected ack on %s: %s", item.key, exc)
         return
-    agents.book.ack(agent, ack.tick, ack.wake)
+    if ack.tick == world.tick:
+        agents.waiting.discard(agent)
+        agents.plan.acked(agent, ack.tick, ack.wake)
 
 
 def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event,
@@ -241,11 +230,11 @@ def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) ->
     for key, message in out:
         if key != clock_key:
             _publish(bus, agents, key, message)
-    if agents.book is not None:
-        asked = agents.book.ask(world.tick, set(agents.ids.values()))
-        if not asked:
+    if agents.plan is not None:
+        agents.waiting = set(agents.plan.ask(world.tick, set(agents.ids.values())))
+        if not agents.waiting:
             return  # no agent's timer is due and none has anything to answer: the clock would only cost them
-        clock = clock.model_copy(update={"acks": asked})
+        clock = clock.model_copy(update={"acks": sorted(agents.waiting)})
     elif world.tick % world.clock_period and not world.hold.paused:
         return  # real time: the clock goes out at CLOCK_HZ (a granted step always shows)
     bus.publish(clock_key, clock)
@@ -276,7 +265,7 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
     try:
         wait_for_agents(world, bus, settings, stop, agents)
         freeze_start_up_heap()
-        agents.book = AnswerBook(AckPlan(world.keys, world.dt)) if settings.lockstep else None
+        agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
     finally:
         photographer.close()
@@ -321,13 +310,12 @@ def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threadi
             if _finished(world, settings):
                 return
             tally.ticks += 1
-            answered = world.tick - 1  # its answers take effect before the next step
-            tally.waited += not agents.book.ready(answered)
+            tally.waited += bool(agents.waiting)
             t0 = time.perf_counter()
-            _collect_until_acked(world, bus, settings, stop, agents, answered)
+            data = _collect_until_acked(world, bus, settings, stop, agents)
             tally.waiting += time.perf_counter() - t0
-            for item in agents.book.take(answered):
-                apply(world, bus, item, agents)
+            for item in sorted(data, key=lambda r: r.key):  # stable: per-key order is kept
+                handle(world, bus, item, agents)
     finally:
         log.info("%s; waiting for photos %.2f s", tally.summary(world.sim_time), photographer.waited_s)
 
@@ -350,21 +338,29 @@ class LockstepTally:
 
 
 def _collect_until_acked(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event,
-                         agents: Agents, tick: int) -> None:
-    """Take in what arrives until every agent ``tick`` waits for has acknowledged it, then what else has
-    arrived without waiting for more. Agents' samples go into the book; ground commands take effect."""
-    book = agents.book
+                         agents: Agents) -> list[Received]:
+    """Gather the agents' answers to this tick until every agent it waits for has acknowledged it; then take
+    what else has arrived (answers no tick waited for, ground commands) without waiting for more."""
+    data: list[Received] = []
     deadline = time.monotonic() + settings.ack_timeout
     while not stop.is_set():
-        item = bus.receive(timeout=0 if book.ready(tick) else 0.5)
-        if item is not None:
-            handle(world, bus, item, agents)
-        elif book.ready(tick):
-            return
-        elif time.monotonic() > deadline:
-            late = ", ".join(_agent_name(agent) for agent in book.give_up(tick))
-            log.warning("tick %d: no ack after %g s from %s; going on without them", tick, settings.ack_timeout,
-                        late)
+        item = bus.receive(timeout=0.5 if agents.waiting else 0)
+        if item is None:
+            if not agents.waiting:
+                break
+            if time.monotonic() > deadline:
+                late = ", ".join(_agent_name(agent) for agent in sorted(agents.waiting))
+                log.warning("tick %d: no ack after %g s from %s; going on without them", world.tick,
+                            settings.ack_timeout, late)
+                agents.waiting.clear()
+            continue
+        if item.alive is not None:
+            note_liveliness(world, agents, item)
+        elif item.key.endswith(f"/{ks.ACK}"):
+            _note_ack(world, agents, item)
+        else:
+            data.append(item)
+    return data
 
 
 def _agent_name(agent: int) -> str:
