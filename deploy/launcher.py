@@ -21,6 +21,9 @@ from deploy.zenoh_config import DEFAULT_PORT
 
 START_TIMEOUT_S = 30.0
 SESSION_FILE = "session.mcap"
+VIEW_PERIOD_S = 0.25
+"""The progress view and the check on the processes run this often, however fast the world publishes: a
+lockstep world sends its state 75 times a second at 15 x real time, and the launcher shares the cores."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -185,30 +188,38 @@ class Mission:
         from schemas.keyspace import Keyspace
 
         keys = Keyspace(self.args.world)
-        state = report = None
+        state: bytes | None = None  # the latest WorldState, decoded only when shown
+        report = None
         deadline = self._wall_deadline()
+        next_view = 0.0
+
+        def shown() -> m.WorldState | None:
+            return codec.decode(m.WorldState, state) if state is not None else None
+
         session = open_session(build_config(connect=[self.endpoint]), self.endpoint, 10.0, who="lunarsim run")
         with Bus(session) as bus, ProgressView(self.console, self.scenario.name, self.args.quiet) as view:
             bus.subscribe(keys.stats)
             bus.subscribe(keys.state)
             while not stop.is_set():
-                self._check_world_alive()
+                if time.monotonic() >= next_view:
+                    next_view = time.monotonic() + VIEW_PERIOD_S
+                    self._check_world_alive()
+                    view.update(shown(), report)
                 if deadline is not None and time.monotonic() > deadline:
                     self.console.print("[yellow]warning: the world did not finish in time; reporting what it "
                                        "had[/]")
                     return report, False
-                item = bus.receive(timeout=0.25)
+                item = bus.receive(timeout=VIEW_PERIOD_S)
                 if item is None:
                     continue
                 if item.key == keys.state:
-                    state = codec.decode(m.WorldState, item.payload)
-                else:
-                    stats = codec.decode(m.WorldStats, item.payload)
-                    report = stats.report
-                    if stats.final:
-                        view.update(state, report)
-                        return report, False
-                view.update(state, report)
+                    state = item.payload
+                    continue
+                stats = codec.decode(m.WorldStats, item.payload)
+                report = stats.report
+                if stats.final:
+                    view.update(shown(), report)
+                    return report, False
         return report, True
 
     def _wall_deadline(self) -> float | None:
