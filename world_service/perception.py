@@ -16,7 +16,7 @@ import numpy as np
 
 from schemas.params import RoverParams
 from world_service import geometry as geo
-from world_service.scene import CRATER, LANDER, OBSTACLE, ROVER, TERRAIN, CircleGrid, Scene
+from world_service.scene import CRATER, LANDER, OBSTACLE, ROVER, TERRAIN, CircleGrid, Scene, circle_pairs
 
 TERRAIN_STEP_M = 1.0
 """Spacing of the samples along each ray that look for ground too steep to climb."""
@@ -77,8 +77,7 @@ class Perceiver:
 
     def _rovers(self, ox, oz, dx, dz, xs, zs, which, radius):
         rr = self.params.behaviour.rover_radius
-        grid = CircleGrid(xs, zs, np.full(len(xs), rr), cell=max(radius, 5.0))
-        point, other = grid.pairs(ox, oz, radius)
+        point, other = circle_pairs(ox, oz, xs, zs, np.full(len(xs), rr), radius, max(radius, 5.0))
         keep = other != which[point]
         point, other = point[keep], other[keep]
         return _min_per_rover(dx.shape, point, _rays_circles(ox, oz, dx, dz, point, xs[other], zs[other],

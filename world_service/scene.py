@@ -53,6 +53,21 @@ class CircleGrid:
         return point[near], circle[near]
 
 
+FEW_PAIRS = 4096
+"""Up to this many (point, circle) pairs, ``circle_pairs`` tests them all at once: building a grid for a handful
+of rovers costs ten times more than the test it saves."""
+
+
+def circle_pairs(px: np.ndarray, pz: np.ndarray, cx: np.ndarray, cz: np.ndarray, cr: np.ndarray, reach: float,
+                 cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """``CircleGrid(cx, cz, cr, cell).pairs(px, pz, reach)`` for circles that move (rovers): the same pairs, by
+    the same test, in another order; without the grid when there are few."""
+    if len(px) * len(cx) > FEW_PAIRS:
+        return CircleGrid(cx, cz, cr, cell).pairs(px, pz, reach)
+    near = np.hypot(cx[None, :] - px[:, None], cz[None, :] - pz[:, None]) <= reach + cr[None, :]
+    return np.nonzero(near)
+
+
 @dataclass
 class Scene:
     circle_x: np.ndarray  # solid circles: rocks and the lander

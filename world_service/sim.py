@@ -27,7 +27,7 @@ from world_service.energy import Energy
 from world_service.perception import Perceiver
 from world_service.photos import PhotoJob, render_photo
 from world_service.radio import CommGraph, build_graph, line_of_sight
-from world_service.scene import CircleGrid, Scene, in_view
+from world_service.scene import Scene, circle_pairs, in_view
 from world_service.terrain import Heightmap
 
 log = logging.getLogger("lunarsim.world")
@@ -400,7 +400,7 @@ class World:
         bodies = list(self.bodies.values())
         xs, zs = np.array([b.x for b in bodies]), np.array([b.z for b in bodies])
         index = {b.id: i for i, b in enumerate(bodies)}
-        mover, other = CircleGrid(xs, zs, np.full(len(xs), radius), 4 * radius).pairs(mx, mz, radius)
+        mover, other = circle_pairs(mx, mz, xs, zs, np.full(len(xs), radius), radius, 4 * radius)
         own = np.array([index[moved[i].id] for i in mover], int)
         touching = (other != own) & (np.hypot(xs[other] - mx[mover], zs[other] - mz[mover]) < 2 * radius)
         pairs = {tuple(sorted((int(own[k]), int(other[k])))) for k in np.nonzero(touching)[0]}
