@@ -18,7 +18,7 @@ from world_service import geometry as geo
 from world_service import navigation as nav
 from world_service.perception import Perceiver
 from world_service.radio import build_graph
-from world_service.scene import Scene
+from world_service.scene import FEW_PAIRS, CircleGrid, Scene, circle_pairs
 from world_service.sim import World
 from world_service.terrain import Heightmap
 
@@ -99,6 +99,19 @@ def test_segment_segment_distance():
     d = geo.segment_segment_distance(0.0, 0.0, 0.0, 10.0, np.array([-1.0, 2.0, 3.0]), np.array([5.0, 0.0, 12.0]),
                                      np.array([1.0, 2.0, 4.0]), np.array([5.0, 10.0, 14.0]))
     assert np.allclose(d, [0.0, 2.0, math.hypot(3, 2)])
+
+
+@pytest.mark.parametrize("points, circles", [(3, 5), (1, 20), (40, 200)])
+def test_circle_pairs_finds_the_grids_pairs_with_or_without_a_grid(points, circles):
+    """Few pairs are tested all at once, many through a grid: the same pairs either way (the last case is above
+    ``FEW_PAIRS``, so it takes the grid)."""
+    rng = np.random.default_rng(points)
+    cx, cz, cr = rng.uniform(-10, 10, circles), rng.uniform(-10, 10, circles), rng.uniform(0.1, 2.0, circles)
+    px, pz = rng.uniform(-10, 10, points), rng.uniform(-10, 10, points)
+    got = set(zip(*(a.tolist() for a in circle_pairs(px, pz, cx, cz, cr, 6.0, 8.0)), strict=True))
+    grid = set(zip(*(a.tolist() for a in CircleGrid(cx, cz, cr, 8.0).pairs(px, pz, 6.0)), strict=True))
+    assert got == grid and got, "some circles are in reach"
+    assert (points * circles > FEW_PAIRS) == (points == 40)
 
 
 def test_wall_edges_of_one_piece_is_a_rectangle_around_it():
