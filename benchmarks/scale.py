@@ -1,10 +1,11 @@
 """Scale: rover agents as separate processes (or sharing processes) against the real world service, in real time
 and in lockstep, on this machine; real-time factor, CPU and memory per rover, sensor delivery, start-up.
 
-Each measurement starts its own Zenoh router on loopback, the world service, the lander and the rover agents as
-OS processes (``python -m world_service`` and so on, the rovers forked from a warm server exactly as
-``lunarsim run`` does, see deploy/warm_start.py), on the scenario with N
-rovers in its formation. The benchmark process watches through the same router (see scale_observe.py):
+Each measurement starts the world service, the lander and the rover agents as OS processes on loopback, as
+``lunarsim run`` does: the world is the Zenoh router the others connect to (``--router-process``: a router
+process of its own, which every process joins, as before), the rovers forked from a warm server (see
+deploy/warm_start.py), on the scenario with N rovers in its formation. The benchmark process watches through
+the same router (see scale_observe.py):
 
 - real time (``--time-scale 1``): after every agent is connected and ``--warmup`` seconds of running clock,
   a window of ``--seconds``: simulated seconds per wall second (from the world's own clock samples), CPU of
@@ -116,20 +117,29 @@ class Plan:
 class Cluster:
     """The router, world, lander and rover processes of one measurement; ``stop`` ends every one of them."""
 
-    def __init__(self, logs: Path, plan: Plan, scenario_file: Path, scenario: Scenario) -> None:
+    def __init__(self, logs: Path, plan: Plan, scenario_file: Path, scenario: Scenario,
+                 router_process: bool = False) -> None:
         self.children = Children(logs, preload=PRELOAD)
         self.plan, self.scenario_file, self.scenario = plan, scenario_file, scenario
+        self.router_process = router_process
         self.port = free_port()
         self.endpoint = f"tcp/{HOST}:{self.port}"
         self.common = ["--world", WORLD, "--connect", self.endpoint]
 
-    def start_router(self) -> None:
-        router = self.children.start("router", "deploy.router", "--listen", self.endpoint)
-        if not wait_for_port(HOST, self.port, 15.0, router):
-            raise BenchmarkError(f"the router did not open {self.endpoint}" + self.tail("router"))
+    def start_router(self, world_args: list[str]) -> None:
+        """The router everyone connects to: the world itself, or a router process (``--router-process``)."""
+        if self.router_process:
+            hub = self.children.start("router", "deploy.router", "--listen", self.endpoint)
+        else:
+            hub = self.children.start("world", "world_service", str(self.scenario_file), "--world", WORLD,
+                                      "--listen", self.endpoint, *world_args)
+        if not wait_for_port(HOST, self.port, 30.0, hub):
+            name = "router" if self.router_process else "world"
+            raise BenchmarkError(f"the {name} did not open {self.endpoint}" + self.tail(name))
 
     def start_world_and_lander(self, world_args: list[str]) -> None:
-        self.children.start("world", "world_service", str(self.scenario_file), *self.common, *world_args)
+        if self.router_process:
+            self.children.start("world", "world_service", str(self.scenario_file), *self.common, *world_args)
         self.children.start("lander", "lander_agent", str(self.scenario_file), *self.common)
 
     def start_rovers(self) -> None:
@@ -169,8 +179,9 @@ class Cluster:
         return f"\n--- last lines of {name}'s log:\n{self.children.log_tail(name, 10) or '(empty)'}"
 
     def stop(self) -> None:
-        self.children.stop([n for n in self.children.procs if n != "router"], grace_s=10.0)
-        self.children.stop(["router"])
+        hub = "router" if self.router_process else "world"
+        self.children.stop([n for n in self.children.procs if n != hub], grace_s=10.0)
+        self.children.stop([hub])
 
 
 # ---- one measurement ----
@@ -190,6 +201,7 @@ class Setting:
     work: Path
     witness: bool
     lockstep_sample: int = 0
+    router_process: bool = False
 
 
 def sampled_ids(rovers: int, k: int) -> list[int]:
@@ -213,11 +225,11 @@ def measure(plan: Plan, s: Setting) -> dict:
     run_dir = Path(tempfile.mkdtemp(prefix=f"scale-{plan.rovers}-", dir=s.work))
     scenario_file = run_dir / "scenario.yaml"
     scenario_file.write_text(dump_scenario(scenario))
-    cluster = Cluster(run_dir / "logs", plan, scenario_file, scenario)
+    cluster = Cluster(run_dir / "logs", plan, scenario_file, scenario, s.router_process)
     observer = None
     load_before = os.getloadavg()
     try:
-        cluster.start_router()
+        cluster.start_router(world_arguments(plan, s))
         session = open_session(build_config(connect=[cluster.endpoint]), cluster.endpoint, 10.0, who="benchmark")
         k = s.lockstep_sample if plan.lockstep else s.sample
         observer = Observer(session, ks.Keyspace(WORLD), sampled_ids(plan.rovers, k) if k else [])
@@ -405,7 +417,8 @@ def run(args: argparse.Namespace) -> int:
            "load_at_start": os.getloadavg(), "rows": [], "notes": []}
     work = Path(tempfile.mkdtemp(prefix="lunarsim-scale-", dir=args.logs))
     s = Setting(args.scenario, args.seconds, args.warmup, args.sample, args.startup_timeout,
-                args.lockstep_sim_time, args.lockstep_timeout, work, not args.no_witness, args.lockstep_sample)
+                args.lockstep_sim_time, args.lockstep_timeout, work, not args.no_witness, args.lockstep_sample,
+                args.router_process)
     try:
         run_series(args, s, doc)
     finally:
@@ -529,6 +542,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                              "which on two cores slowed a 5-rover mission from 10.1 to 7.1 times real time)")
     parser.add_argument("--startup-timeout", type=float, default=180.0, metavar="S",
                         help="seconds for every rover to connect (default 180)")
+    parser.add_argument("--router-process", action="store_true",
+                        help="a Zenoh router process of its own, as before, instead of the world routing for "
+                             "the run (what lunarsim run does now): to compare the two")
     parser.add_argument("--scenario", type=Path, default=SCENARIO, help="default: crater_observation.yaml")
     parser.add_argument("--logs", type=Path, metavar="DIR", help="keep the processes' logs under DIR")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE as JSON")

@@ -1,10 +1,9 @@
 """``lunarsim run``: a whole mission on this machine, every part its own OS process.
 
-Starts a Zenoh router (unless ``--connect`` names one), the world service, the lander agent and one
-rover agent per rover; shows progress; stops when every rover is done or stuck, or at
-``--max-sim-time``; writes ``report.json`` into the run folder (scoring the lander's traverse map, ``map.npz``
-and ``map.png`` there); and stops every process it started,
-also on Ctrl-C or SIGTERM.
+Starts the world service, the lander agent and one rover agent per rover; the world is the Zenoh router the
+others connect to, unless ``--connect`` names a router for all of them. Shows progress; stops when every rover
+is done or stuck, or at ``--max-sim-time``; writes ``report.json`` into the run folder (scoring the lander's
+traverse map, ``map.npz`` and ``map.png`` there); and stops every process it started, also on Ctrl-C or SIGTERM.
 """
 
 from __future__ import annotations
@@ -42,8 +41,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lockstep", action="store_true",
                         help="deterministic clock: a tick advances only when every agent has handled the last one")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
-    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port of the embedded router "
-                        f"on 127.0.0.1 (default {DEFAULT_PORT})")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port on 127.0.0.1 where the world "
+                        f"routes for the run (default {DEFAULT_PORT})")
     parser.add_argument("--connect", metavar="ENDPOINT", help="use a running router instead of starting one")
     parser.add_argument("--quiet", "-q", action="store_true", help="no live progress, only the summary")
     parser.add_argument("--no-record", action="store_true", help="do not record the session (by default it "
@@ -136,30 +135,16 @@ class Mission:
         return code
 
     def _start_processes(self) -> None:
-        from deploy.children import port_in_use, wait_for_port
 
         common = ["--world", self.args.world, "--connect", self.endpoint]
         shutil.rmtree(self.out / "state", ignore_errors=True)  # a reused run folder must not resume old poses
         (self.out / "state").mkdir()
-        if not self.args.connect:
-            if port_in_use("127.0.0.1", self.args.port):
-                raise process.UsageError(f"port {self.args.port} is already in use: pass --port to start the "
-                                         f"router elsewhere, or --connect tcp/127.0.0.1:{self.args.port} to use "
-                                         "the router that is there")
-            router = self.children.start("router", "deploy.router", "--listen", self.endpoint)
-            if not wait_for_port("127.0.0.1", self.args.port, 10.0, router):
-                raise RuntimeError(f"the router did not start: {self.children.log_tail('router')}")
-        if not self.args.no_record:
+        if self.args.connect:  # a router is there: everyone joins it, the recorder first
             self._start_recorder(common)
-        world_args = [str(self.scenario_file), *common, "--time-scale", str(self.args.time_scale),
-                      "--start-timeout", str(START_TIMEOUT_S), "--photos", str(self.out / "photos")]
-        if self.args.max_sim_time is not None:
-            world_args += ["--max-sim-time", str(self.args.max_sim_time)]
-        if self.args.lockstep:
-            world_args.append("--lockstep")
-        if getattr(self.args, "verbose", False):
-            world_args.append("--verbose")  # its progress (and lockstep's summary) into world.log
-        self.children.start("world", "world_service", *world_args)
+            self.children.start("world", "world_service", *self._world_args(), *common)
+        else:
+            self._start_world_as_router()
+            self._start_recorder(common)
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
                             str(self.out / "lander_archive"), "--map-out", str(self.out), *common)
         for rover_id in range(1, len(self.scenario.rovers) + 1):
@@ -168,8 +153,34 @@ class Mission:
                                 "--state",
                                 str(self.out / "state" / f"rover{rover_id}.json"), *common, warm=True)
 
+    def _world_args(self) -> list[str]:
+        args = [str(self.scenario_file), "--world", self.args.world, "--time-scale", str(self.args.time_scale),
+                "--start-timeout", str(START_TIMEOUT_S), "--photos", str(self.out / "photos")]
+        if self.args.max_sim_time is not None:
+            args += ["--max-sim-time", str(self.args.max_sim_time)]
+        if self.args.lockstep:
+            args.append("--lockstep")
+        if getattr(self.args, "verbose", False):
+            args.append("--verbose")  # its progress (and lockstep's summary) into world.log
+        return args
+
+    def _start_world_as_router(self) -> None:
+        """The world is the run's Zenoh router: every agent's sample reaches it, and its samples every agent, in
+        one hop instead of two through a router process (a lockstep tick waits 25% less for its acks)."""
+        from deploy.children import port_in_use, wait_for_port
+
+        if port_in_use("127.0.0.1", self.args.port):
+            raise process.UsageError(f"port {self.args.port} is already in use: pass --port to run elsewhere, or "
+                                     f"--connect tcp/127.0.0.1:{self.args.port} to use the router that is there")
+        world = self.children.start("world", "world_service", *self._world_args(), "--listen", self.endpoint)
+        if not wait_for_port("127.0.0.1", self.args.port, START_TIMEOUT_S, world):
+            raise RuntimeError(f"the world did not open {self.endpoint}: {self.children.log_tail('world')}")
+
     def _start_recorder(self, common: list[str]) -> None:
-        """The recorder subscribes before the world starts, so the session is complete from the first tick."""
+        """The recorder subscribes before the world's clock starts (the world waits for the agents, started
+        after it), so the session is complete from the first tick."""
+        if self.args.no_record:
+            return
         recorder = self.children.start("recorder", "deploy.cli", "record", "-o", str(self.out / SESSION_FILE),
                                        "--scenario", str(self.scenario_file), *common)
         deadline = time.monotonic() + START_TIMEOUT_S
@@ -228,17 +239,17 @@ class Mission:
         return time.monotonic() + START_TIMEOUT_S + 60.0 + 2.0 * self.args.max_sim_time / self.args.time_scale
 
     def _check_world_alive(self) -> None:
-        """The router and world are essential; a lost agent is reported once and its rover stops."""
+        """The world (the router too) is essential; a lost agent is reported once and its rover stops."""
         for name, code in self.children.dead().items():
-            if name in ("router", "world"):
+            if name == "world":
                 raise RuntimeError(f"the {name} process exited with status {code}:\n{self.children.log_tail(name)}")
             if name not in self.reported_dead:
                 self.reported_dead.add(name)
                 self.console.print(f"[red]{name} exited with status {code}[/]: {self.children.log_tail(name, 2)}")
 
     def _shutdown(self) -> None:
-        """Agents first, then the recorder (it has heard everything by then), then the router."""
-        agents = [n for n in self.children.procs if n not in ("router", "recorder")]
+        """Agents first, then the recorder (it has heard everything by then), then the world (and router)."""
+        agents = [n for n in self.children.procs if n not in ("world", "recorder")]
         self.children.stop(agents)
         self.children.stop(["recorder"], grace_s=30.0)  # it writes its index and drop counts on the way out
-        self.children.stop(["router"])
+        self.children.stop(["world"])

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from deploy import process
-from deploy.zenoh_config import DEFAULT_ENDPOINT, add_zenoh_arguments, build_config
+from deploy.zenoh_config import DEFAULT_ENDPOINT, add_zenoh_arguments, build_config, open_router
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -14,17 +14,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    import zenoh
-
     listen = args.listen or ([] if args.config else [DEFAULT_ENDPOINT])
     conf = build_config("router", args.config, args.connect, listen, scouting=args.scouting)
-    where = ", ".join(listen) or f"the endpoints of {args.config}"
-    try:
-        session = zenoh.open(conf)
-    except zenoh.ZError as exc:
-        raise process.UsageError(f"cannot start a router listening on {where}: {exc} "
-                                 "(is another router already using the port?)") from None
-    print(f"router listening on {where}", file=sys.stderr, flush=True)
+    session = open_router(conf, listen, args.config)
+    print(f"router listening on {', '.join(listen) or f'the endpoints of {args.config}'}", file=sys.stderr,
+          flush=True)
     with process.stop_on_signals() as stop:
         stop.wait()
     session.close()

@@ -92,6 +92,19 @@ def describe_endpoints(args: argparse.Namespace) -> str:
 WAIT_REMINDER_S = 30.0
 
 
+def open_router(conf: zenoh.Config, listen: Sequence[str], config_file: str | None = None) -> zenoh.Session:
+    """A session in router mode, listening: fails at once, naming the endpoints, when it cannot listen (another
+    router on the port), since waiting would not free the port."""
+    from deploy.process import UsageError
+
+    where = ", ".join(listen) or f"the endpoints of {config_file}"
+    try:
+        return zenoh.open(conf)
+    except zenoh.ZError as exc:
+        raise UsageError(f"cannot start a router listening on {where}: {exc} "
+                         "(is another router already using the port?)") from None
+
+
 def open_session(conf: zenoh.Config, where: str, timeout_s: float | None = 10.0,
                  who: str = "lunarsim") -> zenoh.Session:
     """Open a session, retrying until ``timeout_s`` (None: for ever); say plainly on stderr that we are waiting,

@@ -1,4 +1,4 @@
-"""End to end: ``lunarsim run`` starts real processes over a real router on loopback."""
+"""End to end: ``lunarsim run`` starts real processes on loopback, the world their Zenoh router."""
 
 from __future__ import annotations
 
@@ -32,8 +32,9 @@ def test_five_rovers_reach_the_crater_with_no_collisions(tmp_path):
     assert 0 < report["mission_duration_s"] < 300 and report["wall_time_s"] > 0
     assert report["average_path_efficiency"] > 0.5
     assert "Mission report" in stdout
-    for name in ("router", "world", "lander", *(f"rover{i}" for i in range(1, 6))):
+    for name in ("world", "lander", *(f"rover{i}" for i in range(1, 6))):
         assert (out / "logs" / f"{name}.log").exists()
+    assert not (out / "logs" / "router.log").exists(), "the world is the run's router"
     assert len(list((out / "photos").glob("*.png"))) == 5 * 12  # the world's copy of every photo
     assert len((out / "lander_archive" / "index.jsonl").read_text().splitlines()) == 5 * 12  # sent by radio
     assert processes_mentioning(f"127.0.0.1:{port}") == []

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from deploy import process
-from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_router, open_session
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -31,7 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--twin", action="store_true",
                         help="follow real rovers (poses from their drivers' telemetry) instead of simulating "
                              "them; real time only")
-    add_zenoh_arguments(parser, agent=True)
+    add_zenoh_arguments(parser, listen=True, agent=True)
+    parser.epilog = ("--listen makes the world the Zenoh router of the run: agents connect straight to it, one "
+                     "hop less each way than through a router process (what 'lunarsim run' does).")
 
 
 def run_from_args(args: argparse.Namespace) -> int:
@@ -46,16 +48,18 @@ def run_from_args(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers)
     if args.twin:
         from world_service import twin_service
-        from world_service.twin import TwinWorld
 
         twin_service.check_settings(args.lockstep, args.time_scale, args.photos)
-        world, declare_io = TwinWorld(scenario, Keyspace(args.world)), twin_service.declare_io
-    else:
-        world, declare_io = World(scenario, Keyspace(args.world)), service.declare_io
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
                                      lockstep=args.lockstep, photo_dir=args.photos)
-    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="world")
+    session = _open(args)  # before the terrain is built: agents may connect meanwhile
     with Bus(session, lossless=args.lockstep) as bus, process.stop_on_signals() as stop:
+        if args.twin:
+            from world_service.twin import TwinWorld
+
+            world, declare_io = TwinWorld(scenario, Keyspace(args.world)), twin_service.declare_io
+        else:
+            world, declare_io = World(scenario, Keyspace(args.world)), service.declare_io
         declare_io(bus, world.keys)
         report = service.run(world, bus, settings, stop)
         if args.report:
@@ -63,3 +67,10 @@ def run_from_args(args: argparse.Namespace) -> int:
         if not args.exit_when_done:
             service.linger(world, bus, report, stop)
     return 0
+
+
+def _open(args: argparse.Namespace):
+    """The world's session: with ``--listen``, the run's router itself; else a client of the router named."""
+    if args.listen:
+        return open_router(config_from_args(args, "router"), args.listen, args.config)
+    return open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="world")
