@@ -126,3 +126,17 @@ def test_a_killed_agent_stops_its_rover_and_takes_it_again_when_restarted(router
         assert report["complete"] is True and report["rovers_reached_final_goal"] == 2, report
     finally:
         stop(world, lander, *rovers.values())
+
+
+def test_a_world_that_cannot_listen_says_so_at_once(tmp_path):
+    """``--listen`` makes the world the router: a port already taken is a usage error, not a wait for ever."""
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        proc = lunarsim("world", str(SCENARIOS / "crater_observation.yaml"), "--listen", f"tcp/127.0.0.1:{port}")
+        _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 2, stderr
+    assert f"cannot start a router listening on tcp/127.0.0.1:{port}" in stderr
