@@ -1,11 +1,13 @@
 """Scale: rover agents as separate processes (or sharing processes) against the real world service, in real time
 and in lockstep, on this machine; real-time factor, CPU and memory per rover, sensor delivery, start-up.
 
-Each measurement starts the world service, the lander and the rover agents as OS processes on loopback, as
-``lunarsim run`` does: the world is the Zenoh router the others connect to (``--router-process``: a router
-process of its own, which every process joins, as before), the rovers forked from a warm server (see
-deploy/warm_start.py), on the scenario with N rovers in its formation. The benchmark process watches through
-the same router (see scale_observe.py):
+Each measurement starts the world service, the lander and the rover agents as OS processes on loopback, the
+rovers forked from a warm server as ``lunarsim run`` does (see deploy/warm_start.py), on the scenario with N
+rovers in its formation. ``--routing``: in the series of one process per rover and in lockstep the world is
+the Zenoh router the others connect to, as in ``lunarsim run``; the real-time series of shared processes runs
+behind a router process, as a ``lunarsim rover --ids`` deployment would, since a world that also routes stalls
+on the links of agent processes that cannot keep up (``world`` or ``process`` sets one for every series). The
+benchmark process watches through the same router (see scale_observe.py):
 
 - real time (``--time-scale 1``): after every agent is connected and ``--warmup`` seconds of running clock,
   a window of ``--seconds``: simulated seconds per wall second (from the world's own clock samples), CPU of
@@ -201,7 +203,13 @@ class Setting:
     work: Path
     witness: bool
     lockstep_sample: int = 0
-    router_process: bool = False
+    routing: str = "auto"
+
+    def router_process(self, plan: Plan) -> bool:
+        """Whether ``plan`` runs behind a router process rather than the world routing (see ``--routing``)."""
+        if self.routing == "auto":
+            return plan.per_process > 1 and not plan.lockstep
+        return self.routing == "process"
 
 
 def sampled_ids(rovers: int, k: int) -> list[int]:
@@ -225,7 +233,7 @@ def measure(plan: Plan, s: Setting) -> dict:
     run_dir = Path(tempfile.mkdtemp(prefix=f"scale-{plan.rovers}-", dir=s.work))
     scenario_file = run_dir / "scenario.yaml"
     scenario_file.write_text(dump_scenario(scenario))
-    cluster = Cluster(run_dir / "logs", plan, scenario_file, scenario, s.router_process)
+    cluster = Cluster(run_dir / "logs", plan, scenario_file, scenario, s.router_process(plan))
     observer = None
     load_before = os.getloadavg()
     try:
@@ -250,7 +258,8 @@ def measure(plan: Plan, s: Setting) -> dict:
     row = summarise(plan, s, scenario, observer, window)
     if watched:
         row["witness"] = compare_witness(run_dir / "witness.json", observer, window, scenario)
-    row.update(startup_s=round(startup, 2), startup_cpu_s_per_process=round(startup_cpu, 3), load_before=load_before,
+    row.update(routing="router process" if cluster.router_process else "world",
+               startup_s=round(startup, 2), startup_cpu_s_per_process=round(startup_cpu, 3), load_before=load_before,
                load_after=os.getloadavg())
     progress(f"done: real-time factor {row['real_time_factor']:.3f}, CPU per rover "
              f"{row['cpu_per_rover_pct']:.2f} % of a core, start-up {startup:.1f} s")
@@ -418,7 +427,7 @@ def run(args: argparse.Namespace) -> int:
     work = Path(tempfile.mkdtemp(prefix="lunarsim-scale-", dir=args.logs))
     s = Setting(args.scenario, args.seconds, args.warmup, args.sample, args.startup_timeout,
                 args.lockstep_sim_time, args.lockstep_timeout, work, not args.no_witness, args.lockstep_sample,
-                args.router_process)
+                args.routing)
     try:
         run_series(args, s, doc)
     finally:
@@ -542,9 +551,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                              "which on two cores slowed a 5-rover mission from 10.1 to 7.1 times real time)")
     parser.add_argument("--startup-timeout", type=float, default=180.0, metavar="S",
                         help="seconds for every rover to connect (default 180)")
-    parser.add_argument("--router-process", action="store_true",
-                        help="a Zenoh router process of its own, as before, instead of the world routing for "
-                             "the run (what lunarsim run does now): to compare the two")
+    parser.add_argument("--routing", choices=("auto", "world", "process"), default="auto",
+                        help="who routes: the world (as lunarsim run), a router process, or auto (default): the "
+                             "world, but a router process for the shared-process real-time series")
     parser.add_argument("--scenario", type=Path, default=SCENARIO, help="default: crater_observation.yaml")
     parser.add_argument("--logs", type=Path, metavar="DIR", help="keep the processes' logs under DIR")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE as JSON")

@@ -29,11 +29,12 @@ def print_report(doc: dict) -> None:
     print(f"load average (1, 5, 15 min) at start {_load(doc['load_at_start'])}, at end "
           f"{_load(doc.get('load_at_end', doc['load_at_start']))} (it counts this benchmark's own threads too); "
           "'others' below: CPU used outside the benchmark during each window (/proc/stat), other work's noise")
-    if doc.get("settings", {}).get("router_process"):
-        print("routing: a Zenoh router process that every process joins ('router' below)")
-    else:
-        print("routing: the world is the Zenoh router, as in lunarsim run (its routing CPU is in 'world'; no "
-              "'router' process)")
+    routing = doc.get("settings", {}).get("routing", "process")
+    print({"world": "routing: the world is the Zenoh router in every series (its routing CPU is in 'world')",
+           "process": "routing: a Zenoh router process that every process joins ('router' below)",
+           "auto": "routing: the world is the Zenoh router (as in lunarsim run; its routing CPU is in 'world'), "
+                   "except in the shared-process real-time series: a router process there ('router' below)"}
+          [routing])
     if rows:
         done = [r for r in rows if "sampled_rovers" in r]
         sampled = max(done, key=lambda r: r["rovers"])["sampled_rovers"] if done else None
