@@ -43,7 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port on 127.0.0.1 where the world "
                         f"routes for the run (default {DEFAULT_PORT})")
-    parser.add_argument("--connect", metavar="ENDPOINT", help="use a running router instead of starting one")
+    parser.add_argument("--connect", metavar="ENDPOINT", help="join a running router (every process does) instead "
+                        "of the world routing for the run")
     parser.add_argument("--quiet", "-q", action="store_true", help="no live progress, only the summary")
     parser.add_argument("--no-record", action="store_true", help="do not record the session (by default it "
                         "goes to session.mcap in the run folder)")
@@ -135,7 +136,6 @@ class Mission:
         return code
 
     def _start_processes(self) -> None:
-
         common = ["--world", self.args.world, "--connect", self.endpoint]
         shutil.rmtree(self.out / "state", ignore_errors=True)  # a reused run folder must not resume old poses
         (self.out / "state").mkdir()
@@ -166,7 +166,8 @@ class Mission:
 
     def _start_world_as_router(self) -> None:
         """The world is the run's Zenoh router: every agent's sample reaches it, and its samples every agent, in
-        one hop instead of two through a router process (a lockstep tick waits 25% less for its acks)."""
+        one hop instead of two through a router process (a lockstep tick waits about a quarter less for its acks).
+        """
         from deploy.children import port_in_use, wait_for_port
 
         if port_in_use("127.0.0.1", self.args.port):

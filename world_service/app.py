@@ -6,6 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
+import zenoh
+
 from deploy import process
 from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_router, open_session
 
@@ -69,7 +71,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     return 0
 
 
-def _open(args: argparse.Namespace):
+def _open(args: argparse.Namespace) -> zenoh.Session:
     """The world's session: with ``--listen``, the run's router itself; else a client of the router named."""
     if args.listen:
         return open_router(config_from_args(args, "router"), args.listen, args.config)
