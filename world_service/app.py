@@ -55,7 +55,8 @@ def run_from_args(args: argparse.Namespace) -> int:
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
                                      lockstep=args.lockstep, photo_dir=args.photos)
     session = _open(args)  # before the terrain is built: agents may connect meanwhile
-    with Bus(session, lossless=args.lockstep) as bus, process.stop_on_signals() as stop:
+    bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen)  # a router puts undeclared
+    with bus, process.stop_on_signals() as stop:
         if args.twin:
             from world_service.twin import TwinWorld
 
