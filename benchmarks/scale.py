@@ -5,9 +5,9 @@ Each measurement starts the world service, the lander and the rover agents as OS
 rovers forked from a warm server as ``lunarsim run`` does (see deploy/warm_start.py), on the scenario with N
 rovers in its formation. ``--routing``: in the series of one process per rover and in lockstep the world is
 the Zenoh router the others connect to, as in ``lunarsim run``; the real-time series of shared processes runs
-behind a router process, as a ``lunarsim rover --ids`` deployment would, since a world that also routes stalls
-on the links of agent processes that cannot keep up (``world`` or ``process`` sets one for every series). The
-benchmark process watches through the same router (see scale_observe.py):
+behind a router process, as a ``lunarsim rover --ids`` deployment would: a world that also routes does the
+routing on its own thread, and fell further behind at 750 and 1,000 rovers (``world`` or ``process`` sets one
+for every series). The benchmark process watches through the same router (see scale_observe.py):
 
 - real time (``--time-scale 1``): after every agent is connected and ``--warmup`` seconds of running clock,
   a window of ``--seconds``: simulated seconds per wall second (from the world's own clock samples), CPU of

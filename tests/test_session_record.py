@@ -175,10 +175,17 @@ def test_snapshot_mode_writes_on_a_ground_command_and_on_sigusr1(tmp_path, route
 
 
 def _per_key(path: Path) -> dict[str, list[bytes]]:
-    """Each key's payloads in order up to the world's final report; after it, processes are being shut down
-    and how many acks and statuses they still send depends on wall-clock timing, not on the simulation."""
+    """Each key's payloads in order from the world's first running clock up to its final report. Before it the
+    world announces itself with a stopped clock twice a second until every agent has connected, and after
+    the report processes are being shut down: how many of either there are depends on wall-clock timing, not
+    on the simulation."""
     sequences: dict[str, list[bytes]] = {}
+    started = False
     for sample in read_samples(path):
+        if sample.key.endswith("/world/clock") and not started:
+            started = decode(sample).running
+            if not started:
+                continue
         sequences.setdefault(sample.key, []).append(sample.payload)
         if sample.key.endswith("/world/stats") and decode(sample).final:
             break
