@@ -129,7 +129,7 @@ class Cluster:
         self.common = ["--world", WORLD, "--connect", self.endpoint]
 
     def start_router(self, world_args: list[str]) -> None:
-        """The router everyone connects to: the world itself, or a router process (``--router-process``)."""
+        """The router everyone connects to: the world itself, or a router process (see ``--routing``)."""
         if self.router_process:
             hub = self.children.start("router", "deploy.router", "--listen", self.endpoint)
         else:
