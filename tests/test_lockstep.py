@@ -4,7 +4,9 @@ are in test_e2e_run.py and test_shared_process.py; these need no router."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import math
 from pathlib import Path
 
 import numpy as np
@@ -188,6 +190,9 @@ class _NoBound:
 
     def height(self, x, z):
         return self.terrain.height(x, z)
+
+    def grid_around(self, x, z, reach):
+        return dataclasses.replace(self.terrain.grid_around(x, z, reach), ceiling=math.inf)
 
 
 def test_dropping_rays_above_the_highest_ground_does_not_change_the_photo(crater_world):

@@ -86,6 +86,28 @@ def test_tiles_join_seamlessly_and_match_an_untiled_build():
     assert np.array_equal(tiled.heights, whole.heights) and np.array_equal(tiled.slope_z, whole.slope_z)
 
 
+@pytest.mark.parametrize("centre", [(65.0, 55.0), (3.0, 108.0), (-20.0, 130.0)])  # inside, a corner, outside
+def test_a_block_around_a_point_samples_the_tiles_heights_within_its_reach(centre):
+    """The camera marches in such a block (compiled): it must read exactly what the tiles give, to the bit."""
+    tiled = _build(SMALL, tile_size_m=16.0)
+    grid = tiled.grid_around(*centre, 30.0)
+    assert grid.heights.shape[0] < tiled.nz and grid.ceiling == tiled.max_height_bound()
+    rng = np.random.default_rng(5)
+    angle, r = rng.uniform(0, 2 * np.pi, 20_000), 30.0 * np.sqrt(rng.uniform(0, 1, 20_000))
+    x, z = centre[0] + r * np.sin(angle), centre[1] + r * np.cos(angle)
+    assert np.array_equal(grid.height(x, z), tiled.height(x, z))
+    assert grid.height(*centre) == tiled.height(*centre)  # a scalar in, a scalar out
+
+
+def test_the_compiled_march_finds_the_ground_where_its_steps_cross_it():
+    flat = _build(TerrainSpec(origin=(0.0, 0.0), size_m=(100.0, 100.0), resolution_m=1.0), craters=[])
+    grid = flat.grid_around(50.0, 50.0, 40.0)
+    down = np.array([[0.0, -math.sin(a), math.cos(a)] for a in np.radians([90.0, 30.0, 5.0, 0.0, -10.0])])
+    t = grid.march(np.array([50.0, 1.0, 50.0]), down, 40.0, 0.2, 0.2, 0.03)
+    expected = 1.0 / np.sin(np.radians([90.0, 30.0, 5.0]))  # flat ground: a linear crossing is exact
+    assert np.allclose(t[:3], expected) and np.isinf(t[3:]).all()  # level and rising rays never meet it
+
+
 def test_tiled_terrain_is_the_untiled_generator_and_draws_the_same_randoms():
     rng = np.random.default_rng(11)
     ref = UntiledReference(SMALL, CRATERS, np.random.default_rng(11))

@@ -1,8 +1,8 @@
-"""The rover's forward camera (report 10.5): a NumPy ray caster over the heightmap and the scene, and a PNG codec.
+"""The rover's forward camera (report 10.5): a ray caster over the heightmap and the scene, and a PNG codec.
 
 The report's simulator grabbed a frame from a Unity camera when a PhotoAction arrived. We have no engine, so the
-photo is rendered here. Every pixel's ray is marched against the heightmap at once (a loop over march steps, never
-over pixels), then met analytically with rocks, the lander, other rovers and walls; the nearest hit wins and is
+photo is rendered here. Every pixel's ray is marched against the heightmap (compiled, ``world_service.height_grid``),
+then met analytically with rocks, the lander, other rovers and walls; the nearest hit wins and is
 shaded with a low sun, as at the report's polar sites, over a black sky. The functions are pure: the same world
 state gives the same image byte for byte, which is what makes photos comparable across runs.
 
@@ -13,13 +13,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from schemas import png
 from schemas.params import CameraParams
 from world_service.scene import LANDER, Scene
+
+if TYPE_CHECKING:
+    from world_service.height_grid import HeightGrid
 
 SKY, TERRAIN, ROCK, LANDER_BODY, ROVER_BODY, WALL = range(6)
 
@@ -45,9 +48,12 @@ PAIR_BUDGET = 4_000_000  # (pixel, wall edge) pairs tested at once, to bound mem
 
 
 class HeightField(Protocol):
-    """All the camera needs of the terrain: vectorised ground height. Any tiling of the terrain satisfies it."""
+    """All the camera needs of the terrain: vectorised ground height, and the height nodes within its range as
+    one block to march rays in. Any tiling of the terrain satisfies it."""
 
     def height(self, x, z) -> np.ndarray: ...
+
+    def grid_around(self, x: float, z: float, reach: float) -> HeightGrid: ...
 
 
 def sun_direction(azimuth_deg: float, elevation_deg: float) -> tuple[float, float, float]:
@@ -147,57 +153,24 @@ def _pixel_directions(cam: _Camera) -> np.ndarray:
 
 
 def _terrain_hits(terrain: HeightField, cam: _Camera, dirs: np.ndarray) -> _Hits:
-    """Start the per-pixel record from the terrain: where each ray first meets the ground, and its normal there."""
+    """Start the per-pixel record from the terrain: where each ray first meets the ground, and its normal there.
+
+    Rays march in a block of the height grid around the camera, compiled (``HeightGrid.march``): a rising ray
+    stops once it is above the highest ground the terrain can have, so the sky costs a few steps, not 170.
+    """
     shape = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
-    t = _march(terrain, cam.origin, flat, cam.max_range)
+    grid = terrain.grid_around(float(cam.origin[0]), float(cam.origin[2]), cam.max_range)
+    t = grid.march(cam.origin, flat, cam.max_range, FIRST_STEP_M, MIN_STEP_M, STEP_GROWTH)
     hit = np.isfinite(t)
     kind = np.where(hit, TERRAIN, SKY)
     normal = np.zeros_like(flat)
     points = cam.origin + t[hit, None] * flat[hit]
-    normal[hit] = _terrain_normals(terrain, points[:, 0], points[:, 2])
+    normal[hit] = _terrain_normals(grid, points[:, 0], points[:, 2])
     return _Hits(t.reshape(shape), kind.reshape(shape), normal.reshape(*shape, 3))
 
 
-def _march(terrain: HeightField, origin: np.ndarray, dirs: np.ndarray, max_range: float) -> np.ndarray:
-    """Distance along each ray to its first crossing below the ground, inf if none within ``max_range``.
-
-    All rays step together with steps growing with distance (a pixel's footprint grows the same way); a ray
-    leaves the working set as soon as it is below ground, and its crossing is placed by linear interpolation of
-    the height gap between the last two samples. A rising ray leaves it too once it is above the highest ground
-    the terrain can have (``max_height_bound``, if the terrain offers one): the sky costs a few steps, not 170.
-    """
-    ox, oy, oz = origin
-    hit = np.full(len(dirs), np.inf)
-    idx = np.arange(len(dirs))
-    dx, dy, dz = (np.ascontiguousarray(dirs[:, i]) for i in range(3))
-    prev_t = 0.0
-    prev_gap = np.full(len(dirs), oy - float(np.asarray(terrain.height(np.array([ox]), np.array([oz])))[0]))
-    ceiling = getattr(terrain, "max_height_bound", lambda: math.inf)()
-    t = min(FIRST_STEP_M, max_range)
-    while idx.size:
-        if math.isfinite(ceiling):
-            rising = (dy > 0) & (oy + t * dy > ceiling)
-            if rising.any():
-                keep = ~rising
-                idx, dx, dy, dz, prev_gap = idx[keep], dx[keep], dy[keep], dz[keep], prev_gap[keep]
-                if not idx.size:
-                    break
-        gap = oy + t * dy - terrain.height(ox + t * dx, oz + t * dz)
-        below = gap <= 0
-        if below.any():
-            frac = prev_gap[below] / (prev_gap[below] - gap[below])
-            hit[idx[below]] = prev_t + (t - prev_t) * frac
-            keep = ~below
-            idx, dx, dy, dz, gap = idx[keep], dx[keep], dy[keep], dz[keep], gap[keep]
-        if t >= max_range:
-            break
-        prev_t, prev_gap = t, gap
-        t = min(max_range, t + max(MIN_STEP_M, STEP_GROWTH * t))
-    return hit
-
-
-def _terrain_normals(terrain: HeightField, px: np.ndarray, pz: np.ndarray) -> np.ndarray:
+def _terrain_normals(terrain: HeightGrid, px: np.ndarray, pz: np.ndarray) -> np.ndarray:
     """Unit upward normals from central differences of the height, (N, 3)."""
     e = NORMAL_EPS_M
     slope_x = (terrain.height(px + e, pz) - terrain.height(px - e, pz)) / (2 * e)

@@ -93,7 +93,10 @@ def _start(scenario: Scenario, nice: int) -> None:
     global _ground
     if nice:
         os.nice(nice)
+    from world_service import height_grid  # Numba: loaded in the camera process, not in the world's
+
     _ground = (build_ground(scenario), Scene.from_scenario(scenario), scenario.rover_params)
+    height_grid.warm_up()
 
 
 def _render(job: PhotoJob) -> m.Photo:

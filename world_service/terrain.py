@@ -25,11 +25,14 @@ from collections import OrderedDict
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from schemas.scenario import Crater, Scenario, TerrainSpec
+
+if TYPE_CHECKING:
+    from world_service.height_grid import HeightGrid
 
 log = logging.getLogger("lunarsim.terrain")
 
@@ -377,59 +380,72 @@ class Heightmap:
         h = np.radians(heading)
         return np.degrees(np.arctan(gx * np.sin(h) + gz * np.cos(h)))
 
-    # ---- whole grids (small terrains only) ----
+    # ---- whole grids (small terrains only) and blocks of nodes ----
 
     @property
     def heights(self) -> np.ndarray:
         """Whole height grid (nz, nx), float32; refused for terrains too large to hold at once."""
-        return self._assemble("heights")
+        return self._assemble("heights", 0, self.nx - 1, 0, self.nz - 1)
 
     @property
     def slope_x(self) -> np.ndarray:
-        return self._assemble("slope_x")
+        return self._assemble("slope_x", 0, self.nx - 1, 0, self.nz - 1)
 
     @property
     def slope_z(self) -> np.ndarray:
-        return self._assemble("slope_z")
+        return self._assemble("slope_z", 0, self.nx - 1, 0, self.nz - 1)
 
-    def _assemble(self, name: str) -> np.ndarray:
-        if self.nx * self.nz > FULL_GRID_LIMIT:
-            raise MemoryError(f"terrain of {self.nx} x {self.nz} nodes is too large to assemble; sample it "
-                              f"(height, gradient) so only the tiles needed are loaded")
-        out = np.empty((self.nz, self.nx), np.float32)
-        for tz in range(self.tiles_z):
-            for tx in range(self.tiles_x):
-                tile = self.tile((tz, tx), cache=False)
+    def grid_around(self, x: float, z: float, reach: float, *, cache: bool = True) -> HeightGrid:
+        """The height nodes that bilinear samples within ``reach`` of (x, z) read, as one block: the camera
+        marches in it (it never samples beyond its range)."""
+        i0, i1 = self._node_span(x - self.origin_x, reach, self.nx)
+        j0, j1 = self._node_span(z - self.origin_z, reach, self.nz)
+        return self.grid(i0, i1, j0, j1, cache=cache)
+
+    def grid(self, i0: int, i1: int, j0: int, j1: int, *, cache: bool = True) -> HeightGrid:
+        """Height nodes [j0..j1] x [i0..i1] (inclusive) as one block, with the height bound as its ceiling."""
+        from world_service.height_grid import HeightGrid  # here: Numba loads only where photos are rendered
+
+        return HeightGrid(self._assemble("heights", i0, i1, j0, j1, cache), i0, j0, self.nx, self.nz,
+                          self.origin_x, self.origin_z, self.resolution, self.max_height_bound())
+
+    def _node_span(self, offset: float, reach: float, n: int) -> tuple[int, int]:
+        """First and last node (inclusive, at least two nodes) read by samples within ``reach`` of ``offset``."""
+        first = min(max(math.floor((offset - reach) / self.resolution) - 1, 0), n - 2)
+        last = max(min(math.ceil((offset + reach) / self.resolution) + 1, n - 1), first + 1)
+        return first, last
+
+    def _assemble(self, name: str, i0: int, i1: int, j0: int, j1: int, cache: bool = False) -> np.ndarray:
+        """Nodes [j0..j1] x [i0..i1] (inclusive) of one field, copied from the tiles into one float32 array."""
+        if (i1 - i0 + 1) * (j1 - j0 + 1) > FULL_GRID_LIMIT:
+            raise MemoryError(f"{i1 - i0 + 1} x {j1 - j0 + 1} terrain nodes are too many to assemble; sample "
+                              f"them (height, gradient) so only the tiles needed are loaded")
+        out = np.empty((j1 - j0 + 1, i1 - i0 + 1), np.float32)
+        last_tz, last_tx = self.tiles_z - 1, self.tiles_x - 1
+        for tz in range(j0 // self.tile_cells, min(j1 // self.tile_cells, last_tz) + 1):
+            for tx in range(i0 // self.tile_cells, min(i1 // self.tile_cells, last_tx) + 1):
+                tile = self.tile((tz, tx), cache)
                 g = getattr(tile, name)
-                out[tile.j0:tile.j0 + g.shape[0], tile.i0:tile.i0 + g.shape[1]] = g
+                rows = slice(max(tile.j0, j0), min(tile.j0 + g.shape[0] - 1, j1) + 1)
+                cols = slice(max(tile.i0, i0), min(tile.i0 + g.shape[1] - 1, i1) + 1)
+                out[rows.start - j0:rows.stop - j0, cols.start - i0:cols.stop - i0] = \
+                    g[rows.start - tile.j0:rows.stop - tile.j0, cols.start - tile.i0:cols.stop - tile.i0]
         return out
 
 
 class DenseView:
-    """``height(x, z)`` from the whole height grid held at once: no grouping by tile, so about twice as fast for
-    the camera's hundreds of thousands of samples a photo. Same bilinear formula, so the same values as the
-    Heightmap's; only for terrains small enough to assemble (``FULL_GRID_LIMIT``)."""
+    """The whole height grid held at once, sampled by compiled loops (``HeightGrid``): for the camera's hundreds
+    of thousands of samples a photo. Same bilinear formula, so the same values as the Heightmap's; only for
+    terrains small enough to assemble (``FULL_GRID_LIMIT``)."""
 
     def __init__(self, terrain: Heightmap) -> None:
-        self._terrain = terrain
-        self._grid = terrain.heights.ravel()
-        self._cols = terrain.nx
+        self._grid = terrain.grid(0, terrain.nx - 1, 0, terrain.nz - 1, cache=False)
 
     def height(self, x, z) -> np.ndarray:
-        t = self._terrain
-        x, z = np.broadcast_arrays(np.asarray(x, float), np.asarray(z, float))
-        fx = np.minimum(np.maximum((x.ravel() - t.origin_x) / t.resolution, 0.0), t.nx - 1)
-        fz = np.minimum(np.maximum((z.ravel() - t.origin_z) / t.resolution, 0.0), t.nz - 1)
-        ix, iz = np.minimum(fx.astype(int), t.nx - 2), np.minimum(fz.astype(int), t.nz - 2)
-        wx, wz = fx - ix, fz - iz
-        g, cols = self._grid, self._cols
-        corner = iz * cols + ix
-        top = g[corner] * (1 - wx) + g[corner + 1] * wx
-        bottom = g[corner + cols] * (1 - wx) + g[corner + cols + 1] * wx
-        return (top * (1 - wz) + bottom * wz).reshape(x.shape)[()]
+        return self._grid.height(x, z)
 
-    def max_height_bound(self) -> float:
-        return self._terrain.max_height_bound()
+    def grid_around(self, x: float, z: float, reach: float) -> HeightGrid:
+        return self._grid
 
 
 class UncachedView:
@@ -441,8 +457,8 @@ class UncachedView:
     def height(self, x, z) -> np.ndarray:
         return self._terrain.height(x, z, cache=False)
 
-    def max_height_bound(self) -> float:
-        return self._terrain.max_height_bound()
+    def grid_around(self, x: float, z: float, reach: float) -> HeightGrid:
+        return self._terrain.grid_around(x, z, reach, cache=False)
 
 
 def _groups(ids: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:
