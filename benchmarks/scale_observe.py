@@ -31,6 +31,7 @@ from typing import NamedTuple
 import zenoh
 from control_loop_latency import Summary
 
+from deploy.bus import zenoh_callback
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -90,9 +91,8 @@ class Observer:
         data = [keys.clock, keys.stats]
         data += [keys.rover(rid, topic) for rid in self.sampled for topic in (*SENSOR_TOPICS, ks.STATUS)]
         for key in data:
-            handler = zenoh.handlers.Callback(self._on_sample, indirect=False)
-            self._declared.append(self.session.declare_subscriber(key, handler))
-        handler = zenoh.handlers.Callback(self._on_alive, indirect=False)
+            self._declared.append(self.session.declare_subscriber(key, zenoh_callback(self._on_sample)))
+        handler = zenoh_callback(self._on_alive)
         self._declared.append(self.session.liveliness().declare_subscriber(keys.alive_rovers, handler, history=True))
 
     # ---- Zenoh threads: stamp and enqueue, nothing else ----

@@ -9,13 +9,37 @@ before it), which costs the agent a perception period. Kept light: the rover age
 
 from __future__ import annotations
 
+import ctypes
 import queue
+import threading
 from collections.abc import Callable
 from typing import NamedTuple
 
 import zenoh
 
 from schemas import codec
+
+_ATTACHED: set[int] = set()
+
+
+def zenoh_callback(function: Callable[[zenoh.Sample], None]) -> zenoh.handlers.Callback:
+    """A handler that runs ``function`` directly on Zenoh's receiving thread (``indirect=False``), keeping that
+    thread's Python thread state from one sample to the next.
+
+    Zenoh's threads are not Python's: pyo3 makes a thread state for each callback and drops it after, which
+    costs a gettid, an mmap and an munmap per sample; the munmap shoots down the TLB of every other CPU the
+    process runs on (an interrupt to each, and in a VM a trap to the host). One ``PyGILState_Ensure``, never
+    released, keeps the state alive, as CPython's own threads keep theirs. Measured: 15-20 % faster lockstep.
+    """
+
+    def call(sample: zenoh.Sample) -> None:
+        thread = threading.get_ident()
+        if thread not in _ATTACHED:
+            ctypes.pythonapi.PyGILState_Ensure()
+            _ATTACHED.add(thread)
+        function(sample)
+
+    return zenoh.handlers.Callback(call, indirect=False)
 
 
 class Received(NamedTuple):
@@ -41,13 +65,11 @@ class Bus:
         self._congestion = zenoh.CongestionControl.BLOCK if lossless else zenoh.CongestionControl.DROP
 
     def subscribe(self, key_expr: str) -> None:
-        handler = zenoh.handlers.Callback(self._on_sample, indirect=False)
-        self._declared.append(self.session.declare_subscriber(key_expr, handler))
+        self._declared.append(self.session.declare_subscriber(key_expr, zenoh_callback(self._on_sample)))
 
     def watch_liveliness(self, key_expr: str) -> None:
         """Liveliness changes arrive in the inbox with ``alive`` set; tokens already there are reported too."""
-        handler = zenoh.handlers.Callback(self._on_liveliness, indirect=False)
-        sub = self.session.liveliness().declare_subscriber(key_expr, handler, history=True)
+        sub = self.session.liveliness().declare_subscriber(key_expr, zenoh_callback(self._on_liveliness), history=True)
         self._declared.append(sub)
 
     def serve(self, key_expr: str, answer: Callable[[bytes], bytes]) -> None:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import zenoh
 
+from deploy.bus import zenoh_callback
 from deploy.session.format import Sample, TopicFilter
 from deploy.session.writer import SessionWriter
 
@@ -39,8 +40,7 @@ class Recorder:
         self._queue: queue.Queue[Sample | None] = queue.Queue(maxsize=queue_samples)
         self._thread = threading.Thread(target=self._drain, name="recorder-writer", daemon=True)
         self._thread.start()
-        handler = zenoh.handlers.Callback(self._on_sample, indirect=False)
-        self._subscriber = session.declare_subscriber(key_expr, handler)
+        self._subscriber = session.declare_subscriber(key_expr, zenoh_callback(self._on_sample))
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         now = time.time_ns()

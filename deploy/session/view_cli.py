@@ -167,8 +167,7 @@ class Feed:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    import zenoh
-
+    from deploy.bus import zenoh_callback
     from deploy.zenoh_config import config_from_args, describe_endpoints, open_session
     from schemas.keyspace import MAP, PHOTO, Keyspace, check_world_name
     from schemas.scenario import load_scenario
@@ -193,7 +192,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
                            who="lunarsim view")
     feed = Feed()
-    subscribers = [session.declare_subscriber(key, zenoh.handlers.Callback(feed, indirect=False))
+    subscribers = [session.declare_subscriber(key, zenoh_callback(feed))
                    for key in (keys.state, keys.rovers(PHOTO), keys.lander(MAP))]
     try:
         server = live.serve(args.host, args.port)

@@ -22,6 +22,7 @@ def add_web_arguments(parser: argparse.ArgumentParser) -> None:
 def run_web(args: argparse.Namespace) -> int:
     import zenoh
 
+    from deploy.bus import zenoh_callback
     from deploy.web import editor, live
     from deploy.web.commands import Commands
     from deploy.web.server import Viewer, build_app
@@ -49,7 +50,7 @@ def run_web(args: argparse.Namespace) -> int:
             with contextlib.suppress(ValueError):
                 latest.put_photo(keys.parse_rover_key(key)[0], sample.payload.to_bytes())
 
-    handler = zenoh.handlers.Callback(on_sample, indirect=False)
+    handler = zenoh_callback(on_sample)
     subscribers = [session.declare_subscriber(key, handler) for key in
                    (*streams, keys.ground_command_result, keys.rovers(PHOTO))]
     endpoint = (args.connect or [DEFAULT_ENDPOINT])[0]
