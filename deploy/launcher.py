@@ -25,6 +25,16 @@ VIEW_PERIOD_S = 0.25
 lockstep world sends its state 75 times a second at 15 x real time, and the launcher shares the cores."""
 
 
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, nargs="?", help="scenario YAML (see scenarios/)")
     parser.add_argument("--from", dest="from_recording", type=Path, metavar="FILE.mcap",
@@ -40,6 +50,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="simulated seconds per wall second (default 1 = real time)")
     parser.add_argument("--lockstep", action="store_true",
                         help="deterministic clock: a tick advances only when every agent has handled the last one")
+    parser.add_argument("--agents-per-process", type=_positive, default=1, metavar="K",
+                        help="rover agents sharing one process, K to a process as 'lunarsim rover --ids' runs them "
+                             "(default 1: a process per rover). Fewer processes wake fewer times a tick: a 5-rover "
+                             "lockstep run goes about a fifth faster in one process")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port on 127.0.0.1 where the world "
                         f"routes for the run (default {DEFAULT_PORT})")
@@ -147,11 +161,18 @@ class Mission:
             self._start_recorder(common)
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
                             str(self.out / "lander_archive"), "--map-out", str(self.out), *common)
-        for rover_id in range(1, len(self.scenario.rovers) + 1):
-            self.children.start(f"rover{rover_id}", "rover_agent", "--id", str(rover_id),
-                                "--params", str(self.scenario_file), "--behaviour", self.scenario.behaviour,
-                                "--state",
-                                str(self.out / "state" / f"rover{rover_id}.json"), *common, warm=True)
+        count, per = len(self.scenario.rovers), self.args.agents_per_process
+        for first in range(1, count + 1, per):
+            name, which = self._rover_group(first, min(first + per - 1, count))
+            self.children.start(name, "rover_agent", *which, "--params", str(self.scenario_file),
+                                "--behaviour", self.scenario.behaviour, *common, warm=True)
+
+    def _rover_group(self, first: int, last: int) -> tuple[str, list[str]]:
+        """The child's name and which rovers it runs, each keeping its pose in state/rover<N>.json."""
+        state = self.out / "state"
+        if first == last:
+            return f"rover{first}", ["--id", str(first), "--state", str(state / f"rover{first}.json")]
+        return f"rovers{first}-{last}", ["--ids", f"{first}-{last}", "--state", str(state)]
 
     def _world_args(self) -> list[str]:
         args = [str(self.scenario_file), "--world", self.args.world, "--time-scale", str(self.args.time_scale),

@@ -111,9 +111,9 @@ def _noisy_scenario(tmp_path):
     return path
 
 
-def _lockstep_report(tmp_path, name: str) -> dict:
+def _lockstep_report(tmp_path, name: str, *extra: str) -> dict:
     report, _ = run_cli_mission(tmp_path / name, str(_noisy_scenario(tmp_path)), "--lockstep", "--seed", "7",
-                                "--port", str(free_port()), "--quiet")
+                                "--port", str(free_port()), "--quiet", *extra)
     report.pop("wall_time_s")
     return report
 
@@ -122,6 +122,14 @@ def test_lockstep_runs_with_the_same_seed_give_the_same_report(tmp_path):
     first, second = _lockstep_report(tmp_path, "a"), _lockstep_report(tmp_path, "b")
     assert first == second
     assert first["seed"] == 7 and first["complete"] is True and first["rovers_reached_final_goal"] >= 4
+
+
+def test_rovers_sharing_processes_run_the_same_lockstep_mission(tmp_path):
+    shared = _lockstep_report(tmp_path, "shared", "--agents-per-process", "3")
+    assert shared == _lockstep_report(tmp_path, "apart")
+    assert sorted(p.name for p in (tmp_path / "shared" / "logs").glob("rover*.log")) == ["rovers1-3.log",
+                                                                                       "rovers4-5.log"]
+    assert len(list((tmp_path / "shared" / "state").glob("rover*.json"))) == 5
 
 
 def test_batch_runs_seeded_missions_and_summarises_them(tmp_path):
