@@ -102,15 +102,17 @@ def test_segment_segment_distance():
 
 
 @pytest.mark.parametrize("points, circles", [(3, 5), (1, 20), (40, 200)])
-def test_circle_pairs_finds_the_grids_pairs_with_or_without_a_grid(points, circles):
-    """Few pairs are tested all at once, many through a grid: the same pairs either way (the last case is above
-    ``FEW_PAIRS``, so it takes the grid)."""
+def test_circle_pairs_are_every_circle_in_reach_with_or_without_a_grid(points, circles):
+    """Few pairs are tested all at once, many through a grid (the last case is above ``FEW_PAIRS``): the same
+    pairs either way, for static circles (rocks) and moving ones (rovers)."""
     rng = np.random.default_rng(points)
     cx, cz, cr = rng.uniform(-10, 10, circles), rng.uniform(-10, 10, circles), rng.uniform(0.1, 2.0, circles)
     px, pz = rng.uniform(-10, 10, points), rng.uniform(-10, 10, points)
-    got = set(zip(*(a.tolist() for a in circle_pairs(px, pz, cx, cz, cr, 6.0, 8.0)), strict=True))
-    grid = set(zip(*(a.tolist() for a in CircleGrid(cx, cz, cr, 8.0).pairs(px, pz, 6.0)), strict=True))
-    assert got == grid and got, "some circles are in reach"
+    expected = {(i, j) for i in range(points) for j in range(circles)
+                if math.hypot(cx[j] - px[i], cz[j] - pz[i]) <= 6.0 + cr[j]}
+    for found in (circle_pairs(px, pz, cx, cz, cr, 6.0, 8.0), CircleGrid(cx, cz, cr, 8.0).pairs(px, pz, 6.0)):
+        assert set(zip(*(a.tolist() for a in found), strict=True)) == expected
+    assert expected, "some circles are in reach"
     assert (points * circles > FEW_PAIRS) == (points == 40)
 
 

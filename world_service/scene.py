@@ -20,6 +20,16 @@ GRID_CELL_M = 10.0
 ROVER, OBSTACLE, TERRAIN, LANDER, CRATER = (KIND_CODE[k] for k in HIT_KINDS)
 
 
+FEW_PAIRS = 4096
+"""Up to this many (point, circle) pairs, they are all tested at once: building or searching a grid for a handful
+of rovers and rocks costs ten times more than the test it saves."""
+
+
+def _near_pairs(px, pz, cx, cz, cr, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    near = np.hypot(cx[None, :] - px[:, None], cz[None, :] - pz[:, None]) <= reach + cr[None, :]
+    return np.nonzero(near)
+
+
 class CircleGrid:
     """Static circles bucketed on a square grid, so a rover's candidates are found by sorted look-up."""
 
@@ -35,9 +45,12 @@ class CircleGrid:
         return cx.astype(np.int64) * 2_000_003 + cz.astype(np.int64)
 
     def pairs(self, px: np.ndarray, pz: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
-        """(point index, circle index) for every circle within ``reach`` (+ its radius) of each point."""
+        """(point index, circle index) for every circle within ``reach`` (+ its radius) of each point; with few
+        pairs to test, all of them at once (the same pairs, in another order)."""
         if not len(self.keys):
             return np.zeros(0, int), np.zeros(0, int)
+        if len(px) * len(self.x) <= FEW_PAIRS:
+            return _near_pairs(px, pz, self.x, self.z, self.r, reach)
         span = math.ceil(reach / self.cell)
         offsets = np.arange(-span, span + 1)
         cx = np.floor(px / self.cell)[:, None, None] + offsets[None, :, None]
@@ -53,19 +66,13 @@ class CircleGrid:
         return point[near], circle[near]
 
 
-FEW_PAIRS = 4096
-"""Up to this many (point, circle) pairs, ``circle_pairs`` tests them all at once: building a grid for a handful
-of rovers costs ten times more than the test it saves."""
-
-
 def circle_pairs(px: np.ndarray, pz: np.ndarray, cx: np.ndarray, cz: np.ndarray, cr: np.ndarray, reach: float,
                  cell: float) -> tuple[np.ndarray, np.ndarray]:
-    """``CircleGrid(cx, cz, cr, cell).pairs(px, pz, reach)`` for circles that move (rovers): the same pairs, by
-    the same test, in another order; without the grid when there are few."""
+    """``CircleGrid(cx, cz, cr, cell).pairs(px, pz, reach)`` for circles that move (rovers), without building the
+    grid when there are few pairs."""
     if len(px) * len(cx) > FEW_PAIRS:
         return CircleGrid(cx, cz, cr, cell).pairs(px, pz, reach)
-    near = np.hypot(cx[None, :] - px[:, None], cz[None, :] - pz[:, None]) <= reach + cr[None, :]
-    return np.nonzero(near)
+    return _near_pairs(px, pz, cx, cz, cr, reach)
 
 
 @dataclass
