@@ -116,6 +116,14 @@ def test_circle_pairs_are_every_circle_in_reach_with_or_without_a_grid(points, c
     assert (points * circles > FEW_PAIRS) == (points == 40)
 
 
+def test_the_grid_finds_a_wide_circle_whose_centre_is_beyond_the_cells_in_reach():
+    """Reach 6 from x = 9.9 looks in cells -1 to 1 of 10 m (x < 20), but a 5 m rock centred at 20.5 reaches to 15.5."""
+    cx, cz, cr = np.concatenate([[20.5], np.full(5000, 500.0)]), np.zeros(5001), np.ones(5001)
+    cr[0] = 5.0
+    point, circle = CircleGrid(cx, cz, cr, 10.0).pairs(np.array([9.9]), np.array([0.0]), 6.0)
+    assert circle.tolist() == [0] and point.tolist() == [0]
+
+
 def test_wall_edges_of_one_piece_is_a_rectangle_around_it():
     e = geo.wall_edges([(0.0, 0.0), (10.0, 0.0)], thickness=2.0)
     assert e.shape == (4, 4)

@@ -51,7 +51,7 @@ class CircleGrid:
             return np.zeros(0, int), np.zeros(0, int)
         if len(px) * len(self.x) <= FEW_PAIRS:
             return _near_pairs(px, pz, self.x, self.z, self.r, reach)
-        span = math.ceil(reach / self.cell)
+        span = math.ceil((reach + float(self.r.max())) / self.cell)  # a wide circle's centre may lie farther
         offsets = np.arange(-span, span + 1)
         cx = np.floor(px / self.cell)[:, None, None] + offsets[None, :, None]
         cz = np.floor(pz / self.cell)[:, None, None] + offsets[None, None, :]
