@@ -37,8 +37,9 @@ class Perceiver:
         p = params.perception
         self.rel = np.linspace(-p.field_of_view_degrees / 2, p.field_of_view_degrees / 2, p.perception_granularity)
         rocks = scene.circle_kind == OBSTACLE
+        widest = float(scene.circle_r[rocks].max()) if rocks.any() else 0.0
         self.rocks = CircleGrid(scene.circle_x[rocks], scene.circle_z[rocks], scene.circle_r[rocks],
-                                cell=max(p.perception_radius, 5.0))
+                                cell=max(p.perception_radius + widest, 5.0))  # a scan looks one cell around
         self.lander = (scene.circle_x[~rocks], scene.circle_z[~rocks], scene.circle_r[~rocks])
         self.max_rise = math.tan(math.radians(params.navigation.max_slope_deg))
         self.may_be_steep = terrain.max_slope_bound_deg() > params.navigation.max_slope_deg
