@@ -78,7 +78,7 @@ class Perceiver:
 
     def _rovers(self, ox, oz, dx, dz, xs, zs, which, radius):
         rr = self.params.behaviour.rover_radius
-        point, other = circle_pairs(ox, oz, xs, zs, np.full(len(xs), rr), radius, max(radius, 5.0))
+        point, other = circle_pairs(ox, oz, xs, zs, np.full(len(xs), rr), radius, max(radius + rr, 5.0))
         keep = other != which[point]
         point, other = point[keep], other[keep]
         return _min_per_rover(dx.shape, point, _rays_circles(ox, oz, dx, dz, point, xs[other], zs[other],
