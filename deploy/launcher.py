@@ -1,9 +1,10 @@
 """``lunarsim run``: a whole mission on this machine, every part its own OS process.
 
-Starts the world service, the lander agent and one rover agent per rover; the world is the Zenoh router the
-others connect to, unless ``--connect`` names a router for all of them. Shows progress; stops when every rover
-is done or stuck, or at ``--max-sim-time``; writes ``report.json`` into the run folder (scoring the lander's
-traverse map, ``map.npz`` and ``map.png`` there); and stops every process it started, also on Ctrl-C or SIGTERM.
+Starts the world service, the lander agent and a process per rover agent (``--agents-per-process`` groups
+them, as ``lunarsim rover --ids`` runs them); the world is the Zenoh router the others connect to, unless
+``--connect`` names a router for all of them. Shows progress; stops when every rover is done or stuck, or at
+``--max-sim-time``; writes ``report.json`` into the run folder (scoring the lander's traverse map, ``map.npz``
+and ``map.png`` there); and stops every process it started, also on Ctrl-C or SIGTERM.
 """
 
 from __future__ import annotations
