@@ -13,9 +13,9 @@ for every series). The benchmark process watches through the same router (see sc
   a window of ``--seconds``: simulated seconds per wall second (from the world's own clock samples), CPU of
   every process (/proc), memory at the end (Rss and Pss), and delivery of the sampled rovers' sensors;
 - lockstep: the whole mission (or ``--lockstep-sim-time`` simulated seconds), timed from the first running
-  clock to the world's final statistics, so start-up is left out; unwatched by default (only the clock and the
-  statistics), since following sensors would make the router copy them here and slow the clock it times
-  (``--lockstep-sample K`` follows K rovers anyway);
+  clock to the world's final statistics, so start-up is left out; unwatched by default (the first running clock
+  and the statistics), since following sensors, or the clock at every tick, would make the router copy them
+  here and slow the clock it times (``--lockstep-sample K`` follows K rovers, and the clock, anyway);
 - start-up: from spawning the rover processes until the benchmark sees every rover's liveliness token.
 
 Then it fits cost against rover count (the slope) and checks the targets of issue 9.
@@ -240,7 +240,8 @@ def measure(plan: Plan, s: Setting) -> dict:
         cluster.start_router(world_arguments(plan, s))
         session = open_session(build_config(connect=[cluster.endpoint]), cluster.endpoint, 10.0, who="benchmark")
         k = s.lockstep_sample if plan.lockstep else s.sample
-        observer = Observer(session, ks.Keyspace(WORLD), sampled_ids(plan.rovers, k) if k else [])
+        observer = Observer(session, ks.Keyspace(WORLD), sampled_ids(plan.rovers, k) if k else [],
+                            first_clock_only=plan.lockstep and not k)
         watched = s.witness and bool(observer.sampled)
         if watched:
             cluster.start_witness(run_dir / "witness.json", observer.sampled)

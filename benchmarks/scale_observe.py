@@ -83,6 +83,10 @@ class Observer:
     readings: list[Reading] = field(default_factory=list)
     final: Final | None = None
     rejected: int = 0
+    first_clock_only: bool = False
+    """Stop listening to the clock after its first running tick: a lockstep run is timed from that tick to the
+    final statistics, and a clock heard every tick would wake this process every tick, on the cores it times."""
+    _clock_subscriber: zenoh.Subscriber | None = None
     _inbox: queue.SimpleQueue[Arrival] = field(default_factory=queue.SimpleQueue)
     _declared: list = field(default_factory=list)
 
@@ -92,6 +96,7 @@ class Observer:
         data += [keys.rover(rid, topic) for rid in self.sampled for topic in (*SENSOR_TOPICS, ks.STATUS)]
         for key in data:
             self._declared.append(self.session.declare_subscriber(key, zenoh_callback(self._on_sample)))
+        self._clock_subscriber = self._declared[0]
         handler = zenoh_callback(self._on_alive)
         self._declared.append(self.session.liveliness().declare_subscriber(keys.alive_rovers, handler, history=True))
 
@@ -150,6 +155,10 @@ class Observer:
     def _on_clock(self, clock: m.Clock, item: Arrival) -> None:
         if clock.running and item.published_ns is not None:
             self.ticks.append(ClockMark(clock.tick, clock.sim_time, item.published_ns))
+            if self.first_clock_only and self._clock_subscriber is not None:
+                self._declared.remove(self._clock_subscriber)
+                self._clock_subscriber.undeclare()
+                self._clock_subscriber = None
 
     def _on_stats(self, stats: m.WorldStats, item: Arrival) -> None:
         if stats.final and self.final is None:
