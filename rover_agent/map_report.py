@@ -63,10 +63,21 @@ class MapRecorder:
                 self._add(x + dx * distance, z + dz * distance, KIND_OF_HIT[kind])
 
     def _free_along(self, x: float, z: float, dx: float, dz: float, distance: float) -> None:
-        """Cells a ray crossed before it met something: sampled every half cell, short of the hit's cell."""
-        s, step = self.cell / 2, self.cell / 2
-        while s < distance - self.cell / 2:
-            self._add(x + dx * s, z + dz * s, FREE)
+        """Cells a ray crossed before it met something: sampled every half cell, short of the hit's cell.
+
+        ``_add`` inlined, and a sample in the same cell as the one before it skipped: a scan walks about 20,000
+        samples, and this runs while the world waits for the rover's answer to its perception."""
+        cell, known, pending = self.cell, self.known, self.pending
+        s = step = cell / 2
+        end = distance - cell / 2
+        previous = None
+        while s < end:
+            point = (math.floor((x + dx * s) / cell), math.floor((z + dz * s) / cell), FREE)
+            if point != previous:
+                previous = point
+                if point not in known and max(abs(point[0]), abs(point[1])) <= CELL_INDEX_LIMIT:
+                    known.add(point)
+                    pending.append(point)
             s += step
 
     def _add(self, x: float, z: float, kind: int) -> None:
