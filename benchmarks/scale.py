@@ -53,7 +53,9 @@ from scale_observe import (
     cpu_seconds,
     delivery,
     drop_events,
+    late_events,
     missing_samples,
+    no_collector_pauses,
     sim_rate,
     with_descendants,
 )
@@ -250,7 +252,8 @@ def measure(plan: Plan, s: Setting) -> dict:
         waited = observer.pump_until(lambda: observer.started, STARTED_TIMEOUT_S, cluster.check)
         if not waited:
             raise BenchmarkError("every rover is connected but the world's clock did not start" + cluster.tail("world"))
-        window = (lockstep_window if plan.lockstep else realtime_window)(cluster, observer, s)
+        with no_collector_pauses():
+            window = (lockstep_window if plan.lockstep else realtime_window)(cluster, observer, s)
     finally:
         if observer is not None:
             observer.close()
@@ -376,6 +379,7 @@ def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w:
         "clock_samples_missing": None if plan.lockstep else clock_missing(observer.ticks, w.start_ns, w.end_ns,
                                                                            clock_ticks(dt)),
         "drop_events": drop_events(observer.readings, w.start_ns, w.end_ns, dt, per),
+        "late_events": [] if plan.lockstep else late_events(observer.readings, w.start_ns, w.end_ns, dt, per),
         "benchmark_cpu_cores": round(w.benchmark_cpu, 4),
         "witness_cpu_cores": round(witness, 4),
         "undecodable_samples": observer.rejected,

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import bisect
 import contextlib
+import gc
 import itertools
 import math
 import os
@@ -182,6 +183,25 @@ class Observer:
         self._declared.clear()
 
 
+@contextlib.contextmanager
+def no_collector_pauses():
+    """The cyclic garbage collector off while an observer watches, and its heap so far frozen out of later scans.
+
+    A callback stamps a sample's arrival only once it holds the GIL, and a full collection of this process's
+    heap holds it for up to 150 ms: every sample arriving meanwhile was counted late (all sampled rovers at
+    once, at the same point of every 30 s window), though the agents had theirs on time. A measurement makes no
+    reference cycles worth collecting in its minutes; the collector runs again after it."""
+    gc.collect()
+    gc.freeze()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.enable()
+        gc.unfreeze()
+        gc.collect()
+
+
 # ---- what the readings say ----
 
 
@@ -261,6 +281,21 @@ def clock_missing(ticks: list[ClockMark], start_ns: int, end_ns: int, period_tic
     ``period_ticks``)."""
     inside = [t.tick for t in ticks if start_ns <= t.published_ns <= end_ns]
     return sum(max(0, (b - a) // period_ticks - 1) for a, b in itertools.pairwise(inside))
+
+
+def late_events(readings: list[Reading], start_ns: int, end_ns: int, dt: float, periods: dict[str, int],
+                limit: int = 50) -> list[tuple[int, str, float, float, float]]:
+    """The first ``limit`` sensor samples (real time) that arrived more than one period after they were published:
+    (rover, topic, sim time, latency ms, seconds into the window). Late samples of many rovers at one moment
+    point at a stall of the world, the router or the machine; one rover's alone at its process."""
+    late = []
+    for r in readings:
+        if r.topic in SENSOR_TOPICS and start_ns <= r.received_ns <= end_ns:
+            latency = r.received_ns - r.published_ns
+            if latency > periods[r.topic] * dt * 1e9:
+                late.append((r.rover, r.topic, round(r.stamp, 3), round(latency / 1e6, 1),
+                             round((r.received_ns - start_ns) / 1e9, 3)))
+    return late[:limit]
 
 
 def drop_events(readings: list[Reading], start_ns: int, end_ns: int, dt: float, periods: dict[str, int],

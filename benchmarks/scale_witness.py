@@ -16,7 +16,7 @@ import os
 import sys
 from pathlib import Path
 
-from scale_observe import ClockMark, Observer, Reading
+from scale_observe import ClockMark, Observer, Reading, no_collector_pauses
 
 from deploy import process
 from deploy.zenoh_config import build_config, open_session
@@ -27,7 +27,7 @@ def main(argv: list[str]) -> int:
     endpoint, world, out, *ids = argv
     parent = os.getppid()
     session = open_session(build_config(connect=[endpoint]), endpoint, 10.0, who="scale witness")
-    with process.stop_on_signals() as stop:
+    with process.stop_on_signals() as stop, no_collector_pauses():
         observer = Observer(session, Keyspace(world), [int(i) for i in ids])
         print("witness ready", flush=True)
         while not stop.is_set() and os.getppid() == parent:  # a benchmark killed outright leaves no witness behind
