@@ -188,9 +188,9 @@ def no_collector_pauses():
     """The cyclic garbage collector off while an observer watches, and its heap so far frozen out of later scans.
 
     A callback stamps a sample's arrival only once it holds the GIL, and a full collection of this process's
-    heap holds it for up to 150 ms: every sample arriving meanwhile was counted late (all sampled rovers at
-    once, at the same point of every 30 s window), though the agents had theirs on time. A measurement makes no
-    reference cycles worth collecting in its minutes; the collector runs again after it."""
+    heap held it for 110-150 ms: every sample arriving meanwhile was stamped late (all sampled rovers at once,
+    at the same point of every 30 s window), a pause of the benchmark, not of the system it measures. A
+    measurement makes no reference cycles worth collecting in its minutes; the collector runs again after it."""
     gc.collect()
     gc.freeze()
     gc.disable()
