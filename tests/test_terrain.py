@@ -11,6 +11,7 @@ import pytest
 import trimesh
 
 from schemas.scenario import Crater, TerrainSpec
+from world_service import terrain as terrain_module
 from world_service.terrain import Heightmap, crater_profile
 from world_service.terrain_mesh import MeshSurface, export_glb, fit_spec
 
@@ -143,6 +144,24 @@ def test_sampling_keeps_the_shape_and_a_scalar_stays_a_scalar():
     assert terrain.pitch_deg([1.0, 50.0], [2.0, 60.0], 45.0).shape == (2,)
     edge = terrain.height([-100.0, 1000.0], [-100.0, 1000.0])  # clamped to the corners
     assert edge == pytest.approx([terrain.height(0.0, 0.0), terrain.height(130.0, 110.0)])
+
+
+def test_a_few_points_sample_in_python_to_the_bit_of_the_batched_path(monkeypatch):
+    """Lockstep missions must not change with the number of rovers a tick samples: same bits, same tile order."""
+    few, batched = _build(SMALL, tile_size_m=16.0, max_tiles_in_memory=5), _build(SMALL, tile_size_m=16.0,
+                                                                                   max_tiles_in_memory=5)
+    rng = np.random.default_rng(4)
+    for n in [1, 2, 5, terrain_module.FEW_POINTS]:
+        for _ in range(40):
+            x, z = rng.uniform(-10.0, 145.0, n), rng.uniform(-10.0, 125.0, n)  # some clamped at the edges
+            heading = rng.uniform(0.0, 360.0, n)
+            ours = few.pitch_deg(x, z, heading), few.height(x, z)
+            with monkeypatch.context() as patch:
+                patch.setattr(terrain_module, "FEW_POINTS", 0)
+                theirs = batched.pitch_deg(x, z, heading), batched.height(x, z)
+            assert all(np.array_equal(a, b) for a, b in zip(ours, theirs, strict=True))
+            assert few.loaded_tiles == batched.loaded_tiles
+    assert few.tiles_evicted == batched.tiles_evicted > 0
 
 
 def test_lru_evicts_beyond_the_cap():
