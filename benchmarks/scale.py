@@ -15,7 +15,8 @@ for every series). The benchmark process watches through the same router (see sc
 - lockstep: the whole mission (or ``--lockstep-sim-time`` simulated seconds), timed from the first running
   clock to the world's final statistics, so start-up is left out; unwatched by default (the first running clock
   and the statistics), since following sensors, or the clock at every tick, would make the router copy them
-  here and slow the clock it times (``--lockstep-sample K`` follows K rovers, and the clock, anyway);
+  here and slow the clock it times (``--lockstep-sample K`` follows K rovers, and the clock, anyway); each
+  lockstep measurement is run ``--lockstep-repeats`` times, interleaved with the others, and its median kept;
 - start-up: from spawning the rover processes until the benchmark sees every rover's liveliness token.
 
 Then it fits cost against rover count (the slope) and checks the targets of issue 9.
@@ -79,9 +80,9 @@ REFINE_STEP = 50
 STARTED_TIMEOUT_S = 60.0
 """After the last token: the world needs a clock period or two to see them all and start."""
 QUICK = {"counts": [5, 10], "seconds": 5.0, "warmup": 2.0, "shared_counts": [20], "per_process": 10,
-         "lockstep_counts": [5], "lockstep_sim_time": 10.0}
+         "lockstep_counts": [5], "lockstep_sim_time": 10.0, "lockstep_repeats": 1}
 FULL = {"counts": [10, 50, 100], "seconds": 30.0, "warmup": 5.0, "shared_counts": [1000, 750, 500],
-        "per_process": 250, "lockstep_counts": [5, 20, 100], "lockstep_sim_time": 60.0}
+        "per_process": 250, "lockstep_counts": [5, 20, 100], "lockstep_sim_time": 60.0, "lockstep_repeats": 3}
 
 _t0 = time.monotonic()
 
@@ -303,6 +304,7 @@ class Window:
     memory: dict[str, dict[str, float]]
     benchmark_cpu: float
     ended_early: bool
+    outsiders: dict[str, float]
 
 
 def realtime_window(cluster: Cluster, observer: Observer, s: Setting) -> Window:
@@ -336,7 +338,7 @@ def timed(cluster: Cluster, observer: Observer, wait) -> Window:
     end_ns = time.time_ns()
     meter.mark()
     own = (_own_cpu() - own) / (time.monotonic() - start)
-    return Window(start_ns, end_ns, meter.cpu(), meter.machine(), meter.memory(), own, ended)
+    return Window(start_ns, end_ns, meter.cpu(), meter.machine(), meter.memory(), own, ended, meter.outsiders())
 
 
 def _own_cpu() -> float:
@@ -381,6 +383,7 @@ def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w:
         "drop_events": drop_events(observer.readings, w.start_ns, w.end_ns, dt, per),
         "late_events": [] if plan.lockstep else late_events(observer.readings, w.start_ns, w.end_ns, dt, per),
         "benchmark_cpu_cores": round(w.benchmark_cpu, 4),
+        "outside_processes_cores": w.outsiders,
         "witness_cpu_cores": round(witness, 4),
         "undecodable_samples": observer.rejected,
     }
@@ -462,10 +465,29 @@ def run_series(args: argparse.Namespace, s: Setting, doc: dict) -> None:
             doc["notes"].append("skipped the shared-process series: this lunarsim rover has no --ids yet")
             progress(doc["notes"][-1])
     if not args.skip_lockstep:
-        for n in args.lockstep_counts:
-            rows.append(attempt(Plan(n, lockstep=True), s))
-        n = min(args.lockstep_counts)  # the same mission with every rover agent in one process: the cost of processes
-        rows.append(attempt(Plan(n, per_process=n, lockstep=True), s))
+        rows += lockstep_series(args, s)
+
+
+def lockstep_series(args: argparse.Namespace, s: Setting) -> list[dict]:
+    """Each lockstep count, and the smallest with every rover agent in one process (the cost of processes),
+    ``--lockstep-repeats`` times, interleaved so that each sees the machine as the others do: a lockstep factor
+    swings by a quarter with the host's load from one minute to the next. Reports each plan's median run."""
+    n = min(args.lockstep_counts)
+    plans = [*(Plan(c, lockstep=True) for c in args.lockstep_counts), Plan(n, per_process=n, lockstep=True)]
+    runs: list[list[dict]] = [[] for _ in plans]
+    for _ in range(args.lockstep_repeats):
+        for plan, done in zip(plans, runs, strict=True):
+            done.append(attempt(plan, s))
+    return [median_run(done) for done in runs]
+
+
+def median_run(rows: list[dict]) -> dict:
+    """The run of median real-time factor (the lower middle of an even number), with every run's factor in run
+    order (None for one that failed) under ``repeats``; the first failure if every run failed."""
+    ok = sorted((r for r in rows if "error" not in r), key=lambda r: r["real_time_factor"])
+    if not ok:
+        return rows[0]
+    return {**ok[(len(ok) - 1) // 2], "repeats": [r.get("real_time_factor") for r in rows]}
 
 
 
@@ -541,6 +563,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help=f"lockstep, one process per rover (default {FULL['lockstep_counts']})")
     parser.add_argument("--lockstep-sim-time", type=float, metavar="S", help="cap of each lockstep mission in "
                         f"simulated seconds (default {FULL['lockstep_sim_time']:g})")
+    parser.add_argument("--lockstep-repeats", type=int, metavar="R", help="runs of each lockstep measurement, "
+                        f"interleaved; the median is reported (default {FULL['lockstep_repeats']}, "
+                        f"--quick {QUICK['lockstep_repeats']})")
     parser.add_argument("--lockstep-timeout", type=float, default=900.0, metavar="S",
                         help="wall seconds a lockstep mission may take (default 900)")
     parser.add_argument("--skip-lockstep", action="store_true")
@@ -572,8 +597,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def check_args(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     counts = [*args.counts, *args.shared_counts, *args.lockstep_counts]
-    if min(counts) < 1 or args.per_process < 1 or args.sample < 1 or args.lockstep_sample < 0:
-        parser.error("rover counts, --per-process and --sample must be 1 or more, --lockstep-sample 0 or more")
+    if min(counts) < 1 or min(args.per_process, args.sample, args.lockstep_repeats) < 1 or args.lockstep_sample < 0:
+        parser.error("rover counts, --per-process, --sample and --lockstep-repeats must be 1 or more, "
+                     "--lockstep-sample 0 or more")
     if args.seconds <= 0 or args.warmup < 0 or args.lockstep_sim_time <= 0:
         parser.error("--seconds and --lockstep-sim-time must be more than 0, --warmup 0 or more")
     if not args.scenario.is_file():

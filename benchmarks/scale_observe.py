@@ -337,6 +337,13 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime, stime: fields 14 and 15 of stat(5)
 
 
+def cpu_and_parent(pid: int) -> tuple[float, int]:
+    """CPU seconds of a process and of its children it has waited for (cutime, cstime), and its parent's pid."""
+    stat = Path(f"/proc/{pid}/stat").read_text()
+    fields = stat[stat.rindex(")") + 2:].split()
+    return sum(int(f) for f in fields[11:15]) / CLK_TCK, int(fields[1])
+
+
 def with_descendants(pid: int) -> list[int]:
     """``pid`` and every process under it (the world's camera process renders photos: its CPU is the world's)."""
     pids, i = [pid], 0
@@ -378,10 +385,24 @@ def machine_cpu_seconds() -> tuple[float, float]:
     return (user + nice + system + irq + softirq) / CLK_TCK, steal / CLK_TCK
 
 
+def every_process_cpu() -> dict[int, tuple[float, str]]:
+    """CPU seconds and name of every process on the machine: what 'others' was, when it is large."""
+    out = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            with contextlib.suppress(OSError, ValueError, IndexError):
+                stat = (entry / "stat").read_text()
+                fields = stat[stat.rindex(")") + 2:].split()
+                out[int(entry.name)] = ((int(fields[11]) + int(fields[12])) / CLK_TCK,
+                                        stat[stat.index("(") + 1:stat.rindex(")")])
+    return out
+
+
 class Mark(NamedTuple):
     wall: float
-    per_pid: dict[int, float]
+    per_pid: dict[int, tuple[float, int]]  # pid -> (CPU with waited-for children, parent pid)
     machine: tuple[float, float]
+    everyone: dict[int, tuple[float, str]]
 
 
 @dataclass
@@ -396,21 +417,45 @@ class ProcessMeter:
         per_pid = {}
         for pid in (pid for pids in self.groups.values() for pid in pids):
             with contextlib.suppress(OSError):  # a helper process (of the world's camera pool) may have ended
-                per_pid[pid] = cpu_seconds(pid)
-        self._marks.append(Mark(time.monotonic(), per_pid, machine_cpu_seconds()))
+                per_pid[pid] = cpu_and_parent(pid)
+        self._marks.append(Mark(time.monotonic(), per_pid, machine_cpu_seconds(), every_process_cpu()))
 
     def cpu(self) -> dict[str, float]:
-        """CPU seconds each group used per wall second between the first and the last mark (1.0 = one core);
-        a process that ended in between counts for nothing (its CPU is left to 'others')."""
+        """CPU seconds each group used per wall second between the first and the last mark (1.0 = one core).
+
+        A process that ended in between and was waited for by another of its group (the world's camera process,
+        closed as the mission ends) counts through its parent's children's time, less what it had used by the
+        first mark; one that ended otherwise counts for nothing (its CPU is left to 'others')."""
         a, b = self._marks[0], self._marks[-1]
-        return {name: sum(b.per_pid[p] - a.per_pid[p] for p in pids if p in a.per_pid and p in b.per_pid)
-                / (b.wall - a.wall) for name, pids in self.groups.items()}
+        return {name: self._group_cpu(pids, a, b) / (b.wall - a.wall) for name, pids in self.groups.items()}
+
+    @staticmethod
+    def _group_cpu(pids: list[int], a: Mark, b: Mark) -> float:
+        used = 0.0
+        for p in pids:
+            if p in a.per_pid and p in b.per_pid:
+                used += b.per_pid[p][0] - a.per_pid[p][0]
+            elif p in a.per_pid and a.per_pid[p][1] in b.per_pid and a.per_pid[p][1] in pids:
+                used -= a.per_pid[p][0]  # its parent's children's time now holds its whole life
+        return used
 
     def machine(self) -> dict[str, float]:
         """Busy and stolen (by the hypervisor) cores of the whole machine over the same time."""
         a, b = self._marks[0], self._marks[-1]
         wall = b.wall - a.wall
         return {"busy_cores": (b.machine[0] - a.machine[0]) / wall, "steal_cores": (b.machine[1] - a.machine[1]) / wall}
+
+    def outsiders(self, limit: int = 5) -> dict[str, float]:
+        """Cores used by processes in no group (this benchmark's own included), by name, the busiest first; a
+        process started between the marks counts whole."""
+        a, b = self._marks[0], self._marks[-1]
+        ours = {p for pids in self.groups.values() for p in pids}
+        by_name: dict[str, float] = defaultdict(float)
+        for pid, (cpu, name) in b.everyone.items():
+            if pid not in ours:
+                by_name[name] += cpu - a.everyone.get(pid, (0.0, name))[0]
+        wall = b.wall - a.wall
+        return {name: round(cpu / wall, 3) for name, cpu in sorted(by_name.items(), key=lambda kv: -kv[1])[:limit]}
 
     def memory(self) -> dict[str, dict[str, float]]:
         out = {}

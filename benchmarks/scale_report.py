@@ -43,6 +43,7 @@ def print_report(doc: dict) -> None:
               + "; latency = arrival minus the publisher's Zenoh timestamp; agent lag = world clock tick to the "
               "agent's status stamped with it")
         print_table(rows)
+        print_repeats(rows)
         print_delivery(rows)
     print_witness(rows)
     print_slopes(doc.get("slopes", []))
@@ -65,6 +66,14 @@ HEADER = (f"{'mode':9}{'rovers':>7}{'procs':>6}{'RTF':>8}{'CPU/rover':>10}{'rove
           f"{'dropped':>8}{'clk miss':>9}{'lag p99':>8}{'start-up':>9}{'others':>7}")
 UNITS = (f"{'':30}{'% core':>10}{'cores':>8}{'cores':>7}{'cores':>7}{'cores':>7}{'MiB':>10}{'MiB':>10}{'MiB':>9}"
          f"{'ms':>8}{'ms':>7}{'':25}{'ms':>8}{'s':>9}{'cores':>7}")
+
+
+def print_repeats(rows: list[dict]) -> None:
+    """Every run behind a lockstep row that is the median of several, in run order."""
+    for r in rows:
+        if len(r.get("repeats", [])) > 1:
+            runs = ", ".join(f"{f:.2f}" if f is not None else "failed" for f in r["repeats"])
+            print(f"  {r['mode']} {r['rovers']} rovers in {r['processes']} process(es): median of runs {runs}")
 
 
 def print_table(rows: list[dict]) -> None:
@@ -195,8 +204,10 @@ def targets(doc: dict) -> list[dict]:
     out = [_realtime_target(rt), _startup_target(rt)]
     out.append(_thousand_target(doc))
     ok = lock is not None and "error" not in lock
+    runs = [f"{f:.2f}" if f is not None else "failed" for f in lock.get("repeats", [])] if ok else []
+    of = f" (median of {len(runs)} runs: {', '.join(runs)})" if len(runs) > 1 else ""
     out.append({"target": f"5-rover lockstep at least {LOCKSTEP_TARGET:g} x real time",
-                "measured": f"{lock['real_time_factor']:.2f} x" if ok else "not run",
+                "measured": f"{lock['real_time_factor']:.2f} x{of}" if ok else "not run",
                 "pass": lock["real_time_factor"] >= LOCKSTEP_TARGET if ok else None})
     return out
 

@@ -41,3 +41,13 @@ def test_a_process_that_ends_between_marks_counts_for_nothing() -> None:
     finally:
         long.kill()
         long.wait()
+
+
+def test_a_repeated_measurement_reports_its_median_run_and_every_factor() -> None:
+    from scale import median_run
+
+    runs = [{"real_time_factor": 18.0, "n": 1}, {"error": "world died"}, {"real_time_factor": 21.0, "n": 3},
+            {"real_time_factor": 16.0, "n": 4}]
+    row = median_run(runs)
+    assert row["n"] == 1 and row["repeats"] == [18.0, None, 21.0, 16.0]  # the middle of three that finished
+    assert median_run([{"error": "a"}, {"error": "b"}]) == {"error": "a"}
