@@ -43,6 +43,50 @@ def test_a_process_that_ends_between_marks_counts_for_nothing() -> None:
         long.wait()
 
 
+CHILD = """
+import sys, time
+def burn(seconds):
+    end = time.process_time() + seconds
+    while time.process_time() < end:
+        pass
+burn(0.5)  # before the first mark: not to be counted
+print("ready", flush=True)
+sys.stdin.readline()
+burn(0.5)
+"""
+PARENT_OF_BUSY = f"""
+import subprocess, sys
+child = subprocess.Popen([sys.executable, "-c", {CHILD!r}], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+child.stdout.readline()
+print(child.pid, flush=True)
+child.stdin.write(sys.stdin.readline())
+child.stdin.flush()
+child.wait()
+print("reaped", flush=True)
+sys.stdin.readline()
+"""
+
+
+def test_a_child_that_ends_and_is_waited_for_within_its_group_counts_for_what_it_used_between_marks() -> None:
+    """The world's camera process renders a lockstep mission's photos and ends with the mission."""
+    parent = subprocess.Popen([sys.executable, "-c", PARENT_OF_BUSY], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                              text=True)
+    try:
+        child = int(parent.stdout.readline())
+        meter = ProcessMeter({"world": with_descendants(parent.pid)})
+        assert meter.groups["world"] == [parent.pid, child]
+        meter.mark()
+        parent.stdin.write("go\n")
+        parent.stdin.flush()
+        assert parent.stdout.readline() == "reaped\n"
+        meter.mark()
+        used = meter.cpu()["world"] * (meter._marks[1].wall - meter._marks[0].wall)
+        assert 0.45 <= used <= 0.75  # its second half second, not the first
+    finally:
+        parent.kill()
+        parent.wait()
+
+
 def test_a_repeated_measurement_reports_its_median_run_and_every_factor() -> None:
     from scale import median_run
 
