@@ -77,7 +77,7 @@ class CameraProcess:
     def __init__(self, scenario: Scenario, nice: int = 0) -> None:
         self.pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
                                         initializer=_start, initargs=(scenario, nice))
-        self.pool.submit(int)  # start the process now, not at the first photo
+        self.started = self.pool.submit(int)  # start the process now, not at the first photo
 
     def submit(self, job: PhotoJob) -> Future:
         return self.pool.submit(_render, job)

@@ -12,6 +12,7 @@ with a liveliness token, so no rover misses the start. Then the clock runs in on
 
 Photos take the camera's ``capture_time_s`` of simulated time in both modes: a camera process renders them
 meanwhile (``world_service.photos``), and in lockstep the clock waits for a render not done when its photo is due.
+The clock starts once that process is up.
 """
 
 from __future__ import annotations
@@ -35,6 +36,10 @@ from world_service.rover_ids import IdDesk
 from world_service.sim import World
 
 log = logging.getLogger("lunarsim.world")
+
+CAMERA_START_TIMEOUT_S = 60.0
+"""How long the clock waits for the camera process to start (about a second here; Numba compiles its loops on a
+first run without a cache, a few seconds)."""
 
 
 @dataclass
@@ -93,6 +98,26 @@ class Photographer:
         except BrokenExecutor:
             self._lost_camera()
             return self.world.render(job)
+
+    def await_camera(self, stop: threading.Event) -> None:
+        """Before the clock starts. The camera process's start-up (a second of CPU on this machine: NumPy, Numba's
+        loops, the terrain) would otherwise take two cores from the first seconds of the mission, a quarter of a
+        five-rover lockstep run. One that fails to start is lost, as one that dies later; one that takes longer
+        than ``CAMERA_START_TIMEOUT_S`` is left to finish while the mission runs."""
+        if self.camera is None:
+            return
+        deadline = time.monotonic() + CAMERA_START_TIMEOUT_S
+        while not stop.is_set() and time.monotonic() < deadline:
+            try:
+                self.camera.started.result(timeout=0.5)
+                return
+            except TimeoutError:
+                continue
+            except BrokenExecutor:
+                self._lost_camera()
+                return
+        if not stop.is_set():
+            log.warning("the camera process is not up after %g s; starting the clock anyway", CAMERA_START_TIMEOUT_S)
 
     def _lost_camera(self) -> None:
         if self.camera is not None:
@@ -264,6 +289,7 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
     photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings, camera)
     try:
         wait_for_agents(world, bus, settings, stop, agents)
+        photographer.await_camera(stop)
         freeze_start_up_heap()
         agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
