@@ -90,7 +90,7 @@ class OccupancyGrid:
                      for h in hits if h.kind in STATIC_KINDS}
         for cell in hit_cells:
             self._hits[cell] = self._hits.get(cell, 0) + 1
-        seen_free = set()
+        seen_free: set[Cell] = set()
         if self._hits:  # only cells that ever had a hit are counted free: with none, no ray need be walked
             seen_free = {c for c in self._ray_cells(pose, free_angles, radius) if c in self._hits} - hit_cells
         for cell in seen_free:

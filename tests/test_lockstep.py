@@ -7,6 +7,10 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import multiprocessing
+import os
+import signal
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +26,7 @@ from schemas.scenario import load_scenario
 from world_service import camera
 from world_service.lockstep import AckPlan
 from world_service.photos import CameraProcess, build_ground
+from world_service.service import ClockSettings, Photographer
 from world_service.sim import World
 from world_service.terrain import DenseView
 
@@ -165,6 +170,26 @@ def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world
         assert [f.result(timeout=60) for f in photos] == [world.render(job) for job in jobs]
     finally:
         process.close()
+
+
+def test_the_clock_waits_for_the_camera_process_and_renders_itself_if_it_cannot_start(crater_world, caplog):
+    scenario, world = crater_world
+    stop, waits = threading.Event(), []
+    process = CameraProcess(scenario)
+    try:
+        photographer = Photographer(world, lambda key, message: None, ClockSettings(lockstep=True), process)
+        photographer.await_camera(stop, lambda: waits.append(1))
+        assert process.started.done() and photographer.camera is process  # up: it will render
+    finally:
+        process.close()
+    others = set(multiprocessing.active_children())
+    broken = CameraProcess(scenario)
+    for child in set(multiprocessing.active_children()) - others:  # the camera dies while it starts
+        os.kill(child.pid, signal.SIGKILL)
+    photographer = Photographer(world, lambda key, message: None, ClockSettings(lockstep=True), broken)
+    photographer.await_camera(stop, lambda: waits.append(1))
+    assert photographer.camera is None and "the camera process died" in caplog.text  # photos rendered in the world
+    broken.close()
 
 
 def test_the_whole_grid_view_samples_the_same_heights_as_the_tiles(crater_world):

@@ -99,11 +99,12 @@ class Photographer:
             self._lost_camera()
             return self.world.render(job)
 
-    def await_camera(self, stop: threading.Event) -> None:
-        """Before the clock starts. The camera process's start-up (a second of CPU on this machine: NumPy, Numba's
-        loops, the terrain) would otherwise take two cores from the first seconds of the mission, a quarter of a
-        five-rover lockstep run. One that fails to start is lost, as one that dies later; one that takes longer
-        than ``CAMERA_START_TIMEOUT_S`` is left to finish while the mission runs."""
+    def await_camera(self, stop: threading.Event, waiting: Callable[[], None]) -> None:
+        """Before the clock starts, calling ``waiting`` every half second meanwhile. The camera process's start-up
+        (a second of CPU on this machine: NumPy, Numba's loops, the terrain) would otherwise compete for the cores
+        with the first seconds of the mission, and a five-rover lockstep mission lasts three or four. One that
+        fails to start is lost, as one that dies later; one not up after ``CAMERA_START_TIMEOUT_S`` is left to
+        finish while the mission runs."""
         if self.camera is None:
             return
         deadline = time.monotonic() + CAMERA_START_TIMEOUT_S
@@ -112,7 +113,7 @@ class Photographer:
                 self.camera.started.result(timeout=0.5)
                 return
             except TimeoutError:
-                continue
+                waiting()
             except BrokenExecutor:
                 self._lost_camera()
                 return
@@ -289,7 +290,7 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
     photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings, camera)
     try:
         wait_for_agents(world, bus, settings, stop, agents)
-        photographer.await_camera(stop)
+        photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock(running=False)))
         freeze_start_up_heap()
         agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
