@@ -93,11 +93,11 @@ class Observer:
 
     def __post_init__(self) -> None:
         keys = self.keys
-        data = [keys.clock, keys.stats]
-        data += [keys.rover(rid, topic) for rid in self.sampled for topic in (*SENSOR_TOPICS, ks.STATUS)]
+        self._clock_subscriber = self.session.declare_subscriber(keys.clock, zenoh_callback(self._on_sample))
+        self._declared.append(self._clock_subscriber)
+        data = [keys.stats, *(keys.rover(rid, topic) for rid in self.sampled for topic in (*SENSOR_TOPICS, ks.STATUS))]
         for key in data:
             self._declared.append(self.session.declare_subscriber(key, zenoh_callback(self._on_sample)))
-        self._clock_subscriber = self._declared[0]
         handler = zenoh_callback(self._on_alive)
         self._declared.append(self.session.liveliness().declare_subscriber(keys.alive_rovers, handler, history=True))
 
@@ -330,17 +330,22 @@ def combined_latency(readings: list[Reading], start_ns: int, end_ns: int) -> dic
 # ---- /proc ----
 
 
+def _stat(pid: int) -> tuple[str, list[str]]:
+    """A process's name and the fields after it in /proc/<pid>/stat (the name may hold spaces): ``fields[1]`` is
+    the parent's pid, ``fields[11:15]`` utime, stime, cutime and cstime (fields 4 and 14-17 of stat(5))."""
+    stat = Path(f"/proc/{pid}/stat").read_text()
+    return stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
+
+
 def cpu_seconds(pid: int) -> float:
     """User + system CPU time of a process so far (its threads included)."""
-    stat = Path(f"/proc/{pid}/stat").read_text()
-    fields = stat[stat.rindex(")") + 2:].split()  # after "pid (comm) "; comm may hold spaces
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime, stime: fields 14 and 15 of stat(5)
+    fields = _stat(pid)[1]
+    return (int(fields[11]) + int(fields[12])) / CLK_TCK
 
 
 def cpu_and_parent(pid: int) -> tuple[float, int]:
     """CPU seconds of a process and of its children it has waited for (cutime, cstime), and its parent's pid."""
-    stat = Path(f"/proc/{pid}/stat").read_text()
-    fields = stat[stat.rindex(")") + 2:].split()
+    fields = _stat(pid)[1]
     return sum(int(f) for f in fields[11:15]) / CLK_TCK, int(fields[1])
 
 
@@ -390,11 +395,9 @@ def every_process_cpu() -> dict[int, tuple[float, str]]:
     out = {}
     for entry in Path("/proc").iterdir():
         if entry.name.isdigit():
-            with contextlib.suppress(OSError, ValueError, IndexError):
-                stat = (entry / "stat").read_text()
-                fields = stat[stat.rindex(")") + 2:].split()
-                out[int(entry.name)] = ((int(fields[11]) + int(fields[12])) / CLK_TCK,
-                                        stat[stat.index("(") + 1:stat.rindex(")")])
+            with contextlib.suppress(OSError, ValueError, IndexError):  # a process may end while we read
+                name, fields = _stat(int(entry.name))
+                out[int(entry.name)] = ((int(fields[11]) + int(fields[12])) / CLK_TCK, name)
     return out
 
 
