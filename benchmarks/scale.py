@@ -57,6 +57,7 @@ from scale_observe import (
     late_events,
     missing_samples,
     no_collector_pauses,
+    schedule_lateness,
     sim_rate,
     with_descendants,
 )
@@ -382,6 +383,7 @@ def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w:
                                                                            clock_ticks(dt)),
         "drop_events": drop_events(observer.readings, w.start_ns, w.end_ns, dt, per),
         "late_events": [] if plan.lockstep else late_events(observer.readings, w.start_ns, w.end_ns, dt, per),
+        "schedule": None if plan.lockstep else schedule_lateness(observer.readings, w.start_ns, w.end_ns, dt, per),
         "benchmark_cpu_cores": round(w.benchmark_cpu, 4),
         "outside_processes_cores": w.outsiders,
         "witness_cpu_cores": round(witness, 4),

@@ -321,6 +321,25 @@ def missing_samples(readings: list[Reading], start_ns: int, end_ns: int, dt: flo
     return out
 
 
+def schedule_lateness(readings: list[Reading], start_ns: int, end_ns: int, dt: float,
+                      periods: dict[str, int]) -> dict | None:
+    """Real time, against the world's schedule rather than the publisher's stamp: how far behind its best the world
+    published each sampled sensor sample (``slip``: its publication minus its sim time, less the smallest such
+    difference in the window), and how late it arrived by that schedule (``arrival``: slip plus delivery latency),
+    with the samples that arrived more than one period late by it. Delivery latency alone does not see a world
+    that steps late: it stamps a sample as it publishes it. Perception and gyroscope only: a navigation status
+    also answers a command between ticks, stamped with the tick before."""
+    rows = [r for r in readings if r.topic in GAP_CHECKED and start_ns <= r.received_ns <= end_ns]
+    if not rows:
+        return None
+    offsets = [r.published_ns - round(r.stamp * 1e9) for r in rows]
+    best = min(offsets)
+    slip = [o - best for o in offsets]
+    arrival = [s + r.received_ns - r.published_ns for s, r in zip(slip, rows, strict=True)]
+    late = sum(a > periods[r.topic] * dt * 1e9 for a, r in zip(arrival, rows, strict=True))
+    return {"slip_ms": vars(Summary.of(slip)), "arrival_ms": vars(Summary.of(arrival)), "over_one_period": late}
+
+
 def combined_latency(readings: list[Reading], start_ns: int, end_ns: int) -> dict | None:
     lat = [r.received_ns - r.published_ns for r in readings
            if r.topic in SENSOR_TOPICS and start_ns <= r.received_ns <= end_ns]

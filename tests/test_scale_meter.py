@@ -95,3 +95,17 @@ def test_a_repeated_measurement_reports_its_median_run_and_every_factor() -> Non
     row = median_run(runs)
     assert row["n"] == 1 and row["repeats"] == [18.0, None, 21.0, 16.0]  # the middle of three that finished
     assert median_run([{"error": "a"}, {"error": "b"}]) == {"error": "a"}
+
+
+def test_a_sample_the_world_published_late_is_late_by_its_schedule_though_delivered_at_once() -> None:
+    from scale_observe import Reading, schedule_lateness
+
+    start = 1_000_000_000_000
+    readings = [Reading(1, "gyroscope", tick * 0.05, start + tick * 50_000_000, start + tick * 50_000_000 + 2_000_000)
+                for tick in range(1, 40)]
+    late = readings[20]
+    readings[20] = late._replace(published_ns=late.published_ns + 60_000_000, received_ns=late.received_ns + 60_000_000)
+    readings.append(Reading(1, "navigation_status", 0.5, start + 90_000_000, start + 91_000_000))  # a reply between
+    out = schedule_lateness(readings, start, start + 10**10, 0.05, {"gyroscope": 1, "perception": 4})
+    assert out["over_one_period"] == 1 and out["slip_ms"]["max_ms"] == 60.0  # ticks: the status is left out
+    assert out["arrival_ms"]["max_ms"] == 62.0 and out["slip_ms"]["p50_ms"] == 0.0
