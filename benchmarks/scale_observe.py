@@ -10,8 +10,11 @@ sampled rovers. Callbacks only stamp the arrival time and enqueue; ``pump`` deco
   tick). Navigation status is sent only while an action runs, so its gaps say nothing: latency only.
 - Agent lag: from the world publishing the clock tick a RoverStatus is stamped with to the agent publishing that
   status. An agent whose inbox backs up (too many agents for its process, a busy core) shows it here first.
+- Schedule lateness (real time): how far behind its best the world published a perception or gyroscope sample,
+  and how late that sample arrived by the world's schedule; latency alone cannot see a world that steps late.
 
-``ProcessMeter`` reads user+system CPU time from /proc/<pid>/stat and Rss/Pss from /proc/<pid>/smaps_rollup.
+``ProcessMeter`` reads user+system CPU time (with that of waited-for children) from /proc/<pid>/stat and Rss/Pss
+from /proc/<pid>/smaps_rollup.
 """
 
 from __future__ import annotations
@@ -215,6 +218,11 @@ def sim_rate(ticks: list[ClockMark], start_ns: int, end_ns: int) -> tuple[float,
     return sim, wall, sim / wall if wall > 0 else math.inf
 
 
+def _period_ns(periods: dict[str, int], topic: str, dt: float, time_scale: float = 1.0) -> float:
+    """A sensor topic's period in wall nanoseconds (``periods`` in ticks)."""
+    return periods[topic] * dt / time_scale * 1e9
+
+
 def delivery(readings: list[Reading], start_ns: int, end_ns: int, dt: float, periods: dict[str, int],
              time_scale: float | None) -> dict[str, dict]:
     """Per sensor topic: latency summary, samples later than one period (real time only), drops, reorders."""
@@ -226,7 +234,7 @@ def delivery(readings: list[Reading], start_ns: int, end_ns: int, dt: float, per
     for topic in SENSOR_TOPICS:
         rows = by_topic.get(topic, [])
         latencies = [r.received_ns - r.published_ns for r in rows]
-        period_ns = periods[topic] * dt / time_scale * 1e9 if time_scale else None
+        period_ns = _period_ns(periods, topic, dt, time_scale) if time_scale else None
         dropped = reordered = None
         if topic in GAP_CHECKED:
             gaps, reordered = _gaps(rows, dt, periods[topic])
@@ -292,7 +300,7 @@ def late_events(readings: list[Reading], start_ns: int, end_ns: int, dt: float, 
     for r in readings:
         if r.topic in SENSOR_TOPICS and start_ns <= r.received_ns <= end_ns:
             latency = r.received_ns - r.published_ns
-            if latency > periods[r.topic] * dt * 1e9:
+            if latency > _period_ns(periods, r.topic, dt):
                 late.append((r.rover, r.topic, round(r.stamp, 3), round(latency / 1e6, 1),
                              round((r.received_ns - start_ns) / 1e9, 3)))
     return late[:limit]
@@ -336,7 +344,7 @@ def schedule_lateness(readings: list[Reading], start_ns: int, end_ns: int, dt: f
     best = min(offsets)
     slip = [o - best for o in offsets]
     arrival = [s + r.received_ns - r.published_ns for s, r in zip(slip, rows, strict=True)]
-    late = sum(a > periods[r.topic] * dt * 1e9 for a, r in zip(arrival, rows, strict=True))
+    late = sum(a > _period_ns(periods, r.topic, dt) for a, r in zip(arrival, rows, strict=True))
     return {"slip_ms": vars(Summary.of(slip)), "arrival_ms": vars(Summary.of(arrival)), "over_one_period": late}
 
 
