@@ -19,6 +19,10 @@ for every series). The benchmark process watches through the same router (see sc
   lockstep measurement is run ``--lockstep-repeats`` times, interleaved with the others, and its median kept;
 - start-up: from spawning the rover processes until the benchmark sees every rover's liveliness token.
 
+The agents run at the CPU priority ``lunarsim run`` gives them (``--agent-priority``, see deploy/priority.py):
+in real time below the world's. The benchmark's own observer keeps the default priority; the witness process
+runs at the agents', so its delivery figures are those a rover agent's Zenoh thread sees.
+
 Then it fits cost against rover count (the slope) and checks the targets of issue 9.
 
     python benchmarks/scale.py --quick                      # a smoke check, under a minute
@@ -40,6 +44,7 @@ import sys
 import tempfile
 import time
 from dataclasses import dataclass
+from functools import partial
 from importlib import metadata
 from pathlib import Path
 
@@ -64,7 +69,9 @@ from scale_observe import (
 from scale_report import RTF_TOLERANCE, print_report, slopes, targets
 from world_scale import SCENARIO
 
+from deploy import priority
 from deploy.children import Children, wait_for_port
+from deploy.priority import Priority, lower
 from deploy.zenoh_config import RouterUnreachable, build_config, open_session
 from rover_agent.app import PRELOAD
 from schemas import keyspace as ks
@@ -124,9 +131,11 @@ class Cluster:
     """The router, world, lander and rover processes of one measurement; ``stop`` ends every one of them."""
 
     def __init__(self, logs: Path, plan: Plan, scenario_file: Path, scenario: Scenario,
-                 router_process: bool = False) -> None:
+                 router_process: bool = False, agents: Priority = "equal") -> None:
         self.children = Children(logs, preload=PRELOAD)
         self.plan, self.scenario_file, self.scenario = plan, scenario_file, scenario
+        self.agents = agents
+        """The agents' CPU priority (``deploy.priority``), as ``lunarsim run`` would give them."""
         self.router_process = router_process
         self.port = free_port()
         self.endpoint = f"tcp/{HOST}:{self.port}"
@@ -146,19 +155,20 @@ class Cluster:
     def start_world_and_lander(self, world_args: list[str]) -> None:
         if self.router_process:
             self.children.start("world", "world_service", str(self.scenario_file), *self.common, *world_args)
-        self.children.start("lander", "lander_agent", str(self.scenario_file), *self.common)
+        self.children.start("lander", "lander_agent", str(self.scenario_file), *self.common, priority=self.agents)
 
     def start_rovers(self) -> None:
         for ids in self.plan.rover_groups():
             self.children.start(f"rover{ids[1]}", "rover_agent", *ids, "--params", str(self.scenario_file),
-                                "--behaviour", self.scenario.behaviour, *self.common, warm=True)
+                                "--behaviour", self.scenario.behaviour, *self.common, warm=True, priority=self.agents)
 
     def start_witness(self, out: Path, sampled: list[int]) -> None:
-        """The second observer (scale_witness.py), stopped with the others; it writes ``out`` when stopped."""
+        """The second observer (scale_witness.py), stopped with the others; it writes ``out`` when stopped. It runs
+        at the agents' priority, so what it receives, and when, is what a rover agent's Zenoh thread sees."""
         log = open(self.children.log_dir / "witness.log", "wb")  # noqa: SIM115 - the child's for its lifetime
         self.children.procs["witness"] = subprocess.Popen(
             [sys.executable, str(WITNESS), self.endpoint, WORLD, str(out), *map(str, sampled)],
-            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, preexec_fn=partial(lower, self.agents))
         log.close()
         deadline = time.monotonic() + 30.0
         while "witness ready" not in self.children.log_tail("witness", 1):
@@ -208,6 +218,7 @@ class Setting:
     witness: bool
     lockstep_sample: int = 0
     routing: str = "auto"
+    agent_priority: str = "auto"
 
     def router_process(self, plan: Plan) -> bool:
         """Whether ``plan`` runs behind a router process rather than the world routing (see ``--routing``)."""
@@ -237,7 +248,8 @@ def measure(plan: Plan, s: Setting) -> dict:
     run_dir = Path(tempfile.mkdtemp(prefix=f"scale-{plan.rovers}-", dir=s.work))
     scenario_file = run_dir / "scenario.yaml"
     scenario_file.write_text(dump_scenario(scenario))
-    cluster = Cluster(run_dir / "logs", plan, scenario_file, scenario, s.router_process(plan))
+    cluster = Cluster(run_dir / "logs", plan, scenario_file, scenario, s.router_process(plan),
+                      priority.for_mode(s.agent_priority, plan.lockstep))
     observer = None
     load_before = os.getloadavg()
     try:
@@ -263,8 +275,8 @@ def measure(plan: Plan, s: Setting) -> dict:
         cluster.stop()
     row = summarise(plan, s, scenario, observer, window)
     if watched:
-        row["witness"] = compare_witness(run_dir / "witness.json", observer, window, scenario)
-    row.update(routing="router process" if cluster.router_process else "world",
+        row["witness"] = compare_witness(run_dir / "witness.json", observer, window, scenario, plan.lockstep)
+    row.update(routing="router process" if cluster.router_process else "world", agent_priority=cluster.agents,
                startup_s=round(startup, 2), startup_cpu_s_per_process=round(startup_cpu, 3), load_before=load_before,
                load_after=os.getloadavg())
     progress(f"done: real-time factor {row['real_time_factor']:.3f}, CPU per rover "
@@ -391,16 +403,23 @@ def summarise(plan: Plan, s: Setting, scenario: Scenario, observer: Observer, w:
     }
 
 
-def compare_witness(path: Path, observer: Observer, w: Window, scenario: Scenario) -> dict:
+def compare_witness(path: Path, observer: Observer, w: Window, scenario: Scenario, lockstep: bool) -> dict:
     """Samples missing at the benchmark, at the witness, and at both (lost before the router's per-subscriber
-    queues, so the agents lose them too)."""
+    queues, so the agents lose them too); in real time, how late the samples reached the witness, which runs at the
+    agents' priority: what a rover agent's Zenoh thread sees."""
     dt, per = periods(scenario)
     readings, ticks = scale_witness.load(path)
     ours = missing_samples(observer.readings, w.start_ns, w.end_ns, dt, per)
     theirs = missing_samples(readings, w.start_ns, w.end_ns, dt, per)
-    return {"received": sum(1 for r in readings if w.start_ns <= r.received_ns <= w.end_ns),
-            "dropped": len(theirs), "dropped_at_both": len(ours & theirs),
-            "clock_samples_missing": clock_missing(ticks, w.start_ns, w.end_ns, clock_ticks(dt))}
+    out = {"received": sum(1 for r in readings if w.start_ns <= r.received_ns <= w.end_ns),
+           "dropped": len(theirs), "dropped_at_both": len(ours & theirs),
+           "clock_samples_missing": clock_missing(ticks, w.start_ns, w.end_ns, clock_ticks(dt))}
+    if not lockstep:
+        topics = delivery(readings, w.start_ns, w.end_ns, dt, per, 1.0)
+        out.update(latency_ms=combined_latency(readings, w.start_ns, w.end_ns),
+                   over_one_period=sum(t["over_one_period"] for t in topics.values()),
+                   schedule=schedule_lateness(readings, w.start_ns, w.end_ns, dt, per))
+    return out
 
 
 def clock_ticks(dt: float) -> int:
@@ -437,7 +456,7 @@ def run(args: argparse.Namespace) -> int:
     work = Path(tempfile.mkdtemp(prefix="lunarsim-scale-", dir=args.logs))
     s = Setting(args.scenario, args.seconds, args.warmup, args.sample, args.startup_timeout,
                 args.lockstep_sim_time, args.lockstep_timeout, work, not args.no_witness, args.lockstep_sample,
-                args.routing)
+                args.routing, args.agent_priority)
     try:
         run_series(args, s, doc)
     finally:
@@ -586,6 +605,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--routing", choices=("auto", "world", "process"), default="auto",
                         help="who routes: the world (as lunarsim run), a router process, or auto (default): the "
                              "world, but a router process for the shared-process real-time series")
+    parser.add_argument("--agent-priority", choices=priority.CHOICES, default="auto",
+                        help="as lunarsim run's (the witness runs at it too): " + priority.HELP)
     parser.add_argument("--scenario", type=Path, default=SCENARIO, help="default: crater_observation.yaml")
     parser.add_argument("--logs", type=Path, metavar="DIR", help="keep the processes' logs under DIR")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE as JSON")

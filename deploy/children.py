@@ -15,8 +15,11 @@ import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from deploy.priority import Priority, lower
 
 if TYPE_CHECKING:
     from deploy.warm_start import WarmProcess
@@ -29,6 +32,11 @@ def die_with_parent() -> None:
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
+def _child_setup(priority: Priority) -> None:
+    die_with_parent()
+    lower(priority)
+
+
 @dataclass
 class Children:
     log_dir: Path
@@ -36,19 +44,23 @@ class Children:
     preload: tuple[str, ...] = ()
     """What the warm server imports before it forks (``start(..., warm=True)``, see ``deploy.warm_start``)."""
 
-    def start(self, name: str, module: str, *args: str, warm: bool = False) -> subprocess.Popen | WarmProcess:
+    def start(self, name: str, module: str, *args: str, warm: bool = False,
+              priority: Priority = "equal") -> subprocess.Popen | WarmProcess:
         """``python -m module args``, logging into ``<log_dir>/<name>.log``; ``warm``: forked from the warm
-        server, for the many agents of one run, which would otherwise each spend their start importing."""
+        server, for the many agents of one run, which would otherwise each spend their start importing;
+        ``priority``: its CPU priority against this machine's other processes (``deploy.priority``)."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
         if warm:
             from deploy import warm_start
 
             if warm_start.available():
-                proc = self.procs[name] = warm_start.start(module, args, self.log_dir / f"{name}.log", self.preload)
+                proc = self.procs[name] = warm_start.start(module, args, self.log_dir / f"{name}.log", self.preload,
+                                                           priority)
                 return proc
         log = open(self.log_dir / f"{name}.log", "wb")  # noqa: SIM115 - owned by the child for its lifetime
         proc = subprocess.Popen([sys.executable, "-m", module, *args], stdout=log, stderr=subprocess.STDOUT,
-                                stdin=subprocess.DEVNULL, preexec_fn=die_with_parent, env=environment())
+                                stdin=subprocess.DEVNULL, preexec_fn=partial(_child_setup, priority),
+                                env=environment())
         log.close()
         self.procs[name] = proc
         return proc

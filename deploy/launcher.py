@@ -16,7 +16,7 @@ import shutil
 import time
 from pathlib import Path
 
-from deploy import process
+from deploy import priority, process
 from deploy.zenoh_config import DEFAULT_PORT
 
 START_TIMEOUT_S = 30.0
@@ -55,6 +55,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="rover agents sharing one process, K to a process as 'lunarsim rover --ids' runs them "
                              "(default 1: a process per rover). Fewer processes wake fewer times a tick: a 5-rover "
                              "lockstep run goes about a quarter faster in one process")
+    parser.add_argument("--agent-priority", choices=priority.CHOICES, default="auto", help=priority.HELP)
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port on 127.0.0.1 where the world "
                         f"routes for the run (default {DEFAULT_PORT})")
@@ -160,13 +161,14 @@ class Mission:
         else:
             self._start_world_as_router()
             self._start_recorder(common)
+        agents = priority.for_mode(self.args.agent_priority, self.args.lockstep)
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
-                            str(self.out / "lander_archive"), "--map-out", str(self.out), *common)
+                            str(self.out / "lander_archive"), "--map-out", str(self.out), *common, priority=agents)
         count, per = len(self.scenario.rovers), self.args.agents_per_process
         for first in range(1, count + 1, per):
             name, which = self._rover_group(first, min(first + per - 1, count))
             self.children.start(name, "rover_agent", *which, "--params", str(self.scenario_file),
-                                "--behaviour", self.scenario.behaviour, *common, warm=True)
+                                "--behaviour", self.scenario.behaviour, *common, warm=True, priority=agents)
 
     def _rover_group(self, first: int, last: int) -> tuple[str, list[str]]:
         """The child's name and which rovers it runs, each keeping its pose in state/rover<N>.json."""

@@ -28,6 +28,7 @@ from pathlib import Path
 import setproctitle
 
 from deploy.children import die_with_parent
+from deploy.priority import Priority, lower
 
 _context: ForkServerContext | None = None
 
@@ -46,8 +47,10 @@ def available() -> bool:
     return "forkserver" in multiprocessing.get_all_start_methods()
 
 
-def _child(module: str, args: list[str], log_path: str) -> None:
-    """In the forked process: what ``python -m module args`` would do, writing into ``log_path``."""
+def _child(module: str, args: list[str], log_path: str, priority: Priority) -> None:
+    """In the forked process: what ``python -m module args`` would do, writing into ``log_path``, at
+    ``priority`` (``deploy.priority``)."""
+    lowered = lower(priority)
     log = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
     os.dup2(log, 1)
     os.dup2(log, 2)
@@ -57,6 +60,9 @@ def _child(module: str, args: list[str], log_path: str) -> None:
     _let_go_of_server()
     die_with_parent()
     signal.signal(signal.SIGINT, signal.default_int_handler)  # the server ignores Ctrl-C; an agent must not
+    if not lowered:
+        print(f"note: could not lower this process to CPU priority {priority!r}; it runs at the default",
+              file=sys.stderr, flush=True)
     sys.argv = [module, *args]
     # ps, top and pkill -f show and find it as the command it stands for, not as the fork server
     setproctitle.setproctitle(shlex.join([sys.executable, "-m", module, *args]))
@@ -110,10 +116,11 @@ class WarmProcess:
         return self._process.exitcode
 
 
-def start(module: str, args: Sequence[str], log_path: Path, preload: Sequence[str]) -> WarmProcess:
+def start(module: str, args: Sequence[str], log_path: Path, preload: Sequence[str],
+          priority: Priority = "equal") -> WarmProcess:
     """``python -m module args`` with stdout and stderr into ``log_path``, forked from the warm server."""
     # daemon: ended with the launcher's interpreter, as Children's SIGTERM-on-parent-death ends the others
-    process = _server(preload).Process(target=_child, args=(module, list(args), str(log_path)), name=module,
-                                       daemon=True)
+    process = _server(preload).Process(target=_child, args=(module, list(args), str(log_path), priority),
+                                       name=module, daemon=True)
     process.start()
     return WarmProcess(process)

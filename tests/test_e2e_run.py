@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -65,6 +66,9 @@ def test_ctrl_c_stops_every_process_and_keeps_a_report(tmp_path):
                 codec.decode(m.WorldStats, s.payload.to_bytes())))
             wait_for(lambda: any(x.stamp >= 2.0 for x in stats), 60, "the mission to be under way")
             sub.undeclare()
+        # real time: the agents run on what the world leaves (deploy.priority)
+        assert _policies(port, "rover_agent") == _policies(port, "lander_agent") == {os.SCHED_IDLE}
+        assert _policies(port, "world_service") == {os.SCHED_OTHER}
         proc.send_signal(signal.SIGINT)
         _, stderr = proc.communicate(timeout=60)
     finally:
@@ -73,6 +77,12 @@ def test_ctrl_c_stops_every_process_and_keeps_a_report(tmp_path):
     wait_for(lambda: processes_mentioning(f"127.0.0.1:{port}") == [], 15, "no orphan processes")
     report = json.loads((out / "report.json").read_text())
     assert report["complete"] is False and report["rovers_total"] == 5
+
+
+def _policies(port: int, module: str) -> set[int]:
+    """Scheduling policies of this run's processes of ``module``."""
+    run = set(processes_mentioning(f"127.0.0.1:{port}"))
+    return {os.sched_getscheduler(pid) for pid in processes_mentioning(f"-m {module} ") if pid in run}
 
 
 def test_port_in_use_is_reported_plainly(tmp_path):

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from deploy import priority
 from deploy.loopback import run_mission
 from rover_agent.agent import RoverAgent
 from schemas import codec
@@ -170,6 +171,17 @@ def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world
         assert [f.result(timeout=60) for f in photos] == [world.render(job) for job in jobs]
     finally:
         process.close()
+
+
+def test_the_camera_renders_in_the_idle_class_in_real_time_only(crater_world):
+    """In real time it renders on what the world leaves; in lockstep the clock waits for it (deploy.priority)."""
+    scenario, _ = crater_world
+    for lockstep, policy in ((False, os.SCHED_IDLE), (True, os.SCHED_OTHER)):
+        process = CameraProcess(scenario, priority.for_mode("auto", lockstep))
+        try:
+            assert process.pool.submit(os.sched_getscheduler, 0).result(timeout=60) == policy
+        finally:
+            process.close()
 
 
 def test_the_clock_waits_for_the_camera_process_and_renders_itself_if_it_cannot_start(crater_world, caplog):

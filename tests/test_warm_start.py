@@ -9,9 +9,10 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from procs import REPO, free_port, processes_mentioning, wait_for
 
-from deploy.children import Children
+from deploy.children import Children, wait_for_port
 from deploy.process import EXIT_USAGE
 from rover_agent.app import PRELOAD
 
@@ -55,7 +56,7 @@ def test_warm_child_is_its_own_process_and_stops_on_sigterm(tmp_path: Path) -> N
 LAUNCHER = """
 import sys, time
 from pathlib import Path
-from deploy.children import Children
+from deploy.children import Children, wait_for_port
 from rover_agent.app import PRELOAD
 children = Children(Path(sys.argv[1]), preload=PRELOAD)
 proc = children.start("rover1", "rover_agent", "--id", "1", "--connect", sys.argv[2], warm=True)
@@ -84,3 +85,35 @@ def _alive(pid: int) -> bool:
         return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
     except OSError:
         return False
+
+
+def _thread_policies(pid: int) -> dict[str, int]:
+    """Each thread's scheduling policy (field 41 of /proc/<pid>/task/<tid>/stat), by thread id and name."""
+    policies = {}
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        stat = Path(f"/proc/{pid}/task/{tid}/stat").read_text()
+        name, rest = stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
+        policies[f"{tid} {name}"] = int(rest[38])
+    return policies
+
+
+@pytest.mark.parametrize("warm", [True, False], ids=["warm", "cold"])
+def test_an_agent_started_idle_runs_every_thread_in_the_idle_class(tmp_path: Path, warm: bool) -> None:
+    """Lowered before it starts any thread, so Zenoh's threads, started later, inherit the class; the router
+    started beside it keeps the default."""
+    children = Children(tmp_path, preload=PRELOAD)
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    router = children.start("router", "deploy.router", "--listen", endpoint)
+    assert wait_for_port("127.0.0.1", port, 30.0, router)
+    proc = children.start("rover1", "rover_agent", "--id", "1", "--connect", endpoint, warm=warm, priority="idle")
+    try:
+        def connected() -> dict[str, int] | None:  # Zenoh's receiving threads are up
+            policies = _thread_policies(proc.pid)
+            return policies if any(" rx-" in thread for thread in policies) else None
+
+        policies = wait_for(connected, 30.0, "the rover's Zenoh threads")
+        assert set(policies.values()) == {os.SCHED_IDLE}, policies
+        assert set(_thread_policies(router.pid).values()) == {os.SCHED_OTHER}
+    finally:
+        children.stop()

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
-import os
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
+from deploy.priority import Priority, lower
 from schemas import messages as m
 from schemas.params import RoverParams
 from schemas.scenario import Scenario
@@ -61,22 +61,19 @@ def build_ground(scenario: Scenario) -> camera.HeightField:
     return terrain
 
 
-BACKGROUND_NICE = 10
-"""Niceness of the camera process in real time (see ``CameraProcess``)."""
-
-
 class CameraProcess:
     """One worker process that renders photo jobs; ``submit`` returns a future of the ``m.Photo``.
 
-    ``nice``: in real time a photo may come a little late, a sensor sample may not. A hundred rovers at a crater
-    keep the camera rendering a third of a core, and at equal priority it takes that from the rover agents just
-    when their gyroscope samples are due; at ``BACKGROUND_NICE`` it renders on what they leave. In lockstep
-    the clock waits for the render, so it keeps the world's priority (0).
+    ``priority`` (``deploy.priority``): in real time a photo may come a little late, a sensor sample may not. A
+    hundred rovers at a crater keep the camera rendering a third of a core, and at the world's priority it takes
+    that from the world and the rover agents just when their samples are due; ``idle``, it renders on what the
+    world leaves, sharing that with the agents. In lockstep the clock waits for the render, so it keeps the
+    world's priority (``equal``).
     """
 
-    def __init__(self, scenario: Scenario, nice: int = 0) -> None:
+    def __init__(self, scenario: Scenario, priority: Priority = "equal") -> None:
         self.pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
-                                        initializer=_start, initargs=(scenario, nice))
+                                        initializer=_start, initargs=(scenario, priority))
         self.started = self.pool.submit(int)  # start the process now, not at the first photo
 
     def submit(self, job: PhotoJob) -> Future:
@@ -89,10 +86,9 @@ class CameraProcess:
 _ground: tuple[camera.HeightField, Scene, RoverParams] | None = None
 
 
-def _start(scenario: Scenario, nice: int) -> None:
+def _start(scenario: Scenario, priority: Priority) -> None:
     global _ground
-    if nice:
-        os.nice(nice)
+    lower(priority)
     from world_service import height_grid  # Numba: loaded in the camera process, not in the world's
 
     _ground = (build_ground(scenario), Scene.from_scenario(scenario), scenario.rover_params)

@@ -25,13 +25,14 @@ from concurrent.futures import BrokenExecutor, Future
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from deploy import priority
 from deploy.bus import Bus, Received
 from deploy.process import freeze_start_up_heap
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from world_service.lockstep import AckPlan
-from world_service.photos import BACKGROUND_NICE, CameraProcess, PhotoJob
+from world_service.photos import CameraProcess, PhotoJob
 from world_service.rover_ids import IdDesk
 from world_service.sim import World
 
@@ -284,7 +285,7 @@ def _finished(world: World, settings: ClockSettings) -> bool:
 def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> m.MissionReport:
     """Run the mission until every rover is done or stuck, ``max_sim_time`` passes, or ``stop`` is set."""
     world.time_scale, world.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
-    camera = (CameraProcess(world.scenario, nice=0 if settings.lockstep else BACKGROUND_NICE)
+    camera = (CameraProcess(world.scenario, priority.for_mode("auto", settings.lockstep))
               if world.RENDERS_PHOTOS else None)  # starts while the agents connect
     agents = Agents(world.keys)
     photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings, camera)

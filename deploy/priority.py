@@ -1,0 +1,56 @@
+"""Who gives way when the world shares a machine's cores with the processes it serves.
+
+In real time the world's clock is the simulation: a tick that goes out late reaches every rover late, and
+the next tick starts late too. On hardware each agent has its own flight computer; co-hosted, a hundred agents
+woken by one tick's samples all want the cores at once, and the kernel's fair scheduler lets them take turns
+with the world while it is still publishing that tick. Measured with 100 rover processes on 2 cores, the
+world's main thread waited a median 13 ms a tick for a core (11 ms with the agents at nice 10), and 300-700
+sampled sensor samples a 30 s window went out more than a period behind the world's schedule. With the agents
+in the idle class it waited 2 ms and 7-8 samples did: the agents run on what the world leaves, and an agent
+that falls behind shows it as its own lag, as a slow flight computer would.
+
+In lockstep the world waits for the agents' acks, so it gains nothing by going first: there they keep the
+world's priority (idle agents measured about 10 % slower).
+
+Only lowering: it needs no privilege. Threads inherit their creator's policy, so lowering a process's first
+thread before it opens its Zenoh session lowers Zenoh's threads as well.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Literal
+
+Priority = Literal["equal", "low", "idle"]
+CHOICES = ("auto", "equal", "low", "idle")
+HELP = ("CPU priority of the agents against the world on this machine: 'idle' runs them on what the world leaves "
+        "(the kernel's SCHED_IDLE), 'low' at nice 19 without preempting it (SCHED_BATCH), 'equal' as the kernel "
+        "shares by default; 'auto' (default): idle in real time, equal in lockstep")
+LOWEST_NICE = 19
+
+
+def for_mode(choice: str, lockstep: bool) -> Priority:
+    """``auto`` resolved: agents yield to a real-time world, and keep its priority in lockstep."""
+    if choice not in CHOICES:
+        raise ValueError(f"unknown priority {choice!r}: expected one of {', '.join(CHOICES)}")
+    if choice == "auto":
+        return "equal" if lockstep else "idle"
+    return choice  # type: ignore[return-value]
+
+
+def lower(priority: Priority) -> bool:
+    """Lower the calling thread, and every thread it starts from now on, to ``priority``; False where it could
+    not (no scheduling policies, as off Linux, or a sandbox that forbids the call): it then runs as it was, which
+    costs the world's schedule, not the run."""
+    if priority == "equal":
+        return True
+    try:
+        if priority == "idle":
+            os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+        else:
+            os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
+            os.setpriority(os.PRIO_PROCESS, 0, LOWEST_NICE)  # on Linux: this thread, inherited by its new ones
+    except (AttributeError, OSError):
+        return False
+    return True
+
