@@ -433,11 +433,18 @@ class World:
             out += [(self.keys.rover(b.id, ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(b.id)))
                     for b in bodies]
             out.append((self.keys.lander(ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(ks.LANDER_ID))))
-        if self.tick % self.perception_period == 0:
+        if self._observer_tick(self.perception_period):
             out.append((self.keys.state, self.observed_state()))
-        if self.tick % self.stats_period == 0:
+        if self._observer_tick(self.stats_period):
             out.append((self.keys.stats, m.WorldStats(stamp=self.sim_time, report=self.report())))
         return out
+
+    def _observer_tick(self, period: int) -> bool:
+        """Ground truth and statistics, which only observers read, go out half a period after the ticks that
+        rebuild the radio graph and send every rover its partners. Together, at 100 rovers, those made one tick a
+        second cost 15 ms of the world's CPU against 4 for the others, and in real time the ticks after it
+        started late."""
+        return self.tick % period == period // 2
 
     def _perceptions(self, bodies, xs, zs, hs) -> list[Out]:
         """Each rover scans once per perception period, the rovers staggered over the period's ticks.
