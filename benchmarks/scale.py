@@ -66,7 +66,7 @@ from scale_observe import (
     sim_rate,
     with_descendants,
 )
-from scale_report import RTF_TOLERANCE, print_report, slopes, targets
+from scale_report import holds, print_report, slopes, targets
 from world_scale import SCENARIO
 
 from deploy import priority
@@ -524,9 +524,10 @@ def attempt(plan: Plan, s: Setting) -> dict:
 
 
 def step_down(args: argparse.Namespace, s: Setting, rows: list[dict], tried: list[int]) -> int | None:
-    """Shared processes, largest count first, until one holds real time; then the highest count holding, found
-    by halving the gap to the lowest that did not, to ``REFINE_STEP`` (None if no count holds). After the counts
-    asked for, the last one is halved until a count holds or it is below ``MIN_SHARED``."""
+    """Shared processes, largest count first, until one holds real time (``scale_report.holds``: its agents keep up
+    too); then the highest count holding, found by halving the gap to the lowest that did not, to ``REFINE_STEP``
+    (None if no count holds). After the counts asked for, the last one is halved until a count holds or it is below
+    ``MIN_SHARED``."""
 
     def held(n: int) -> bool:
         tried.append(n)
@@ -557,10 +558,6 @@ def refine(holding: int, failed: int | None, held) -> int:
         else:
             failed = middle
     return holding
-
-
-def holds(row: dict) -> bool:
-    return "error" not in row and row["real_time_factor"] >= 1.0 - RTF_TOLERANCE
 
 
 # ---- command line ----

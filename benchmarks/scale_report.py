@@ -13,6 +13,10 @@ from pathlib import Path
 RTF_TOLERANCE = 0.005
 """The world paces itself to real time and never runs ahead, so a run that keeps up measures 1.000 give or take
 the clock samples at the window's ends; a factor within this of 1.0 holds real time."""
+AGENT_LAG_LIMIT_MS = 1000.0
+"""A shared-process count holds real time only if the sampled agents also keep up: their status no later than
+this (p99) after the world's tick it answers. Below the world's priority (``deploy.priority``) agents that cannot
+keep up no longer slow the world's clock, so its factor alone would call a run whose agents fall behind holding."""
 LOCKSTEP_TARGET = 20.0
 STARTUP_TARGET_S = 20.0
 SATURATED = 0.9
@@ -35,6 +39,11 @@ def print_report(doc: dict) -> None:
            "auto": "routing: the world is the Zenoh router (as in lunarsim run; its routing CPU is in 'world'), "
                    "except in the shared-process real-time series: a router process there ('router' below)"}
           [routing])
+    priorities = sorted({f"{r['mode']} {r['agent_priority']}" for r in rows if "agent_priority" in r})
+    if priorities:
+        print(f"the agents' CPU priority against the world (deploy/priority.py): {', '.join(priorities)}; a shared "
+              f"count holds real time if the world keeps pace and the sampled agents' lag p99 is at most "
+              f"{AGENT_LAG_LIMIT_MS:g} ms")
     if rows:
         done = [r for r in rows if "sampled_rovers" in r]
         sampled = max(done, key=lambda r: r["rovers"])["sampled_rovers"] if done else None
@@ -233,6 +242,14 @@ def targets(doc: dict) -> list[dict]:
                 "measured": f"{lock['real_time_factor']:.2f} x{of}" if ok else "not run",
                 "pass": lock["real_time_factor"] >= LOCKSTEP_TARGET if ok else None})
     return out
+
+
+def holds(row: dict) -> bool:
+    """A real-time run that kept the world's pace, with its sampled agents keeping up (``AGENT_LAG_LIMIT_MS``)."""
+    if "error" in row or row["real_time_factor"] < 1.0 - RTF_TOLERANCE:
+        return False
+    lag = row.get("agent_lag_ms")
+    return lag is None or lag["p99_ms"] <= AGENT_LAG_LIMIT_MS
 
 
 def _thousand_target(doc: dict) -> dict:

@@ -1,5 +1,6 @@
 """The scale benchmark's process meter: a group's CPU and memory include the processes under it (the world's
-camera process), and a helper process that ends between two marks does not break the measurement."""
+camera process), and a helper process that ends between two marks does not break the measurement; and the
+figures the benchmark derives from what it measured."""
 
 from __future__ import annotations
 
@@ -109,3 +110,13 @@ def test_a_sample_the_world_published_late_is_late_by_its_schedule_though_delive
     out = schedule_lateness(readings, start, start + 10**10, 0.05, {"gyroscope": 1, "perception": 4})
     assert out["over_one_period"] == 1 and out["slip_ms"]["max_ms"] == 60.0  # ticks: the status is left out
     assert out["arrival_ms"]["max_ms"] == 62.0 and out["slip_ms"]["p50_ms"] == 0.0
+
+
+def test_a_shared_count_holds_real_time_only_if_its_agents_keep_up() -> None:
+    from scale_report import AGENT_LAG_LIMIT_MS, holds
+
+    lag = {"p50_ms": 40.0, "p99_ms": 120.0}
+    assert holds({"real_time_factor": 0.998, "agent_lag_ms": lag})
+    assert not holds({"real_time_factor": 0.98, "agent_lag_ms": lag})  # the world fell behind
+    assert not holds({"real_time_factor": 1.0, "agent_lag_ms": {**lag, "p99_ms": AGENT_LAG_LIMIT_MS + 1}})
+    assert not holds({"real_time_factor": 1.0, "error": "the world died"})
