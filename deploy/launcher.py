@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 from deploy import priority, process
+from deploy.agent_lag import AgentLag
 from deploy.zenoh_config import DEFAULT_PORT
 
 START_TIMEOUT_S = 30.0
@@ -128,6 +129,7 @@ class Mission:
         self.children = Children(out / "logs", preload=PRELOAD)
         self.endpoint = args.connect or f"tcp/127.0.0.1:{args.port}"
         self.reported_dead: set[str] = set()
+        self.lag = AgentLag()
 
     def run(self) -> int:
         from deploy.progress import summary_table
@@ -148,6 +150,8 @@ class Mission:
         report = with_map_figures(report, self.scenario, self.out)
         (self.out / "report.json").write_text(json.dumps(report.model_dump(), indent=2) + "\n")
         self.console.print(summary_table(report))
+        if self.lag.summary():
+            self.console.print(f"[yellow]{self.lag.summary()}[/]")
         self.console.print(f"report written to {self.out / 'report.json'}")
         return code
 
@@ -221,7 +225,7 @@ class Mission:
         from deploy.zenoh_config import build_config, open_session
         from schemas import codec
         from schemas import messages as m
-        from schemas.keyspace import Keyspace
+        from schemas.keyspace import STATUS, Keyspace
 
         keys = Keyspace(self.args.world)
         state: bytes | None = None  # the latest WorldState, decoded only when shown
@@ -236,6 +240,8 @@ class Mission:
         with Bus(session) as bus, ProgressView(self.console, self.scenario.name, self.args.quiet) as view:
             bus.subscribe(keys.stats)
             bus.subscribe(keys.state)
+            if not self.args.lockstep:  # in lockstep the world waits for its agents
+                bus.subscribe(keys.rovers(STATUS))
             while not stop.is_set():
                 if time.monotonic() >= next_view:
                     next_view = time.monotonic() + VIEW_PERIOD_S
@@ -251,12 +257,32 @@ class Mission:
                 if item.key == keys.state:
                     state = item.payload
                     continue
+                if item.key != keys.stats:
+                    self._note_status(keys, item)
+                    continue
                 stats = codec.decode(m.WorldStats, item.payload)
+                self.lag.world(stats.stamp)
                 report = stats.report
                 if stats.final:
                     view.update(shown(), report)
                     return report, False
         return report, True
+
+    def _note_status(self, keys, item) -> None:
+        """A rover's status: is its agent keeping up with the world (``deploy.agent_lag``)?"""
+        from schemas import codec
+        from schemas import messages as m
+
+        try:
+            rover_id, _ = keys.parse_rover_key(item.key)
+            status = codec.decode(m.RoverStatus, item.payload)
+        except (ValueError, codec.DecodeError):
+            return  # nothing to judge the agent by
+        if self.lag.status(rover_id, status.stamp):
+            self.console.print(f"[yellow]warning: rover {rover_id}'s agent is {self.lag.worst[rover_id]:.1f} s behind "
+                               "the world's clock, deciding on old samples. If this machine is short of CPU: in real "
+                               "time the agents run below the world's priority, and --agent-priority equal slows the "
+                               "world instead[/]")
 
     def _wall_deadline(self) -> float | None:
         if self.args.max_sim_time is None or self.args.lockstep:

@@ -79,6 +79,35 @@ def test_ctrl_c_stops_every_process_and_keeps_a_report(tmp_path):
     assert report["complete"] is False and report["rovers_total"] == 5
 
 
+def test_an_agent_that_falls_behind_the_world_is_reported(tmp_path):
+    """A rover agent stopped (SIGSTOP) for 3 simulated seconds resumes with its backlog: its status then runs
+    behind the world's clock, and the launcher says so while running and in its summary."""
+    port = free_port()
+    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--out", str(tmp_path / "run"), "--port",
+                    str(port), "--max-sim-time", "12", "--quiet")
+    try:
+        rover = wait_for(lambda: set(processes_mentioning("-m rover_agent --id 1 "))
+                         & set(processes_mentioning(f"127.0.0.1:{port}")), 60, "rover 1's agent").pop()
+        stats = []
+        with zenoh.open(build_config(connect=[f"tcp/127.0.0.1:{port}"])) as session:
+            sub = session.declare_subscriber(Keyspace().stats, lambda s: stats.append(
+                codec.decode(m.WorldStats, s.payload.to_bytes()).stamp))
+            wait_for(lambda: stats and stats[-1] >= 2.0, 60, "the mission to be under way")
+            os.kill(rover, signal.SIGSTOP)
+            try:
+                stopped_at = stats[-1]
+                wait_for(lambda: stats[-1] >= stopped_at + 3.0, 30, "3 s of the world's clock")
+            finally:
+                os.kill(rover, signal.SIGCONT)
+            sub.undeclare()
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, stderr
+    assert "warning: rover 1's agent is" in stdout and "behind the world's clock" in stdout
+    assert "1 rover agent(s) fell more than 2 s behind the world's clock (rover 1; up to" in stdout
+
+
 def _policies(port: int, module: str) -> set[int]:
     """Scheduling policies of this run's processes of ``module``."""
     run = set(processes_mentioning(f"127.0.0.1:{port}"))
