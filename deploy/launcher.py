@@ -2,7 +2,8 @@
 
 Starts the world service, the lander agent and a process per rover agent (``--agents-per-process`` groups
 them, as ``lunarsim rover --ids`` runs them); the world is the Zenoh router the others connect to, unless
-``--connect`` names a router for all of them. Shows progress; stops when every rover is done or stuck, or at
+``--connect`` names a router for all of them. Shows progress, and warns when an agent falls behind the world's
+clock (``deploy.agent_lag``); stops when every rover is done or stuck, or at
 ``--max-sim-time``; writes ``report.json`` into the run folder (scoring the lander's traverse map, ``map.npz``
 and ``map.png`` there); and stops every process it started, also on Ctrl-C or SIGTERM.
 """
@@ -150,8 +151,8 @@ class Mission:
         report = with_map_figures(report, self.scenario, self.out)
         (self.out / "report.json").write_text(json.dumps(report.model_dump(), indent=2) + "\n")
         self.console.print(summary_table(report))
-        if self.lag.summary():
-            self.console.print(f"[yellow]{self.lag.summary()}[/]")
+        if behind := self.lag.summary():
+            self.console.print(f"[yellow]{behind}[/]")
         self.console.print(f"report written to {self.out / 'report.json'}")
         return code
 

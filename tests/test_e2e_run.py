@@ -86,8 +86,7 @@ def test_an_agent_that_falls_behind_the_world_is_reported(tmp_path):
     proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--out", str(tmp_path / "run"), "--port",
                     str(port), "--max-sim-time", "12", "--quiet")
     try:
-        rover = wait_for(lambda: set(processes_mentioning("-m rover_agent --id 1 "))
-                         & set(processes_mentioning(f"127.0.0.1:{port}")), 60, "rover 1's agent").pop()
+        rover = wait_for(lambda: _run_processes(port, "rover_agent --id 1"), 60, "rover 1's agent").pop()
         stats = []
         with zenoh.open(build_config(connect=[f"tcp/127.0.0.1:{port}"])) as session:
             sub = session.declare_subscriber(Keyspace().stats, lambda s: stats.append(
@@ -108,10 +107,14 @@ def test_an_agent_that_falls_behind_the_world_is_reported(tmp_path):
     assert "1 rover agent(s) fell more than 2 s behind the world's clock (rover 1; up to" in stdout
 
 
+def _run_processes(port: int, command: str) -> set[int]:
+    """Pids of this run's processes started as ``python -m COMMAND ...``."""
+    return set(processes_mentioning(f"-m {command} ")) & set(processes_mentioning(f"127.0.0.1:{port}"))
+
+
 def _policies(port: int, module: str) -> set[int]:
     """Scheduling policies of this run's processes of ``module``."""
-    run = set(processes_mentioning(f"127.0.0.1:{port}"))
-    return {os.sched_getscheduler(pid) for pid in processes_mentioning(f"-m {module} ") if pid in run}
+    return {os.sched_getscheduler(pid) for pid in _run_processes(port, module)}
 
 
 def test_port_in_use_is_reported_plainly(tmp_path):
