@@ -80,6 +80,33 @@ def test_warm_children_end_when_their_launcher_is_killed(tmp_path: Path) -> None
     wait_for(lambda: not _alive(rover), 15.0, f"rover process {rover} to end after its launcher was killed")
 
 
+HEAVY_LAUNCHER = """
+import sys
+from pathlib import Path
+with open(sys.argv[1] + "/runs.txt", "a") as runs:  # each run of this script, under the name it ran as
+    runs.write(__name__ + "\\n")
+if __name__ == "__main__":
+    from deploy.children import Children
+    from rover_agent.app import PRELOAD
+    children = Children(Path(sys.argv[1]), preload=PRELOAD)
+    children.start("help", "rover_agent", "--help", warm=True)
+    children.procs["help"].wait(30)
+    print("child exited", children.procs["help"].returncode, flush=True)
+"""
+
+
+def test_a_warm_child_does_not_run_its_launchers_script_again(tmp_path: Path) -> None:
+    """multiprocessing would run the parent's main script again in each child, as ``__mp_main__``: a heavy one
+    (the scale benchmark's) cost each of 100 rovers 0.2 CPU seconds and 14 MiB."""
+    script = tmp_path / "launcher.py"
+    script.write_text(HEAVY_LAUNCHER)
+    out = subprocess.run([sys.executable, str(script), str(tmp_path)], capture_output=True, text=True, cwd=REPO,
+                         timeout=60)
+    assert "child exited 0" in out.stdout, out.stdout + out.stderr
+    assert "usage: python -m rover_agent" in (tmp_path / "help.log").read_text()
+    assert (tmp_path / "runs.txt").read_text().split() == ["__main__"]
+
+
 def _alive(pid: int) -> bool:
     try:
         return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
