@@ -222,7 +222,7 @@ class Mission:
     def _monitor(self, stop) -> tuple:
         """Follow the world's statistics until the final report; returns (report, interrupted)."""
         from deploy.bus import Bus
-        from deploy.progress import ProgressView
+        from deploy.progress import ProgressView, StartUp
         from deploy.zenoh_config import build_config, open_session
         from schemas import codec
         from schemas import messages as m
@@ -238,7 +238,10 @@ class Mission:
             return codec.decode(m.WorldState, state) if state is not None else None
 
         session = open_session(build_config(connect=[self.endpoint]), self.endpoint, 10.0, who="lunarsim run")
+        start_up = StartUp(len(self.scenario.rovers), keys.alive_lander)
         with Bus(session) as bus, ProgressView(self.console, self.scenario.name, self.args.quiet) as view:
+            bus.watch_liveliness(keys.alive_rovers)
+            bus.watch_liveliness(keys.alive_lander)
             bus.subscribe(keys.stats)
             bus.subscribe(keys.state)
             if not self.args.lockstep:  # in lockstep the world waits for its agents
@@ -247,13 +250,16 @@ class Mission:
                 if time.monotonic() >= next_view:
                     next_view = time.monotonic() + VIEW_PERIOD_S
                     self._check_world_alive()
-                    view.update(shown(), report)
+                    view.update(shown(), report, start_up)
                 if deadline is not None and time.monotonic() > deadline:
                     self.console.print("[yellow]warning: the world did not finish in time; reporting what it "
                                        "had[/]")
                     return report, False
                 item = bus.receive(timeout=VIEW_PERIOD_S)
                 if item is None:
+                    continue
+                if item.alive is not None:
+                    start_up.note(item.key, item.alive)
                     continue
                 if item.key == keys.state:
                     state = item.payload

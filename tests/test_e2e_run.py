@@ -117,6 +117,19 @@ def _policies(port: int, module: str) -> set[int]:
     return {os.sched_getscheduler(pid) for pid in _run_processes(port, module)}
 
 
+def test_the_run_says_which_agents_have_connected_before_its_clock_runs(tmp_path):
+    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--out", str(tmp_path / "run"), "--port",
+                    str(free_port()), "--max-sim-time", "1", "--no-record")
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 0, stderr
+    lines = stdout.splitlines()
+    connected = next(i for i, line in enumerate(lines) if " connected in " in line)
+    assert lines[connected].startswith("5/5 rover agents and the lander connected in "), lines[connected]
+    assert lines[connected].endswith(" s; clock running")
+    assert lines[connected - 1].startswith("connecting: ")  # said at once, before the agents were all there
+    assert lines[connected + 1].startswith("t = ")  # then the mission's own lines
+
+
 def test_port_in_use_is_reported_plainly(tmp_path):
     import socket
 
