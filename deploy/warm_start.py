@@ -138,8 +138,8 @@ def _main_left_behind() -> Iterator[None]:
     The standard library prepares every child it starts by running the parent's ``__main__`` again, as
     ``__mp_main__`` (``multiprocessing.spawn.prepare``), so that functions defined there unpickle; an agent needs
     nothing from it. A launcher's script may be heavy: the scale benchmark's imports NumPy and the world, which
-    cost each of 100 warm rovers 0.2 CPU seconds and 14 MiB more than ``lunarsim run``'s did (0.04 s): start-up
-    took 13-16 s instead of about 5. A main named ``__main__`` is one the child skips."""
+    cost each of 100 warm rovers 0.2 CPU seconds and 14 MiB: they connected in 13-16 s, and without it in 2-3 s.
+    A main named ``__main__`` is one the child skips."""
     main = sys.modules["__main__"]
     had, spec = hasattr(main, "__spec__"), getattr(main, "__spec__", None)
     main.__spec__ = _MAIN
