@@ -6,8 +6,8 @@ woken by one tick's samples all want the cores at once, and the kernel's fair sc
 with the world while it is still publishing that tick. Measured with 100 rover processes on 2 cores, the
 world's main thread waited a median 13 ms a tick for a core (11 ms with the agents at nice 10), and 158-691
 sampled sensor samples of a 30 s window went out more than a period behind the world's schedule. With the
-agents in the idle class it waited 2 ms and 0-10 samples did: the agents run on what the world leaves, and an
-agent that falls behind shows it as its own lag, as a slow flight computer would.
+agents in the idle class it waited 2 ms and 0-10 samples did (0-92 on a busier day): the agents run on what the
+world leaves, and an agent that falls behind shows it as its own lag, as a slow flight computer would.
 
 In lockstep the world waits for the agents' acks, so it gains nothing by going first: there they keep the
 world's priority (idle agents made the crater mission 11 % slower).
