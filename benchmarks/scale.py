@@ -48,6 +48,7 @@ from functools import partial
 from importlib import metadata
 from pathlib import Path
 
+import host
 import scale_witness
 from control_loop_latency import BenchmarkError, free_port
 from scale_observe import (
@@ -450,8 +451,9 @@ def code_version() -> dict:
 
 def run(args: argparse.Namespace) -> int:
     doc = {"benchmark": "scale", "cpus": os.cpu_count(), "python": platform.python_version(),
-           "zenoh": metadata.version("eclipse-zenoh"), "platform": platform.platform(), "code": code_version(),
-           "scenario": str(args.scenario), "settings": {k: v for k, v in vars(args).items() if k != "json"},
+           "zenoh": metadata.version("eclipse-zenoh"), "platform": platform.platform(), "host": host.describe(),
+           "code": code_version(), "scenario": str(args.scenario),
+           "settings": {k: v for k, v in vars(args).items() if k != "json"},
            "load_at_start": os.getloadavg(), "rows": [], "notes": []}
     work = Path(tempfile.mkdtemp(prefix="lunarsim-scale-", dir=args.logs))
     s = Setting(args.scenario, args.seconds, args.warmup, args.sample, args.startup_timeout,

@@ -10,6 +10,8 @@ import json
 import sys
 from pathlib import Path
 
+from host import line as host_line
+
 RTF_TOLERANCE = 0.005
 """The world paces itself to real time and never runs ahead, so a run that keeps up measures 1.000 give or take
 the clock samples at the window's ends; a factor within this of 1.0 holds real time."""
@@ -26,6 +28,8 @@ SATURATED = 0.9
 def print_report(doc: dict) -> None:
     rows = doc["rows"]
     print(f"\nScale benchmark, {doc['scenario']}: {doc['cpus']} CPUs, Python {doc['python']}, zenoh {doc['zenoh']}")
+    if "host" in doc:
+        print(host_line(doc["host"]))
     code = doc.get("code", {})
     if code:
         dirty = code["uncommitted_changes"]

@@ -17,6 +17,8 @@ import resource
 import time
 from pathlib import Path
 
+import host
+
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -74,7 +76,9 @@ def main() -> None:
     parser.add_argument("--sim-seconds", type=float, default=10.0)
     parser.add_argument("--json", type=Path, metavar="FILE")
     args = parser.parse_args()
+    machine = host.describe()
     rows = [measure(n, args.sim_seconds) for n in args.rovers]
+    print(host.line(machine))
     print(f"{'rovers':>7} {'wall s / sim s':>15} {'real-time factor':>17} {'msgs / sim s':>13} {'peak RSS MB':>12}")
     for r in rows:
         print(f"{r['rovers']:>7} {r['wall_per_sim_second']:>15.4f} {r['real_time_factor']:>17.2f} "
@@ -85,7 +89,7 @@ def main() -> None:
         print(f"target: 1,000 rovers at a real-time factor of at least 1 on one core: "
               f"{target['real_time_factor']:.2f}  {verdict}")
     if args.json:
-        args.json.write_text(json.dumps(rows, indent=2) + "\n")
+        args.json.write_text(json.dumps({"host": machine, "rows": rows}, indent=2) + "\n")
 
 
 if __name__ == "__main__":
