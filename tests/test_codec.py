@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import random
+from pathlib import Path
 
 import msgpack
 import pytest
+from pydantic import BaseModel
 
 from schemas import codec, radio
 from schemas import messages as m
@@ -57,6 +59,7 @@ SAMPLES: dict[type, m.Message] = {
 }
 SAMPLES[m.WorldStats] = m.WorldStats(stamp=6.0, report=SAMPLES[m.MissionReport], final=True)
 
+SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "crater_observation.yaml"
 MODELS = sorted(SAMPLES, key=lambda model: model.__name__)
 
 
@@ -73,6 +76,56 @@ def test_round_trip(model):
     payload = codec.encode(message)
     assert isinstance(payload, bytes)
     assert codec.decode(model, payload) == message
+
+
+def _model_dump_encoding(message) -> bytes:
+    """What ``codec.encode`` returned before it took the fields as held: the reference it must match."""
+    return msgpack.packb([codec.SCHEMA_VERSION, message.model_dump()], use_bin_type=True)
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
+def test_encoding_is_byte_for_byte_that_of_model_dump(model):
+    assert codec.encode(SAMPLES[model]) == _model_dump_encoding(SAMPLES[model])
+
+
+def _schema_models() -> list[type[BaseModel]]:
+    found, todo = [], [BaseModel]
+    while todo:
+        for sub in todo.pop().__subclasses__():
+            todo.append(sub)
+            if sub.__module__.startswith("schemas."):
+                found.append(sub)
+    return found
+
+
+def test_no_schema_model_dumps_other_than_its_fields():
+    """``codec.encode`` packs a model's ``__dict__``: a serializer, an alias, a computed or an extra field would
+    make ``model_dump`` differ from it, so none may appear without changing the codec."""
+    models = _schema_models()
+    assert m.WorldState in models and radio.GoalReport in models
+    for model in models:
+        decorators = model.__pydantic_decorators__
+        assert not decorators.field_serializers and not decorators.model_serializers, model
+        assert not model.model_computed_fields, model
+        assert model.model_config.get("extra") != "allow", model
+        assert all(f.alias is None and f.serialization_alias is None for f in model.model_fields.values()), model
+
+
+def test_what_the_world_builds_encodes_as_model_dump_would():
+    """The world builds its hot messages with ``model_construct`` and its clock with ``model_copy``; a few
+    seconds of a real mission's output, every message, encodes exactly as before."""
+    from schemas import keyspace as ks
+    from schemas.scenario import load_scenario
+    from world_service.sim import World
+
+    world = World(load_scenario(SCENARIO), ks.Keyspace("codec"))
+    for rid in world.bodies:
+        world.receive(world.keys.rover(rid, ks.MOVE_ACTION), codec.encode(m.MoveAction(x=0.5, z=4.0)))
+    out = [item for _ in range(25) for item in world.step()] + [("state", world.observed_state())]
+    out.append(("clock", world.clock().model_copy(update={"acks": [1, 2]})))
+    assert {type(message) for _, message in out} >= {m.Gyroscope, m.Perception, m.WorldState, m.Clock}
+    for _, message in out:
+        assert codec.encode(message) == _model_dump_encoding(message), message
 
 
 def test_round_trip_keeps_types_of_tuples_int_keys_and_bytes():
