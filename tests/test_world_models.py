@@ -414,6 +414,38 @@ def test_lander_range_is_its_own():
     assert not g.connected(0, 2)
 
 
+def _dense_pairs(x, z, comm_range, lander_range):
+    """Every distance at once: how the graph was built before the grid search, kept as the reference."""
+    reach = np.full((len(x), len(x)), comm_range)
+    reach[0, :] = reach[:, 0] = lander_range
+    return np.nonzero(np.triu(np.hypot(x[:, None] - x[None, :], z[:, None] - z[None, :]) <= reach, 1))
+
+
+@pytest.mark.parametrize("n, comm_range, lander_range", [(1001, 10.0, 1000.0), (400, 10.0, 60.0),
+                                                          (300, 0.0, 50.0), (300, 7.5, 0.0), (500, 200.0, 30.0)])
+def test_grid_search_finds_the_same_pairs_in_the_same_order_as_every_distance(n, comm_range, lander_range):
+    """A formation of rovers (some on each other's 10 m exactly, some on top of one another) and a sight that
+    blocks every third pair it is asked about: the graph and the pairs sight is asked about are the dense ones."""
+    rng = np.random.default_rng(n)
+    x = np.round(rng.normal(0.0, 40.0, n), 1)
+    z = np.round(rng.normal(0.0, 40.0, n), 1)
+    x[1:6], z[1:6] = [0.0, 10.0, 20.0, 20.0, 20.0], [0.0, 0.0, 0.0, 0.0, 7.5]
+    asked = []
+
+    def sight(i, j):
+        asked.append((i.copy(), j.copy()))
+        return (i + j) % 3 != 0
+
+    graph = build_graph(np.arange(n), x, z, comm_range, lander_range, sight)
+    i, j = _dense_pairs(x, z, comm_range, lander_range)
+    assert len(asked) == 1 and len(i) > 0
+    assert np.array_equal(asked[0][0], i) and np.array_equal(asked[0][1], j)
+    seen = (i + j) % 3 != 0
+    expected = np.zeros((n, n), bool)
+    expected[i[seen], j[seen]] = expected[j[seen], i[seen]] = True
+    assert np.array_equal(graph.adjacency, expected)
+
+
 # ---- the World ----
 
 KEYS = ks.Keyspace("unit")

@@ -9,15 +9,19 @@ Delivery is transitive (report 10.4.1): a message reaches every target in the se
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from world_service import geometry as geo
+from world_service.scene import FEW_PAIRS, CircleGrid
 
 LOS_STEP_M = 2.0
 """Spacing of the terrain samples along a link's line of sight (at most LOS_MAX_SAMPLES per link)."""
 LOS_MAX_SAMPLES = 64
+MIN_CELL_M = 1.0
+"""Grid cell of the rover pair search when the radio range is shorter (a zero range would make no grid)."""
 
 
 @dataclass(frozen=True)
@@ -78,16 +82,33 @@ class CommGraph:
 def build_graph(ids: np.ndarray, x: np.ndarray, z: np.ndarray, comm_range: float, lander_range: float,
                 sight=None) -> CommGraph:
     """Graph of nodes at (x, z); ``ids[0]`` must be the lander. ``sight(i, j)`` filters pairs in range."""
-    d = np.hypot(x[:, None] - x[None, :], z[:, None] - z[None, :])
-    reach = np.full(d.shape, comm_range)
-    reach[0, :] = reach[:, 0] = lander_range
-    adjacency = d <= reach
-    np.fill_diagonal(adjacency, False)
+    i, j = _pairs_in_range(x, z, comm_range, lander_range)
     if sight is not None:
-        i, j = np.nonzero(np.triu(adjacency))
-        blocked = ~sight(i, j)
-        adjacency[i[blocked], j[blocked]] = adjacency[j[blocked], i[blocked]] = False
+        seen = sight(i, j)
+        i, j = i[seen], j[seen]
+    adjacency = np.zeros((len(ids), len(ids)), bool)
+    adjacency[i, j] = adjacency[j, i] = True
     return CommGraph(ids, adjacency, _components(adjacency))
+
+
+def _pairs_in_range(x: np.ndarray, z: np.ndarray, comm_range: float, lander_range: float) -> tuple[np.ndarray,
+                                                                                                    np.ndarray]:
+    """Node pairs (i < j, in row order) within range of each other. Rovers by grid look-up when ranges are
+    finite: the dense matrix of every distance took 9 ms a second at 1,000 rovers, where a rover has a few
+    dozen neighbours within its 10 m."""
+    n = len(x)
+    if not math.isfinite(comm_range) or n * n <= FEW_PAIRS:
+        reach = np.full((n, n), comm_range)
+        reach[0, :] = reach[:, 0] = lander_range
+        return np.nonzero(np.triu(np.hypot(x[:, None] - x[None, :], z[:, None] - z[None, :]) <= reach, 1))
+    rx, rz = x[1:], z[1:]
+    a, b = CircleGrid(rx, rz, np.zeros(n - 1), max(comm_range, MIN_CELL_M)).pairs(rx, rz, comm_range)
+    upper = a < b
+    lander = np.nonzero(np.hypot(x[0] - rx, z[0] - rz) <= lander_range)[0] + 1
+    i = np.concatenate([np.zeros(len(lander), int), a[upper] + 1])
+    j = np.concatenate([lander, b[upper] + 1])
+    order = np.lexsort((j, i))
+    return i[order], j[order]
 
 
 def line_of_sight(terrain, edges: np.ndarray, edge_height: np.ndarray, x: np.ndarray, z: np.ndarray,
