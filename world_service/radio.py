@@ -32,7 +32,7 @@ class CommGraph:
 
     def partners(self, node_id: int) -> list[int]:
         i = self._index(node_id)
-        return [int(x) for x in self.ids[self.adjacency[i]]] if i is not None else []
+        return self.ids[self.adjacency[i]].tolist() if i is not None else []
 
     def connected(self, a: int, b: int) -> bool:
         ia, ib = self._index(a), self._index(b)
@@ -75,8 +75,12 @@ class CommGraph:
         return tuple(sorted(int(self.ids[p]) for p in set(parent[parent > 0].tolist())))
 
     def _index(self, node_id: int) -> int | None:
-        hits = np.nonzero(self.ids == node_id)[0]
-        return int(hits[0]) if len(hits) else None
+        return self._indices.get(node_id)
+
+    @functools.cached_property
+    def _indices(self) -> dict[int, int]:
+        """Node id to row: every rover's partners are looked up once a second, and radio deliveries in between."""
+        return {node: i for i, node in enumerate(self.ids.tolist())}
 
 
 def build_graph(ids: np.ndarray, x: np.ndarray, z: np.ndarray, comm_range: float, lander_range: float,
