@@ -65,20 +65,23 @@ class MapRecorder:
     def _free_along(self, x: float, z: float, dx: float, dz: float, distance: float) -> None:
         """Cells a ray crossed before it met something: sampled every half cell, short of the hit's cell.
 
-        ``_add`` inlined, and a sample in the same cell as the one before it skipped: a scan walks about 20,000
-        samples, and this runs while the world waits for the rover's answer to its perception."""
-        cell, known, pending = self.cell, self.known, self.pending
+        ``_add`` inlined, and a sample in the same cell as the one before it skipped before its cell is even made
+        a tuple: a scan walks about 20,000 samples, and this runs while the world waits for the rover's answer to
+        its perception (in lockstep), or while a process of 250 agents falls behind (a quarter of its time)."""
+        cell, known, pending, floor = self.cell, self.known, self.pending, math.floor
         s = step = cell / 2
         end = distance - cell / 2
-        previous = None
+        last_ix = last_iz = None
         while s < end:
-            point = (math.floor((x + dx * s) / cell), math.floor((z + dz * s) / cell), FREE)
-            if point != previous:
-                previous = point
-                if point not in known and max(abs(point[0]), abs(point[1])) <= CELL_INDEX_LIMIT:
-                    known.add(point)
-                    pending.append(point)
+            ix, iz = floor((x + dx * s) / cell), floor((z + dz * s) / cell)
             s += step
+            if ix == last_ix and iz == last_iz:
+                continue
+            last_ix, last_iz = ix, iz
+            point = (ix, iz, FREE)
+            if point not in known and abs(ix) <= CELL_INDEX_LIMIT and abs(iz) <= CELL_INDEX_LIMIT:
+                known.add(point)
+                pending.append(point)
 
     def _add(self, x: float, z: float, kind: int) -> None:
         ix, iz = math.floor(x / self.cell), math.floor(z / self.cell)

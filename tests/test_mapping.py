@@ -3,7 +3,9 @@ whole simulated mission (in one process, through the agents' pure handlers) scor
 
 from __future__ import annotations
 
+import hashlib
 import io
+import random
 import zlib
 from pathlib import Path
 
@@ -32,6 +34,25 @@ def _cells(recorder: MapRecorder, kind: int) -> set[tuple[int, int]]:
 
 
 # ---- the rover's side ----
+
+
+def test_the_cells_scans_mark_stay_those_of_the_first_implementation():
+    """Forty scans of the default sensor at random poses with random hits: the cells marked, in the order they
+    were found, are those the half-cell walk marked when it was first written (its SHA-256). A faster walk must
+    mark the same ones: the lander's map, and lockstep runs, depend on them."""
+    params = RoverParams()
+    fov, radius = params.perception.field_of_view_degrees, params.perception.perception_radius
+    rng = random.Random(9)
+    recorder = MapRecorder(params)
+    for _ in range(40):
+        x, z, h = round(rng.uniform(-50, 50), 2), round(rng.uniform(-50, 50), 2), round(rng.uniform(0, 360), 1)
+        hits = [Hit(round(rng.uniform(-fov / 2, fov / 2), 1), round(rng.uniform(0.2, radius), 2),
+                    rng.choice(["rover", "obstacle", "terrain", "lander", "crater_terrain"]))
+                for _ in range(rng.randint(0, 20))]
+        recorder.fold_scan(x, z, h, hits)
+    assert len(recorder.pending) == 5420
+    assert hashlib.sha256(repr(recorder.pending).encode()).hexdigest() == (
+        "38a2186d61acc62307a11e57ac743a5470542a301e0d48f744644944d78c8eb0")
 
 
 def test_a_scan_marks_the_hit_cell_and_the_free_cells_before_it():
