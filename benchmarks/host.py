@@ -1,7 +1,7 @@
 """Which machine a benchmark ran on, and how fast its cores are, so figures from two machines are not compared as
 if they came from one.
 
-LunarSim's five-rover lockstep ran at 12-14x real time on one of this project's 2-core machines and, with the
+LunarSim's five-rover lockstep ran at 11.5-14x real time on one of this project's 2-core machines and, with the
 code barely changed, at 24-26x on the next; nothing in the figures said why. ``reference_ns`` times a fixed
 piece of pure Python (no LunarSim code, so it does not move when LunarSim gets faster): the ratio of two hosts'
 figures says roughly how much of a change in the benchmark is the machine's.
