@@ -22,6 +22,7 @@ LOS_STEP_M = 2.0
 LOS_MAX_SAMPLES = 64
 MIN_CELL_M = 1.0
 """Grid cell of the rover pair search when the radio range is shorter (a zero range would make no grid)."""
+Pairs = tuple[np.ndarray, np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -95,11 +96,10 @@ def build_graph(ids: np.ndarray, x: np.ndarray, z: np.ndarray, comm_range: float
     return CommGraph(ids, adjacency, _components(adjacency))
 
 
-def _pairs_in_range(x: np.ndarray, z: np.ndarray, comm_range: float, lander_range: float) -> tuple[np.ndarray,
-                                                                                                    np.ndarray]:
-    """Node pairs (i < j, in row order) within range of each other. Rovers by grid look-up when ranges are
-    finite: the dense matrix of every distance took 9 ms a second at 1,000 rovers, where a rover has a few
-    dozen neighbours within its 10 m."""
+def _pairs_in_range(x: np.ndarray, z: np.ndarray, comm_range: float, lander_range: float) -> Pairs:
+    """Node pairs (i < j, in row order) within range of each other; rovers by grid look-up when the range is
+    finite. The matrix of every distance made a graph of 1,000 rovers cost 16.6 ms instead of 5.5, where each
+    rover has a handful of neighbours within its 10 m."""
     n = len(x)
     if not math.isfinite(comm_range) or n * n <= FEW_PAIRS:
         reach = np.full((n, n), comm_range)
