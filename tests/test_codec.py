@@ -112,8 +112,8 @@ def test_no_schema_model_dumps_other_than_its_fields():
 
 
 def test_what_the_world_builds_encodes_as_model_dump_would():
-    """The world builds its hot messages with ``model_construct`` and its clock with ``model_copy``; a few
-    seconds of a real mission's output, every message, encodes exactly as before."""
+    """The world builds its perceptions with ``model_construct``, its lockstep clock with ``model_copy`` and the
+    rest validated: every message of 25 ticks of a real mission, and a state, encodes exactly as before."""
     from schemas import keyspace as ks
     from schemas.scenario import load_scenario
     from world_service.sim import World
