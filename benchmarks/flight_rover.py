@@ -41,6 +41,7 @@ conf = zenoh.Config()
 conf.insert_json5("mode", '"client"')
 conf.insert_json5("connect/endpoints", '["' + sys.argv[1] + '"]')
 conf.insert_json5("scouting/multicast/enabled", "false")
+conf.insert_json5("transport/shared_memory/enabled", "false")  # as LunarSim's own sessions
 session = zenoh.open(conf)
 sub = session.declare_subscriber("lunar/bench/rover/1/**", lambda s: None)
 token = session.liveliness().declare_token(sys.argv[2])

@@ -1,6 +1,6 @@
 """Zenoh configuration, layered as in the zenoh-python examples, and opening a session with a clear error.
 
-Layers, later wins: defaults (client mode, multicast scouting off), a json5 file from ``--config`` or
+Layers, later wins: defaults (client mode, multicast scouting and shared memory off), a json5 file from ``--config`` or
 ``ZENOH_CONFIG``, then ``--connect`` / ``--listen`` endpoints. Only this module and the command line
 read the environment; domain code receives a finished ``zenoh.Config``.
 Kept light (no NumPy, no pydantic): the rover agent imports it.
@@ -19,6 +19,13 @@ import zenoh
 
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+SHARED_MEMORY = "transport/shared_memory/enabled"
+"""Off by default. Zenoh (1.x) on a machine's loopback copies every message over 3 KB (a photo, a photo relayed
+through the radio, the world's state) into a 16 MiB shared-memory pool, which it makes and mlocks on the first
+such message: 40-50 ms of the sending thread's CPU zeroing pages. In the real-time world that first photo held a
+tick back past a gyroscope period (100 rover processes, 10 samples late, every run in which it fell in the
+window), and every agent that relays a photo would lock 16 MiB of its own. LunarSim's messages are small: a copy
+costs microseconds. A config file may switch it back on."""
 
 
 class RouterUnreachable(RuntimeError):
@@ -54,6 +61,7 @@ def build_config(mode: str = "client", config_file: str | None = None, connect: 
     if not path:
         conf.insert_json5("mode", json.dumps(mode))
         conf.insert_json5("scouting/multicast/enabled", "false")
+        conf.insert_json5(SHARED_MEMORY, "false")
     if connect:
         conf.insert_json5("connect/endpoints", json.dumps(list(connect)))
     elif not path and mode == "client":

@@ -4,7 +4,10 @@ and the world telling an agent that comes back how its action ended while it was
 from __future__ import annotations
 
 import json
+import os
+import resource
 import subprocess
+import sys
 
 import pytest
 import yaml
@@ -13,7 +16,7 @@ from procs import REPO, SCENARIOS, free_port, module, stop, wait_for, wait_for_o
 
 from deploy.children import wait_for_port
 from deploy.world_watch import ClockWatch
-from deploy.zenoh_config import build_config
+from deploy.zenoh_config import SHARED_MEMORY, build_config
 from rover_agent.identity import id_from_hostname, parse_id
 from schemas import codec
 from schemas import keyspace as ks
@@ -180,6 +183,54 @@ def test_a_missing_or_broken_config_file_is_named(tmp_path):
 def test_scouting_is_off_unless_asked_for():
     assert json.loads(build_config().get_json("scouting/multicast/enabled")) is False
     assert json.loads(build_config(scouting=True).get_json("scouting/multicast/enabled")) is True
+
+
+LARGE_PUT = """
+import json, sys, threading
+import zenoh
+from deploy.zenoh_config import build_config
+
+endpoint, config = sys.argv[1], sys.argv[2] or None
+got = threading.Event()
+with zenoh.open(build_config("router", config, listen=[endpoint])) as world, \\
+        zenoh.open(build_config("client", config, connect=[endpoint])) as rover:
+    rover.declare_subscriber("lunar/shm/rover/1/photo", lambda sample: got.set())
+    while not got.is_set():
+        world.put("lunar/shm/rover/1/photo", bytes(20_000))  # a photo's size: over Zenoh's 3 KB threshold
+        got.wait(0.1)
+    status = dict(line.split(":", 1) for line in open("/proc/self/status"))
+print(json.dumps({"locked_kib": int(status["VmLck"].split()[0])}))
+"""
+
+
+def _locked_after_a_photo(config: str = "") -> int:
+    """KiB the process has locked after a router session sent a client session on loopback a photo-sized put."""
+    done = subprocess.run([sys.executable, "-c", LARGE_PUT, f"tcp/127.0.0.1:{free_port()}", config], cwd=REPO,
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.splitlines()[-1])["locked_kib"]
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "deploy").glob("*/*.json5")), ids=lambda p: p.name)
+def test_shipped_config_files_keep_shared_memory_off(path):
+    assert json.loads(zenoh.Config.from_file(str(path)).get_json(SHARED_MEMORY)) is False
+
+
+def test_shared_memory_is_off_by_default_so_a_photo_locks_no_pool():
+    """On Zenoh's default a first photo-sized put makes and locks a 16 MiB pool (40-50 ms of the sender's CPU in
+    the real-time world); LunarSim's sessions copy it instead."""
+    assert json.loads(build_config().get_json(SHARED_MEMORY)) is False
+    assert _locked_after_a_photo() == 0
+
+
+@pytest.mark.skipif(os.geteuid() != 0 and resource.getrlimit(resource.RLIMIT_MEMLOCK)[0] < 16 << 20,
+                    reason="this user may not lock the 16 MiB a shared-memory pool takes")
+def test_a_config_file_may_switch_shared_memory_on_and_the_pool_shows(tmp_path):
+    """The other side of the check above: with shared memory on, the same put locks the pool."""
+    on = tmp_path / "shm.json5"
+    on.write_text("{ scouting: { multicast: { enabled: false } }, transport: { shared_memory: { enabled: true } } }")
+    assert json.loads(build_config(config_file=str(on)).get_json(SHARED_MEMORY)) is True
+    assert _locked_after_a_photo(str(on)) >= 16 << 10
 
 
 # ---- processes ----

@@ -125,6 +125,7 @@ def test_rendered_configs_keep_the_templates_settings_and_load_in_zenoh(tmp_path
         assert conf["transport"]["link"]["protocols"] == ["tls"]
         assert conf["transport"]["link"]["tls"]["enable_mtls"] is True
         assert conf["transport"]["link"]["tls"]["root_ca_certificate"] == str(tmp_path.resolve() / "ca.pem")
+        assert conf["transport"]["shared_memory"] == {"enabled": False}
         zenoh.Config.from_json5(json.dumps(conf))
     assert client["transport"]["link"]["tls"]["verify_name_on_connect"] is True
     assert client["transport"]["auth"]["usrpwd"] == {"user": "rover-1", "password": "pw"}

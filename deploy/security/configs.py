@@ -16,7 +16,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROUTER_TEMPLATE = HERE / "router.json5"
 CLIENT_TEMPLATE = HERE / "client.json5"
-FROM_TEMPLATE = ("mode", "scouting/multicast/enabled", "transport/link/protocols", "transport/link/tls")
+FROM_TEMPLATE = ("mode", "scouting/multicast/enabled", "transport/shared_memory/enabled", "transport/link/protocols",
+                 "transport/link/tls")
 """What a rendered config takes from its template (all the rest is filled in here)."""
 CA, ROUTER = "ca", "router"
 
