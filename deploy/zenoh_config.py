@@ -22,10 +22,10 @@ DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 SHARED_MEMORY = "transport/shared_memory/enabled"
 """Off by default. Zenoh (1.x) on a machine's loopback copies every message over 3 KB (a photo, a photo relayed
 through the radio, the world's state) into a 16 MiB shared-memory pool, which it makes and mlocks on the first
-such message: 40-50 ms of the sending thread's CPU zeroing pages. In the real-time world that first photo held a
-tick back past a gyroscope period (100 rover processes, 10 samples late, every run in which it fell in the
-window), and every agent that relays a photo would lock 16 MiB of its own. LunarSim's messages are small: a copy
-costs microseconds. A config file may switch it back on."""
+such message: 36-50 ms of the sending thread's CPU zeroing pages. In the real-time world that first photo held a
+tick back by as much, past a gyroscope period, and every agent that relays a photo would lock 16 MiB of its own.
+LunarSim's messages are small: a copy costs microseconds (the runs are in the README's Benchmarks). A config file
+may switch it back on."""
 
 
 class RouterUnreachable(RuntimeError):

@@ -217,7 +217,7 @@ def test_shipped_config_files_keep_shared_memory_off(path):
 
 
 def test_shared_memory_is_off_by_default_so_a_photo_locks_no_pool():
-    """On Zenoh's default a first photo-sized put makes and locks a 16 MiB pool (40-50 ms of the sender's CPU in
+    """On Zenoh's default a first photo-sized put makes and locks a 16 MiB pool (36-50 ms of the sender's CPU in
     the real-time world); LunarSim's sessions copy it instead."""
     assert json.loads(build_config().get_json(SHARED_MEMORY)) is False
     assert _locked_after_a_photo() == 0
