@@ -8,6 +8,7 @@ arrive on their due tick, and an agent that publishes on a tick the world would 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from lander_agent.mission import MissionPlan
@@ -21,9 +22,13 @@ from schemas.scenario import Scenario
 from world_service.lockstep import AckPlan
 from world_service.sim import PhotoJob, World
 
+Drop = Callable[[str, m.Message], bool]
+"""Fault injection: says which samples the link loses (key and message); lost samples are never delivered."""
+
 
 def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None,
-                behaviour: type[BaseBehaviour] | None = None, map_folder: Path | None = None) -> World:
+                behaviour: type[BaseBehaviour] | None = None, map_folder: Path | None = None,
+                drop: Drop | None = None) -> World:
     """The world at the end; with ``map_folder``, the lander's traverse map is written there as it ends."""
     keys = ks.Keyspace("loopback")
     world = World(scenario, keys)
@@ -40,6 +45,8 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
         while pending:
             key, message = pending.pop(0)
             plan.note(key)
+            if drop is not None and drop(key, message):
+                continue
             pending += _deliver(key, codec.encode(message), world, lander, agents, keys)
 
     while world.sim_time < max_sim_time and not world.complete:

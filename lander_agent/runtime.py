@@ -71,7 +71,8 @@ class Lander:
     def broadcast(self, now: float) -> list[tuple[str, m.Message]]:
         out = [self._transmit([rid], cal, "calibration") for rid, cal in self.plan.calibration.items()]
         out += [self._transmit(rids, d, "mission_direction") for d, rids in self.plan.directions().items()]
-        out.append((self.keys.lander("status"), self.plan.status(now, self.partners)))
+        status = self.plan.status(now, self.partners).model_copy(update={"rejected": self.rejected})
+        out.append((self.keys.lander(ks.STATUS), status))
         return out
 
     def on_clock(self, clock: m.Clock) -> list[tuple[str, m.Message]]:

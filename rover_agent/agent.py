@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 from rover_agent.behaviour import (
@@ -19,12 +18,13 @@ from rover_agent.behaviour import (
     Hit,
     Hold,
     MoveTo,
-    Rotate,
     TakePhoto,
     View,
 )
-from rover_agent.dead_reckoning import POSE_WRITER, Pose, load_pose
+from rover_agent.dead_reckoning import Pose
+from rover_agent.in_flight import ActionIds, InFlight
 from rover_agent.map_report import MapRecorder
+from rover_agent.saved_state import STATE_WRITER, SavedState, load_state
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -47,14 +47,8 @@ STATION_ASK_M = 15.0
 """Near a shared waypoint, closer than this, the rover asks the lander for its station: just before it reaches
 a 20-rover formation (8.5 m in radius at the default spacing), so stations go out in the order rovers arrive."""
 STATION_ASK_RETRY_S = 2.0
-
-
-@dataclass
-class InFlight:
-    decision: MoveTo | Rotate | TakePhoto
-    start: Pose
-    sent_at: float = 0.0
-    cancel_sent: bool = False
+JOINED_LATE_S = 2.0
+"""An agent whose first clock is later than this joined a mission already under way: a restart."""
 
 
 class RoverAgent:
@@ -65,9 +59,13 @@ class RoverAgent:
         self.params = params
         self.behaviour = behaviour or DefaultBehaviour(rover_id, params)
         self.state_file = state_file
-        self.pose: Pose | None = load_pose(state_file) if state_file else None
-        if self.pose is not None:
-            log.info("rover %d: resumed at %s from %s", rover_id, self.pose, state_file)
+        self.saved: SavedState | None = load_state(state_file) if state_file else None
+        self.run = ""  # the world's run (Clock.run), once heard
+        self.ids = ActionIds()
+        self.heard_action = 0  # the last action whose end this agent has heard (RoverStatus.action_id)
+        self.queries = 0  # actions sent again after silence
+        self.lost = False  # restarted mid-mission with no saved state of this run: it does not know where it is
+        self.pose: Pose | None = None
         self.goal: Goal | None = None
         self.now = 0.0
         self.pitch = (0.0, -1.0)  # (degrees, stamp)
@@ -105,10 +103,16 @@ class RoverAgent:
             return []
 
     def on_clock(self, clock: m.Clock) -> list[Out]:
+        if clock.run != self.run:
+            self._join(clock)
         if not clock.running:  # the world waiting for agents, or done: nothing moves, nothing to answer
             return []
         self.now = max(self.now, clock.sim_time)
         out: list[Out] = []
+        if self.in_flight and self.now >= self.in_flight.query_due():
+            out.append(self.in_flight.query(self.now, self.keys, self.id))
+            self.queries += 1
+            log.info("rover %d: no word of action %d for a while; asking again", self.id, self.in_flight.action_id)
         reporting = self.finished_goal is not None and self.finished_goal[1] != "stopped"
         if reporting and self.now - self._last_report >= GOAL_REPORT_RETRY_S:
             out += self._report_goal()
@@ -132,6 +136,8 @@ class RoverAgent:
         """When ``on_clock`` will next act by itself: the earliest of its timers. Every timer in ``on_clock``
         must be here, or a lockstep world would not wait for what it sends (``lockstep_answer`` says so)."""
         timers = [self._last_status + STATUS_PERIOD_S]
+        if self.in_flight:
+            timers.append(self.in_flight.query_due())
         if self.finished_goal is not None and self.finished_goal[1] != "stopped":
             timers.append(self._last_report + GOAL_REPORT_RETRY_S)
         if self.in_flight and isinstance(self.in_flight.decision, TakePhoto):
@@ -142,11 +148,29 @@ class RoverAgent:
             timers.append(self.map.next_due())
         return min(timers)
 
+    def _join(self, clock: m.Clock) -> None:
+        """The first clock of a run: resume the saved state if it is this run's; a restart without one is lost."""
+        first, self.run = not self.run, clock.run
+        saved, self.saved = self.saved, None
+        if saved is not None and saved.run == clock.run:
+            self.pose, self.ids = saved.pose, ActionIds(saved.next_action)
+            if saved.flight is not None:
+                self.in_flight = InFlight.resumed(saved.flight, self.now)
+            log.info("rover %d: resumed at %s from %s", self.id, self.pose, self.state_file)
+        elif first and clock.sim_time > JOINED_LATE_S:
+            self.lost = True
+            log.error("rover %d: joined a mission %.0f s under way with no saved pose of this run (%s): it does not "
+                      "know where it is, so it will not drive; start it with the --state it ran with", self.id,
+                      clock.sim_time, self.state_file or "no --state")
+        elif saved is not None:
+            log.info("rover %d: the saved state in %s is from another run; starting afresh", self.id, self.state_file)
+
     # ---- lander, via radio ----
 
     def _on_calibration(self, msg: m.Calibration) -> list[Out]:
-        if self.pose is None:
+        if self.pose is None and not self.lost:
             self.pose = Pose(msg.x, msg.z, msg.heading_deg % 360.0)
+            self._save()
         return []
 
     def _on_mission_direction(self, msg: m.MissionDirection) -> list[Out]:
@@ -190,9 +214,8 @@ class RoverAgent:
         self.behaviour.state = "stopped"
         out: list[Out] = []
         flight = self.in_flight
-        if flight and isinstance(flight.decision, MoveTo | Rotate) and not flight.cancel_sent:
-            flight.cancel_sent = True
-            out.append((self.keys.rover(self.id, ks.CANCEL_ACTION), m.CancelAction()))
+        if flight and flight.navigating and not flight.cancel_sent:
+            out.append(flight.cancel(self.keys, self.id))
         return [*out, self._status()]
 
     def _on_photo(self, msg: m.Photo) -> list[Out]:
@@ -249,7 +272,7 @@ class RoverAgent:
             return ask + self._watch(hits)
         if self.pose is not None and msg.stamp >= self.settled_at:  # standing still where dead reckoning says
             self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
-        ready = (self.pose is not None and self.goal is not None and self.finished_goal is None
+        ready = (self.pose is not None and self.goal is not None and not self.lost and self.finished_goal is None
                  and self.state not in ("done", "stuck", "stopped") and not self.powered_off
                  and msg.stamp >= self.settled_at and self.pitch[1] >= self.settled_at)
         if not ready:
@@ -274,8 +297,7 @@ class RoverAgent:
             return []
         view = self._view(self.now, flight.start, hits)
         if self.behaviour.should_cancel(view):
-            flight.cancel_sent = True
-            return [(self.keys.rover(self.id, ks.CANCEL_ACTION), m.CancelAction())]
+            return [flight.cancel(self.keys, self.id)]
         return []
 
     def _act(self, decision) -> list[Out]:
@@ -283,12 +305,9 @@ class RoverAgent:
             return []
         if isinstance(decision, Finish):
             return self._finish(decision.outcome)
-        self.in_flight = InFlight(decision, self.pose, self.now)
-        if isinstance(decision, TakePhoto):
-            return [(self.keys.rover(self.id, ks.PHOTO_ACTION), m.PhotoAction(label=decision.label))]
-        if isinstance(decision, MoveTo):
-            return [(self.keys.rover(self.id, ks.MOVE_ACTION), m.MoveAction(x=decision.x, z=decision.z))]
-        return [(self.keys.rover(self.id, ks.ROTATE_ACTION), m.RotateAction(degrees=decision.degrees))]
+        self.in_flight = InFlight(decision, self.pose, self.ids.take(self.now), sent_at=self.now, heard_at=self.now)
+        self._save()
+        return [self.in_flight.request(self.keys, self.id)]
 
     def _finish(self, outcome: str) -> list[Out]:
         goal = self.goal
@@ -316,16 +335,22 @@ class RoverAgent:
         detail = "another rover found the crater" if index in self.craters_found else ""
         if self.powered_off:
             detail = "off: battery empty" if self.battery and self.battery.empty else "off: too cold"
-        return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(stamp=self.now, state=self.state, goal_index=index,
-                                                                  detail=detail, photos_pending=len(self.photo_outbox))
+        if self.lost:
+            detail = "restarted without a saved pose: position unknown"
+        return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(
+            stamp=self.now, state=self.state, goal_index=index, detail=detail, photos_pending=len(self.photo_outbox),
+            action_id=self.heard_action, rejected=self.rejected)
 
     # ---- navigation feedback ----
 
     def _on_navigation_status(self, msg: m.NavigationStatus) -> list[Out]:
         self.now = max(self.now, msg.stamp)
         flight = self.in_flight
-        if flight is None or msg.outcome == "running" or isinstance(flight.decision, TakePhoto):
-            return []  # a photo is not a navigation action: its status, if any, is not ours
+        if flight is None or not flight.navigating or not flight.mine(msg.action_id):
+            return []  # an old action's end sent again, or a photo's (not a navigation action)
+        flight.heard_at = self.now
+        if msg.outcome == "running":
+            return []
         if msg.outcome == "completed":
             decision = flight.decision
             if isinstance(decision, MoveTo):
@@ -339,7 +364,7 @@ class RoverAgent:
 
     def _on_cancel_result(self, msg: m.CancelResult) -> list[Out]:
         flight = self.in_flight
-        if flight is None:
+        if flight is None or not flight.navigating or not flight.mine(msg.action_id):
             return []
         self.pose = flight.start.after_partial(msg.x, msg.z, msg.angle_deg)
         self.behaviour.moved(math.hypot(msg.x, msg.z))
@@ -349,7 +374,13 @@ class RoverAgent:
 
     def _on_action_rejected(self, msg: m.ActionRejected) -> list[Out]:
         flight = self.in_flight
-        if flight is None or msg.action not in ("move", "rotate"):
+        if flight is None or not flight.navigating or not flight.mine(msg.action_id):
+            return []
+        if msg.action == "cancel":  # the world never had the action (its sample was lost): the rover did not move
+            if msg.action_id == flight.action_id:
+                self._settle(self.now)
+            return []
+        if msg.action not in ("move", "rotate"):
             return []
         if isinstance(flight.decision, MoveTo):
             self.behaviour.rejected(math.degrees(math.atan2(flight.decision.x, flight.decision.z)))
@@ -359,7 +390,15 @@ class RoverAgent:
 
     def _settle(self, stamp: float) -> None:
         """The action is over; decide again only on sensor data taken after this moment."""
+        if self.in_flight is not None:
+            self.heard_action = max(self.heard_action, self.in_flight.action_id)
         self.in_flight = None
         self.settled_at = stamp
-        if self.state_file is not None and self.pose is not None:
-            POSE_WRITER.save(self.state_file, self.pose)
+        self._save()
+
+    def _save(self) -> None:
+        """Pose, action in flight and next id, written in the background: what a restart resumes from."""
+        if self.state_file is None or self.pose is None or not self.run:
+            return
+        flight = self.in_flight.saved() if self.in_flight is not None else None
+        STATE_WRITER.save(self.state_file, SavedState(self.run, self.pose, flight, self.ids.next_id))

@@ -31,9 +31,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="YAML of rover parameters (report tables 4-8); a scenario file works too")
     parser.add_argument("--behaviour", default="default", metavar="NAME",
                         help="behaviour by name: default, straight, an installed plugin, or package.module:Class")
-    parser.add_argument("--state", type=Path, metavar="FILE",
-                        help="keep the dead-reckoned pose here, so a restarted agent takes its rover again "
-                             "(with --ids: a folder, one rover<N>.json per agent)")
+    state = parser.add_mutually_exclusive_group()
+    state.add_argument("--state", type=Path, metavar="FILE",
+                       help="keep the dead-reckoned pose and the action in flight here, so a restarted agent takes "
+                            "its rover again where it is (with --ids: a folder, one rover<N>.json per agent; "
+                            "default: $XDG_STATE_HOME/lunarsim/<world>/rover<N>.json, ~/.local/state without it)")
+    state.add_argument("--no-state", action="store_true",
+                       help="keep nothing: a restart mid-mission then leaves the rover lost, and it says so")
     add_zenoh_arguments(parser, agent=True)
 
 
@@ -75,10 +79,26 @@ def run_from_args(args: argparse.Namespace) -> int:
 
 
 def _state_file(args: argparse.Namespace, rover_id: int) -> Path | None:
-    if args.state is None or args.ids is None:
+    """Where the agent keeps its state: ``--state``, or by default a file per world and rover (a state saved in
+    another run of the world is not resumed: it names its run)."""
+    from rover_agent.saved_state import default_state_file
+
+    if args.no_state:
+        return None
+    if args.state is None:
+        home = Path(os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state")
+        path = default_state_file(home, args.world, rover_id)
+    elif args.ids is None:
         return args.state
-    args.state.mkdir(parents=True, exist_ok=True)
-    return args.state / f"rover{rover_id}.json"
+    else:
+        path = args.state / f"rover{rover_id}.json"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        logging.getLogger("lunarsim.rover").warning("rover %d: cannot keep its state in %s (%s); a restart will "
+                                                    "leave it lost", rover_id, path.parent, exc)
+        return None
+    return path
 
 
 def main() -> None:

@@ -9,7 +9,7 @@ from deploy.bus import Bus
 from deploy.process import freeze_start_up_heap
 from deploy.world_watch import ClockWatch
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
-from rover_agent.dead_reckoning import POSE_WRITER
+from rover_agent.saved_state import STATE_WRITER
 from schemas import codec
 from schemas import messages as m
 
@@ -22,19 +22,19 @@ def run(agents: RoverAgent | list[RoverAgent], bus: Bus, stop: threading.Event) 
     agents = [agents] if isinstance(agents, RoverAgent) else agents
     keys = agents[0].keys
     by_prefix: dict[str, RoverAgent] = {}
+    bus.subscribe(keys.clock)  # before the tokens: the world starts the clock once it sees them
     for agent in agents:
         by_prefix[keys.rover(agent.id, "")] = agent
         for topic in SUBSCRIBED_TOPICS:
             bus.subscribe(keys.rover(agent.id, topic))
         bus.declare_token(keys.alive_rover(agent.id))
-    bus.subscribe(keys.clock)
     who = f"rover {agents[0].id}" if len(agents) == 1 else f"rovers {agents[0].id}..{agents[-1].id}"
     watch = ClockWatch(who, keys.clock)
     freeze_start_up_heap()
     try:
         _loop(agents, bus, stop, watch, by_prefix)
     finally:
-        POSE_WRITER.flush()  # the poses of the last actions, before the process ends
+        STATE_WRITER.flush()  # the states of the last actions, before the process ends
 
 
 def _loop(agents: list[RoverAgent], bus: Bus, stop: threading.Event, watch: ClockWatch,

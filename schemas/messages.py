@@ -44,17 +44,25 @@ class Perception(Message):
         return self
 
 
+def _action_id():
+    return Field(0, ge=0, lt=2**63, description="the agent's id of the action (0: none): the world answers a "
+                 "repeated id with how that action stands instead of starting it again, so a lost sample is "
+                 "recovered by sending the same action again")
+
+
 class MoveAction(Message):
     """Move to a point relative to the rover (+x right, +z ahead); must be in view."""
 
     x: float
     z: float
+    action_id: int = _action_id()
 
 
 class RotateAction(Message):
     """Rotate in place; negative is left, positive right."""
 
     degrees: float
+    action_id: int = _action_id()
 
 
 class NavigationStatus(Message):
@@ -64,10 +72,13 @@ class NavigationStatus(Message):
     action: Literal["move", "rotate"]
     remaining: float
     outcome: Literal["running", "completed", "cancelled", "collided"] = "running"
+    action_id: int = _action_id()
 
 
 class CancelAction(Message):
-    """Cancel the move in progress (empty, as in the report)."""
+    """Cancel the move in progress (empty in the report; ``action_id`` names it, 0 whichever is running)."""
+
+    action_id: int = _action_id()
 
 
 class CancelResult(Message):
@@ -77,6 +88,7 @@ class CancelResult(Message):
     z: float
     angle_deg: float
     reason: Literal["cancelled", "collided"] = "cancelled"
+    action_id: int = _action_id()
 
 
 class SpeedAction(Message):
@@ -88,8 +100,9 @@ class ActionRejected(Message):
 
     action: Literal["move", "rotate", "cancel", "speed", "photo"]
     reason: Literal["out_of_view", "out_of_range", "blocked", "action_in_progress", "no_action", "collided",
-                    "no_power", "too_cold"]
+                    "no_power", "too_cold", "stale"]
     detail: str = ""
+    action_id: int = _action_id()
 
 
 class Gyroscope(Message):
@@ -186,6 +199,7 @@ class Calibration(Message):
 
 class PhotoAction(Message):
     label: str = ""
+    action_id: int = _action_id()
 
 
 class Photo(Message):
@@ -208,6 +222,10 @@ class RoverStatus(Message):
     goal_index: int = -1
     detail: str = ""
     photos_pending: int = Field(0, ge=0, description="photos taken but not yet acknowledged by the lander")
+    action_id: int = Field(0, ge=0, lt=2**63, description="the last action whose end the agent has heard: the world "
+                           "re-sends that end until it shows here")
+    rejected: int = Field(0, ge=0, description="samples the agent has rejected since it started (malformed, "
+                          "unknown topic)")
 
 
 class LanderStatus(Message):
@@ -216,6 +234,7 @@ class LanderStatus(Message):
     rover_goals: dict[int, int] = Field(default_factory=dict, description="rover id -> goal index")
     connected: list[int] = Field(default_factory=list)
     relay_chain: list[int] = Field(default_factory=list)
+    rejected: int = Field(0, ge=0, description="samples the lander has rejected since it started")
 
 
 class LanderMap(Message):
@@ -271,6 +290,8 @@ class Clock(Message):
     time_scale: float
     running: bool = True
     lockstep: bool = False
+    run: str = Field("", description="names this run of the world: a restarted agent resumes only a state saved "
+                     "in the same run")
     acks: list[int] | None = Field(None, description="lockstep: the agents whose ack this tick waits for (rover "
                                    "ids, 0 the lander); None: every agent's")
 
@@ -323,6 +344,8 @@ class RoverTruth(Message):
     sunlit: bool | None = None
     energy_used_wh: float | None = Field(None, description="drawn from the battery since the start")
     powered: bool | None = Field(None, description="False while off: battery empty or too cold")
+    stalled: bool = Field(False, description="no closer to its goal for the stall time: counted stuck, whatever its "
+                          "agent says (world_service.progress)")
 
 
 class WorldCounters(Message):
@@ -335,6 +358,10 @@ class WorldCounters(Message):
     radio_lost: int = 0
     power_shutdowns: int = Field(0, description="times a rover's battery ran empty")
     cold_shutdowns: int = Field(0, description="times a rover fell below its operating temperature (N9)")
+    agent_rejected: int = Field(0, description="samples the rover agents and the lander rejected, as their statuses "
+                                "last said")
+    dropped_messages: int = Field(0, description="samples the world dropped unread: over its inbox's bound for "
+                                  "their key (a flood)")
 
 
 class WorldState(Message):
@@ -363,10 +390,14 @@ class MissionReport(Message):
     rover_collisions: int
     obstacle_collisions: int
     rovers_stuck: int
+    rovers_stalled: int = Field(0, description="of rovers_stuck: those the world counted stuck because they made "
+                                "no progress, while their agents did not say so")
     mission_duration_s: float
     wall_time_s: float = 0.0
     complete: bool = False
     rejected_messages: int = 0
+    agent_rejected_messages: int = Field(0, description="samples the agents and the lander rejected")
+    dropped_messages: int = Field(0, description="samples the world dropped unread (over its inbox's bound)")
     lander_connection_losses: int = Field(0, description="times a rover lost its route to the lander (6.3.3)")
     disconnected_time_s: float = Field(0.0, description="rover-seconds without a route to the lander")
     worst_rover_connected_fraction: float = Field(1.0, description="share of the mission the least connected "

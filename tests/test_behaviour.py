@@ -491,7 +491,8 @@ def test_completed_rotate_updates_the_heading():
 def test_rover_close_ahead_during_a_move_sends_one_cancel_and_the_result_sets_the_pose():
     agent = _moving_agent()
     rover_ahead = m.Perception(stamp=0.4, angles_deg=[0.0], distances_m=[2.0], kinds=["rover"])
-    assert _feed(agent, rover_ahead) == [(KEYS.rover(1, ks.CANCEL_ACTION), m.CancelAction())]
+    flight = agent.in_flight.action_id
+    assert _feed(agent, rover_ahead) == [(KEYS.rover(1, ks.CANCEL_ACTION), m.CancelAction(action_id=flight))]
     assert _feed(agent, rover_ahead) == []  # once
     _feed(agent, m.NavigationStatus(stamp=0.6, action="move", remaining=0.0, outcome="cancelled"))
     assert agent.pose == Pose(0.0, 20.0, 180.0)

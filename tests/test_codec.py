@@ -140,7 +140,7 @@ def test_round_trip_keeps_types_of_tuples_int_keys_and_bytes():
 def test_envelope_is_version_then_fields():
     version, fields = msgpack.unpackb(codec.encode(m.MoveAction(x=1.0, z=2.0)), raw=False)
     assert version == codec.SCHEMA_VERSION == 1
-    assert fields == {"x": 1.0, "z": 2.0}
+    assert fields == {"x": 1.0, "z": 2.0, "action_id": 0}
 
 
 def _assert_rejected(model, payload, *fragments):

@@ -19,7 +19,6 @@ from deploy.world_watch import ClockWatch
 from deploy.zenoh_config import SHARED_MEMORY, build_config
 from rover_agent.identity import id_from_hostname, parse_id
 from schemas import codec
-from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
@@ -85,34 +84,6 @@ def _one_rover_world() -> World:
 
 def _published(out, topic: str) -> list:
     return [msg for key, msg in out if key == Keyspace("t").rover(1, topic)]
-
-
-def test_world_tells_a_returning_agent_once_how_its_action_ended():
-    world = _one_rover_world()
-    world.receive(world.keys.rover(1, ks.ROTATE_ACTION), codec.encode(m.RotateAction(degrees=90)))
-    world.step()
-    world.set_alive(1, False)  # the router went away: the watchdog stops the rover
-    away = [world.step() for _ in range(5)]
-    assert any(_published(out, ks.CANCEL_RESULT) for out in away)  # published, but the agent was not there
-    world.set_alive(1, True)
-    back = [world.step() for _ in range(3 * world._period(1.0))]
-    resent = [msg for out in back for msg in _published(out, ks.CANCEL_RESULT)]
-    assert len(resent) == 1 and resent[0].reason == "cancelled"
-    ends = [msg for out in back for msg in _published(out, ks.NAVIGATION_STATUS) if msg.remaining == 0.0]
-    assert len(ends) == 1
-
-
-def test_world_resends_nothing_once_the_agent_has_moved_on():
-    world = _one_rover_world()
-    world.receive(world.keys.rover(1, ks.ROTATE_ACTION), codec.encode(m.RotateAction(degrees=90)))
-    world.step()
-    world.set_alive(1, False)
-    for _ in range(5):
-        world.step()
-    world.set_alive(1, True)
-    world.receive(world.keys.rover(1, ks.ROTATE_ACTION), codec.encode(m.RotateAction(degrees=-10)))
-    back = [world.step() for _ in range(3 * world._period(1.0))]
-    assert not any(_published(out, ks.CANCEL_RESULT) for out in back)
 
 
 def test_clock_watch_says_when_it_waits_finds_and_loses_the_world(capsys):

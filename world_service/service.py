@@ -168,6 +168,7 @@ def declare_io(bus: Bus, keys: ks.Keyspace) -> None:
     for topic in World.INPUT_TOPICS:
         bus.subscribe(keys.rovers(topic))
     bus.subscribe(keys.lander(ks.COMM_OUT))
+    bus.subscribe(keys.lander(ks.STATUS))
     bus.subscribe(keys.ground_command)
     bus.subscribe(keys.rovers(ks.ACK))
     bus.subscribe(keys.lander(ks.ACK))

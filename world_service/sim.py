@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import math
+import uuid
 from collections import Counter
 from collections.abc import Callable, Iterable
 from typing import ClassVar
@@ -22,10 +23,12 @@ from schemas.params import RoverParams
 from schemas.scenario import Scenario
 from world_service import navigation as nav
 from world_service import statistics as stats
+from world_service.actions import STALE, ActionLedger, ActionRecord
 from world_service.clock_hold import ClockHold
 from world_service.energy import Energy
 from world_service.perception import Perceiver
 from world_service.photos import PhotoJob, render_photo
+from world_service.progress import ProgressWatch
 from world_service.radio import CommGraph, build_graph, line_of_sight
 from world_service.scene import Scene, circle_pairs, in_view
 from world_service.terrain import Heightmap
@@ -39,8 +42,9 @@ CLOCK_HZ = 5.0
 """How often the clock is published in real time. Agents learn the time from every sample's stamp; the clock
 drives their own timers, the shortest of which is a second, and tells them the world is there. At the tick rate
 (20 Hz) it was 40% of what every agent received. In lockstep it goes out on every tick that waits for an ack."""
-ACTION_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.PHOTO_ACTION})
-"""What an agent sends only once it has heard how its last action ended."""
+REJECTION_LOGS = 20
+ACTION_RESEND_S = 1.0
+"""How often the world re-sends the end of a rover's last action until its agent's status says it has heard it."""
 
 
 def tick_length(params: RoverParams) -> float:
@@ -54,12 +58,13 @@ def ticks_per_period(rate_hz: float, dt: float) -> int:
 
 
 def all_finished(status: dict[int, m.RoverStatus], moving: Iterable[bool],
-                 reaches_lander: Callable[[], dict[int, bool]]) -> bool:
-    """Every rover finished, none moving, and no photo still on its way to a lander it can reach.
+                 reaches_lander: Callable[[], dict[int, bool]], stalled: frozenset[int] = frozenset()) -> bool:
+    """Every rover finished (or stalled: counted stuck by the world), none moving, and no photo still on its way
+    to a lander it can reach.
 
     ``reaches_lander`` (rover id -> has a radio route to the lander) is asked only when a photo is pending.
     """
-    if not all(s.state in FINISHED_STATES for s in status.values()) or any(moving):
+    if not all(s.state in FINISHED_STATES or rid in stalled for rid, s in status.items()) or any(moving):
         return False
     pending = [rid for rid, s in status.items() if s.photos_pending]
     if not pending:
@@ -97,8 +102,11 @@ class World:
                        for i, r in enumerate(scenario.rovers)}
         self.status = {rid: m.RoverStatus(stamp=0.0, state="waiting") for rid in self.bodies}
         self.alive = dict.fromkeys(self.bodies, True)
-        self.unheard: dict[int, list[Out]] = {}  # endings published while the rover's agent was away
-        self._resend_at: dict[int, int] = {}
+        self.actions = ActionLedger(self._period(ACTION_RESEND_S))
+        self.progress = ProgressWatch(p.watchdog.stall_after_s)
+        self.stalled: frozenset[int] = frozenset()
+        self.lander_rejected = 0
+        self.dropped_messages = 0  # counted by the service's inbox, reported here
         self.rover_collisions = 0
         self.obstacle_collisions = 0
         self.rejected: Counter[str] = Counter()
@@ -111,6 +119,7 @@ class World:
         self.time_scale = 1.0  # what the clock announces; the service paces the ticks
         self.lockstep = False
         self.hold = ClockHold()  # the ground's pause: the service holds the clock
+        self.run_id = uuid.uuid4().hex[:12]  # not the seed's: two runs of one seed are still two runs
         self.graph = self._build_graph()
         self.energy = Energy(scenario, self.terrain, self.scene, keyspace, self.dt, list(self.bodies),
                              self.perception_period, self._period(p.power.publish_frequency)) if scenario.sun else None
@@ -132,6 +141,9 @@ class World:
                 return []
             if key == self.keys.lander(ks.COMM_OUT):
                 return self._radio(ks.LANDER_ID, codec.decode(m.OutboundComm, payload), from_lander=True)
+            if key == self.keys.lander(ks.STATUS):
+                self.lander_rejected = codec.decode(m.LanderStatus, payload).rejected
+                return []
             rover_id, topic = self.keys.parse_rover_key(key)
             if rover_id not in self.bodies:
                 raise ValueError(f"no rover {rover_id} in scenario {self.scenario.name!r} "
@@ -139,22 +151,40 @@ class World:
             handler = self._handlers.get(topic)
             if handler is None:
                 raise ValueError(f"topic {topic!r} is not an input of the world")
-            if topic in ACTION_TOPICS:
-                self.unheard.pop(rover_id, None)  # the agent has moved on
             return handler(self, rover_id, codec.decode(m.TOPIC_MODELS[topic], payload))
         except (codec.DecodeError, ValueError) as exc:
-            self.rejected[key] += 1
-            log.warning("rejected sample on %s: %s", key, exc)
+            self._count_rejected(key, exc)
             return []
 
+    def _count_rejected(self, key: str, exc: Exception) -> None:
+        """Counted per topic (not per key: forged rover ids would grow the table without end), and logged at
+        most ``REJECTION_LOGS`` times a topic, then once every thousandth: a flood must not flood the log too."""
+        topic = key.rsplit("/", 1)[-1] if key.startswith(self.keys.prefix + "/") else "<other world>"
+        self.rejected[topic] += 1
+        n = self.rejected[topic]
+        if n <= REJECTION_LOGS or n % 1000 == 0:
+            log.warning("rejected sample on %s: %s (%d on %s so far)", key, exc, n, topic)
+
     def _on_move(self, rid: int, msg: m.MoveAction) -> list[Out]:
+        if (record := self.actions.known(rid, msg.action_id)) is not None:
+            return self._again(rid, record, "move")
         body = self.bodies[rid]
         reason = self._power_problem(rid) or self._move_problem(body, msg)
         if reason:
-            return [self._reject(rid, "move", *reason)]
+            return [self._refuse(rid, "move", msg.action_id, *reason)]
         slip, turn = self._noise(msg.x, msg.z)
         body.start_move(msg.x, msg.z, slip, turn)
+        self.actions.start(rid, msg.action_id, "move", self.tick)
         return [self._nav_status(body, "move")]
+
+    def _again(self, rid: int, record: ActionRecord, action: str) -> list[Out]:
+        """An action sent again (its agent heard nothing of it): how it stands, never a second start."""
+        if record.kind == STALE:
+            return [self._reject(rid, action, "stale", "older than the rover's latest action", record.action_id)]
+        if record.answer is not None:
+            return list(record.answer)
+        body = self.bodies[rid]
+        return [self._nav_status(body, record.kind)] if body.busy and record.kind != "photo" else []
 
     def _power_problem(self, rid: int) -> tuple[str, str] | None:
         return self.energy.refusal(rid) if self.energy is not None else None
@@ -195,21 +225,30 @@ class World:
         return bool(np.any(pitch > self.params.navigation.max_slope_deg))
 
     def _on_rotate(self, rid: int, msg: m.RotateAction) -> list[Out]:
+        if (record := self.actions.known(rid, msg.action_id)) is not None:
+            return self._again(rid, record, "rotate")
         body = self.bodies[rid]
         if body.busy:
-            return [self._reject(rid, "rotate", "action_in_progress", "a move or rotate is still running")]
+            return [self._refuse(rid, "rotate", msg.action_id, "action_in_progress",
+                                 "a move or rotate is still running")]
         if reason := self._power_problem(rid):
-            return [self._reject(rid, "rotate", *reason)]
+            return [self._refuse(rid, "rotate", msg.action_id, *reason)]
         noise = self.params.navigation.heading_noise_std_deg
         body.start_rotate(msg.degrees + (self.rng.normal(0.0, noise) if noise > 0 else 0.0))
+        self.actions.start(rid, msg.action_id, "rotate", self.tick)
         return [self._nav_status(body, "rotate")]
 
     def _on_cancel(self, rid: int, msg: m.CancelAction) -> list[Out]:
+        """Cancel the running action; a cancel naming an action that has already ended gets that end again."""
         body = self.bodies[rid]
-        if not body.busy:
-            return [self._reject(rid, "cancel", "no_action", "nothing to cancel")]
-        body.cancel()
-        return []
+        running = self.actions.running_id(rid)
+        if body.busy and msg.action_id in (0, running):
+            body.cancel()
+            return []
+        record = self.actions.started.get(rid)
+        if msg.action_id and record is not None and record.action_id == msg.action_id and record.answer:
+            return list(record.answer)
+        return [self._reject(rid, "cancel", "no_action", "nothing to cancel", msg.action_id)]
 
     def _on_speed(self, rid: int, msg: m.SpeedAction) -> list[Out]:
         self.bodies[rid].speed_level = msg.level
@@ -220,9 +259,13 @@ class World:
 
     def _on_photo_action(self, rid: int, msg: m.PhotoAction) -> list[Out]:
         """Queue a photo of what the rover sees now; rendering is slow, so the service decides when."""
+        if (record := self.actions.known(rid, msg.action_id)) is not None:
+            # taken already: the photo is on its way (or lost, and the agent gives up on it in time)
+            return self._again(rid, record, "photo") if record.kind == STALE else []
         body = self.bodies[rid]
         if reason := self._power_problem(rid):
-            return [self._reject(rid, "photo", *reason)]
+            return [self._refuse(rid, "photo", msg.action_id, *reason)]
+        self.actions.start(rid, msg.action_id, "photo", self.tick)
         if self.energy is not None:
             self.energy.spend(rid, self.params.power.photo_j)
         others = [b for b in self.bodies.values() if b.id != rid]
@@ -237,6 +280,7 @@ class World:
 
     def _on_status(self, rid: int, msg: m.RoverStatus) -> list[Out]:
         self.status[rid] = msg
+        self.actions.note_heard(rid, msg.action_id)
         return []
 
     _handlers: ClassVar[dict] = {
@@ -257,24 +301,13 @@ class World:
         self.hold.command(command)
 
     def set_alive(self, rover_id: int, alive: bool) -> None:
-        """Watchdog: a rover whose agent is gone stops where it is. An agent that comes back (its router
-        restarted, its link returned) is told again, once, how its action ended while it was away: without
-        that it would wait for ever for the end of an action that is over."""
+        """Watchdog: a rover whose agent is gone stops where it is. When it comes back (its router restarted,
+        its link returned, the agent restarted), the ledger re-sends how its action ended until it has heard."""
         if rover_id not in self.bodies:
             return
-        was_alive, self.alive[rover_id] = self.alive[rover_id], alive
+        self.alive[rover_id] = alive
         if not alive:
             self.bodies[rover_id].cancel()
-        elif not was_alive and rover_id in self.unheard:
-            self._resend_at[rover_id] = self.tick + self._period(1.0)  # its subscriptions are back by then
-
-    def _resend_unheard(self) -> list[Out]:
-        out: list[Out] = []
-        for rover_id in [rid for rid, due in self._resend_at.items() if self.tick >= due]:
-            del self._resend_at[rover_id]
-            if self.alive[rover_id]:
-                out += self.unheard.pop(rover_id, [])
-        return out
 
     # ---- radio ----
 
@@ -288,7 +321,7 @@ class World:
         out: list[Out] = []
         for target in msg.targets:
             if target != ks.LANDER_ID and target not in self.bodies:
-                self.rejected[f"radio target {target}"] += 1
+                self.rejected["radio target"] += 1
                 continue
             if not self.graph.connected(sender, target):
                 self.radio_dropped += 1
@@ -347,7 +380,7 @@ class World:
             self._activate_terrain()
             self.graph = self._build_graph()
         out += self._due_radio()
-        out += self._resend_unheard()
+        out += self.actions.resend_due(self.tick, self.alive)
         out += self._sensors()
         self._check_complete()
         out.append((self.keys.clock, self.clock()))
@@ -355,7 +388,7 @@ class World:
 
     def clock(self, running: bool = True) -> m.Clock:
         return m.Clock(tick=self.tick, sim_time=self.sim_time, time_scale=self.time_scale, running=running,
-                       lockstep=self.lockstep)
+                       lockstep=self.lockstep, run=self.run_id)
 
     def _move_bodies(self) -> list[Out]:
         """Step every busy rover, then stop short, as one batch, those that would touch something."""
@@ -410,14 +443,15 @@ class World:
 
     def _ended(self, body: nav.RoverBody, ended: nav.Ended) -> list[Out]:
         rid = body.id
-        status = m.NavigationStatus(stamp=self.sim_time, action=ended.action, remaining=0.0, outcome=ended.outcome)
+        action_id = self.actions.running_id(rid)
+        status = m.NavigationStatus(stamp=self.sim_time, action=ended.action, remaining=0.0, outcome=ended.outcome,
+                                    action_id=action_id)
         out: list[Out] = [(self.keys.rover(rid, ks.NAVIGATION_STATUS), status)]
         if ended.outcome != "completed" and ended.start is not None:
             x, z, angle = body.relative_to_start(ended.start)
             out.append((self.keys.rover(rid, ks.CANCEL_RESULT),
-                        m.CancelResult(x=x, z=z, angle_deg=angle, reason=ended.outcome)))
-        if not self.alive[rid]:
-            self.unheard[rid] = out
+                        m.CancelResult(x=x, z=z, angle_deg=angle, reason=ended.outcome, action_id=action_id)))
+        self.actions.end(rid, out)
         return out
 
     def _sensors(self) -> list[Out]:
@@ -471,11 +505,19 @@ class World:
                 for b, p in zip(bodies, np.round(pitch, 4).tolist(), strict=True)]
 
     def _nav_status(self, body: nav.RoverBody, action: str) -> Out:
-        status = m.NavigationStatus(stamp=self.sim_time, action=action, remaining=round(body.remaining(), 4))
+        status = m.NavigationStatus(stamp=self.sim_time, action=action, remaining=round(body.remaining(), 4),
+                                    action_id=self.actions.running_id(body.id))
         return self.keys.rover(body.id, ks.NAVIGATION_STATUS), status
 
-    def _reject(self, rid: int, action: str, reason: str, detail: str) -> Out:
-        return self.keys.rover(rid, ks.ACTION_REJECTED), m.ActionRejected(action=action, reason=reason, detail=detail)
+    def _reject(self, rid: int, action: str, reason: str, detail: str, action_id: int = 0) -> Out:
+        return self.keys.rover(rid, ks.ACTION_REJECTED), m.ActionRejected(action=action, reason=reason, detail=detail,
+                                                                          action_id=action_id)
+
+    def _refuse(self, rid: int, action: str, action_id: int, reason: str, detail: str) -> Out:
+        """A refusal the ledger keeps, so the same action sent again gets the same answer."""
+        answer = self._reject(rid, action, reason, detail, action_id)
+        self.actions.refuse(rid, action_id, action, answer)
+        return answer
 
     def _other_positions(self, rid: int) -> tuple[np.ndarray, np.ndarray]:
         """Every other rover's position; the arrays are built once per tick, however many moves are checked."""
@@ -492,22 +534,27 @@ class World:
         return self.missions.goal(rid, self.status[rid].goal_index)
 
     def world_state(self) -> m.WorldState:
-        rovers = [  # validated: with few lists and six fields left to their defaults, faster than model_construct
-            m.RoverTruth(id=b.id, x=round(b.x, 4), z=round(b.z, 4), heading_deg=round(b.heading, 3),
-                         action=self._action_name(b), state=self.status[b.id].state,
-                         goal_index=self.status[b.id].goal_index,
-                         distance_to_goal_m=round(stats.distance_to_goal(self.scenario, self._goal_of(b.id),
-                                                                         b.x, b.z), 3),
-                         distance_covered_m=round(b.distance_covered, 3), alive=self.alive[b.id],
-                         **(self.energy.truth(b.id) if self.energy is not None else {}))
-            for b in self.bodies.values()
-        ]
+        rovers = [self._truth(b) for b in self.bodies.values()]
+        self.stalled = frozenset(r.id for r in rovers if r.stalled)
         counters = m.WorldCounters(rover_collisions=self.rover_collisions, obstacle_collisions=self.obstacle_collisions,
                                    rejected_messages=sum(self.rejected.values()), radio_dropped=self.radio_dropped,
-                                   radio_lost=self.radio_lost,
+                                   radio_lost=self.radio_lost, dropped_messages=self.dropped_messages,
+                                   agent_rejected=self.lander_rejected + sum(s.rejected for s in self.status.values()),
                                    **(self.energy.counters() if self.energy is not None else {}))
         return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links(),
                             relays=self.graph.relays(), counters=counters, completed_at=self.completed_at)
+
+    def _truth(self, b: nav.RoverBody) -> m.RoverTruth:
+        status = self.status[b.id]
+        distance = round(stats.distance_to_goal(self.scenario, self._goal_of(b.id), b.x, b.z), 3)
+        power = self.energy.truth(b.id) if self.energy is not None else {}
+        waiting = status.state in FINISHED_STATES or status.state == "charging" or power.get("powered") is False
+        stalled = self.progress.observe(b.id, status.goal_index, distance, self.sim_time, waiting)
+        # validated: with few lists and six fields left to their defaults, faster than model_construct
+        return m.RoverTruth(id=b.id, x=round(b.x, 4), z=round(b.z, 4), heading_deg=round(b.heading, 3),
+                            action=self._action_name(b), state=status.state, goal_index=status.goal_index,
+                            distance_to_goal_m=distance, distance_covered_m=round(b.distance_covered, 3),
+                            alive=self.alive[b.id], stalled=stalled, **power)
 
     def observed_state(self) -> m.WorldState:
         """The state to publish, counted into the statistics: they are computed from what is published."""
@@ -523,7 +570,7 @@ class World:
 
     def _check_complete(self) -> None:
         if self.completed_at is None and all_finished(self.status, (b.busy for b in self.bodies.values()),
-                                                      self._reaches_lander):
+                                                      self._reaches_lander, self.stalled):
             self.completed_at = self.sim_time
 
     def _reaches_lander(self) -> dict[int, bool]:

@@ -27,7 +27,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from schemas.messages import MISSION_COMMANDS, GroundCommand, MissionReport, WorldState
+from schemas.messages import MISSION_COMMANDS, GroundCommand, MissionReport, WorldCounters, WorldState
 from schemas.mission import CommandRefused, RoverMissions
 from schemas.scenario import Goal, Scenario
 
@@ -106,6 +106,8 @@ def build_report(
     radio_dropped: int = 0,
     radio_lost: int = 0,
     power: dict | None = None,
+    stalled: int = 0,
+    counters: WorldCounters | None = None,
 ) -> MissionReport:
     total = float(sum(distances))
     average = total / len(distances) if distances else 0.0
@@ -122,11 +124,14 @@ def build_report(
         rover_collisions=rover_collisions,
         obstacle_collisions=obstacle_collisions,
         rovers_stuck=stuck,
+        rovers_stalled=stalled,
         mission_duration_s=round(duration_s, 4),
         complete=complete,
         rejected_messages=rejected_messages,
         radio_dropped=radio_dropped,
         radio_lost=radio_lost,
+        **({"agent_rejected_messages": counters.agent_rejected, "dropped_messages": counters.dropped_messages}
+           if counters is not None else {}),
         **(links.as_fields() if links else {}),
         **(power or {}),
     )
@@ -209,7 +214,7 @@ class MissionStats:
         useful = 0.0
         for r in state.rovers:
             spawn = self.scenario.rovers[r.id - 1] if r.id <= len(self.scenario.rovers) else None
-            if spawn is None or r.powered is False or r.state == "stuck":
+            if spawn is None or r.powered is False or r.state == "stuck" or r.stalled:
                 continue  # stranded: its progress bought nothing
             final = self.missions.final_index(r.id)
             goals = [self.missions.goal(r.id, i) for i in range(max(r.goal_index, 0), final + 1)]
@@ -232,7 +237,8 @@ class MissionStats:
             self.scenario,
             distances=[r.distance_covered_m for r in state.rovers],
             reached=self.reached(state),
-            stuck=sum(r.state == "stuck" for r in state.rovers),
+            stuck=sum(r.state == "stuck" or r.stalled for r in state.rovers),
+            stalled=sum(r.stalled and r.state != "stuck" for r in state.rovers),
             rover_collisions=c.rover_collisions,
             obstacle_collisions=c.obstacle_collisions,
             duration_s=state.completed_at if state.completed_at is not None else state.stamp,
@@ -242,4 +248,5 @@ class MissionStats:
             radio_dropped=c.radio_dropped,
             radio_lost=c.radio_lost,
             power=self.power_fields(state),
+            counters=c,
         )

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
+import uuid
 from collections import Counter
 from dataclasses import dataclass, field
 
@@ -121,6 +122,7 @@ class TwinWorld:
     RENDERS_PHOTOS = False
 
     def __init__(self, scenario: Scenario, keyspace: ks.Keyspace) -> None:
+        self.run_id = uuid.uuid4().hex[:12]
         self.scenario, self.keys = scenario, keyspace
         self.hold = ClockHold()  # never paused: the twin follows real rovers, whose time does not stop
         self.dt = tick_length(scenario.rover_params)
@@ -211,7 +213,7 @@ class TwinWorld:
 
     def clock(self, running: bool = True) -> m.Clock:
         return m.Clock(tick=self.tick, sim_time=self.sim_time, time_scale=self.time_scale, running=running,
-                       lockstep=False)
+                       lockstep=False, run=self.run_id)
 
     def _reaches_lander(self) -> dict[int, bool]:
         return dict(zip(self.graph.ids.tolist(), self.graph.connected_to_lander().tolist(), strict=True))

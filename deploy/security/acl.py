@@ -110,7 +110,8 @@ def world_role(keys: ks.Keyspace, simulated: Iterable[int] | None = None, bridge
     subscribes: list[str] = []
     if sensors:
         publishes += [*sensors, keys.lander(ks.COMM_IN), keys.lander(ks.COMM_PARTNERS)]
-        subscribes += [*(keys.rovers(t) for t in _rover_inputs()), keys.lander(ks.COMM_OUT), keys.lander(ks.ACK)]
+        subscribes += [*(keys.rovers(t) for t in _rover_inputs()), keys.lander(ks.COMM_OUT), keys.lander(ks.ACK),
+                       keys.lander(ks.STATUS)]  # the lander's count of rejected samples, for the report
     if bridged:
         subscribes += [*(keys.rovers(t) for t in _twin_inputs()), keys.lander(ks.COMM_PARTNERS)]
     publishes += [keys.clock] if clock else []

@@ -1,0 +1,92 @@
+"""The one action an agent keeps in flight, and how it recovers when the world's answer is lost.
+
+Every action carries an id. While a move or rotate runs the world reports it several times a second; an agent
+that has heard nothing of its action for ``ACTION_QUERY_S`` sends it again with the same id (or its cancel),
+and the world answers how that action stands instead of starting it again (``world_service.actions``). So no
+lost sample, either way, leaves the agent waiting for ever.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from rover_agent.behaviour import MoveTo, Rotate, TakePhoto
+from rover_agent.dead_reckoning import Pose
+from rover_agent.saved_state import SavedFlight
+from schemas import keyspace as ks
+from schemas import messages as m
+
+Out = tuple[str, m.Message]
+ACTION_QUERY_S = 2.0
+"""Silence after which the agent asks again: ten navigation status periods at the report's 5 Hz."""
+ID_STRIDE = 2**20
+"""Ids are ``base * ID_STRIDE + n`` with ``base`` the simulated millisecond of the agent's first action: an agent
+restarted without its saved state never reuses an id of its earlier life, which the world would answer with the
+end of an old action."""
+
+
+@dataclass
+class InFlight:
+    decision: MoveTo | Rotate | TakePhoto
+    start: Pose
+    action_id: int = 0
+    sent_at: float = 0.0
+    heard_at: float = 0.0
+    cancel_sent: bool = False
+    queries: int = 0
+
+    def mine(self, action_id: int) -> bool:
+        """Whether an answer is about this action (0: from a world or driver that sends no ids)."""
+        return action_id in (0, self.action_id)
+
+    @property
+    def navigating(self) -> bool:
+        return isinstance(self.decision, MoveTo | Rotate)
+
+    def request(self, keys: ks.Keyspace, rover_id: int) -> Out:
+        decision, aid = self.decision, self.action_id
+        if isinstance(decision, TakePhoto):
+            return keys.rover(rover_id, ks.PHOTO_ACTION), m.PhotoAction(label=decision.label, action_id=aid)
+        if isinstance(decision, MoveTo):
+            return keys.rover(rover_id, ks.MOVE_ACTION), m.MoveAction(x=decision.x, z=decision.z, action_id=aid)
+        return keys.rover(rover_id, ks.ROTATE_ACTION), m.RotateAction(degrees=decision.degrees, action_id=aid)
+
+    def cancel(self, keys: ks.Keyspace, rover_id: int) -> Out:
+        self.cancel_sent = True
+        return keys.rover(rover_id, ks.CANCEL_ACTION), m.CancelAction(action_id=self.action_id)
+
+    def query_due(self) -> float:
+        return self.heard_at + ACTION_QUERY_S if self.navigating else math.inf
+
+    def query(self, now: float, keys: ks.Keyspace, rover_id: int) -> Out:
+        """The action (or its cancel) again, same id: the world answers how it stands."""
+        self.heard_at, self.queries = now, self.queries + 1
+        if self.cancel_sent:
+            return keys.rover(rover_id, ks.CANCEL_ACTION), m.CancelAction(action_id=self.action_id)
+        return self.request(keys, rover_id)
+
+    def saved(self) -> SavedFlight | None:
+        decision = self.decision
+        if isinstance(decision, MoveTo):
+            return SavedFlight(self.action_id, "move", self.start, x=decision.x, z=decision.z)
+        if isinstance(decision, Rotate):
+            return SavedFlight(self.action_id, "rotate", self.start, degrees=decision.degrees)
+        return None  # a photo lost with a restart is given up, as one whose answer is lost
+
+    @classmethod
+    def resumed(cls, saved: SavedFlight, now: float) -> InFlight:
+        """The action a restarted agent had in flight: asked about at once."""
+        decision = MoveTo(saved.x, saved.z) if saved.kind == "move" else Rotate(saved.degrees)
+        return cls(decision, saved.start, saved.action_id, sent_at=now, heard_at=now - ACTION_QUERY_S)
+
+
+class ActionIds:
+    def __init__(self, next_id: int = 0) -> None:
+        self.next_id = next_id
+
+    def take(self, now: float) -> int:
+        if self.next_id == 0:
+            self.next_id = max(0, int(now * 1000)) * ID_STRIDE + 1
+        action_id, self.next_id = self.next_id, self.next_id + 1
+        return action_id

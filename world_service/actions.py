@@ -1,0 +1,95 @@
+"""The world's memory of each rover's last action: what makes the action protocol survive lost samples.
+
+An action's answer (how it ended, or why it was refused) is one sample, and a link may lose it. So each action
+carries the agent's id (``action_id``), and the world keeps, per rover, the last action it started and the last it
+refused with their answers:
+- an agent that hears nothing of its action sends it again with the same id; the world answers how that action
+  stands (its running status, its end, its refusal) instead of starting it again;
+- the world re-sends an action's end every ``resend_period`` ticks until the agent's status says it has heard it
+  (``RoverStatus.action_id``), so neither a lost end nor a lost query leaves an agent waiting.
+
+Id 0 means "no id" (tools and drivers written before ids): such actions are answered once, as before.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from schemas import messages as m
+
+Out = tuple[str, m.Message]
+STALE = "stale"
+
+
+@dataclass
+class ActionRecord:
+    action_id: int
+    kind: str  # "move" | "rotate" | "photo"
+    answer: list[Out] | None = None  # how it ended (navigation status, cancel result) or why it was refused
+    started_tick: int = 0
+
+
+class ActionLedger:
+    def __init__(self, resend_period: int) -> None:
+        self.resend_period = resend_period
+        self.started: dict[int, ActionRecord] = {}  # rover -> the last action the world started
+        self.refused: dict[int, ActionRecord] = {}  # rover -> the last action the world refused
+        self.heard: dict[int, int] = {}  # rover -> the last action id whose end its agent says it has heard
+        self.latest: dict[int, int] = {}  # rover -> the highest action id it has sent
+        self.repeats = 0  # actions sent again by their agent (a query after a lost sample)
+        self.resent = 0  # ends sent again because the agent had not heard them
+        self.stale = 0  # actions older than their rover's latest, refused
+
+    def known(self, rover: int, action_id: int) -> ActionRecord | None:
+        """The record of an action the world has already had, if ``action_id`` names one; a ``STALE`` record for
+        an id older than the rover's latest (a late duplicate), which must never start."""
+        if action_id == 0:
+            return None
+        for record in (self.started.get(rover), self.refused.get(rover)):
+            if record is not None and record.action_id == action_id:
+                self.repeats += 1
+                return record
+        if action_id < self.latest.get(rover, 0):
+            self.stale += 1
+            return ActionRecord(action_id, STALE)
+        self.latest[rover] = action_id
+        return None
+
+    def start(self, rover: int, action_id: int, kind: str, tick: int) -> None:
+        self.started[rover] = ActionRecord(action_id, kind, started_tick=tick)
+
+    def refuse(self, rover: int, action_id: int, kind: str, answer: Out) -> None:
+        if action_id:
+            self.refused[rover] = ActionRecord(action_id, kind, [answer])
+
+    def running_id(self, rover: int) -> int:
+        record = self.started.get(rover)
+        return record.action_id if record is not None and record.answer is None else 0
+
+    def end(self, rover: int, answer: list[Out]) -> None:
+        record = self.started.get(rover)
+        if record is not None and record.answer is None:
+            record.answer = answer
+
+    def note_heard(self, rover: int, action_id: int) -> None:
+        self.heard[rover] = max(self.heard.get(rover, 0), action_id)
+
+    def unheard_end(self, rover: int) -> list[Out]:
+        """The end of the rover's last action if its agent has not said it heard it (ids only)."""
+        record = self.started.get(rover)
+        if record is None or record.answer is None or record.action_id == 0:
+            return []
+        if self.heard.get(rover, 0) >= record.action_id:
+            return []
+        return record.answer
+
+    def resend_due(self, tick: int, alive: dict[int, bool]) -> list[Out]:
+        """Ends to send again on this tick: each rover's once every ``resend_period`` ticks, rovers staggered,
+        while its agent is alive (an agent away hears nothing; once back it is told)."""
+        out: list[Out] = []
+        for rover, is_alive in alive.items():
+            if is_alive and (tick + rover) % self.resend_period == 0:
+                again = self.unheard_end(rover)
+                self.resent += bool(again)
+                out += again
+        return out
