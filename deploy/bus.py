@@ -10,8 +10,11 @@ before it), which costs the agent a perception period. Kept light: the rover age
 from __future__ import annotations
 
 import ctypes
+import logging
 import queue
+import random
 import threading
+from collections import Counter
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -20,6 +23,12 @@ import zenoh
 from schemas import codec
 
 _ATTACHED: set[int] = set()
+log = logging.getLogger("lunarsim.bus")
+PER_KEY_LIMIT = 64
+"""Samples of one key waiting in an inbox. No legitimate publisher comes near it (the fastest key is 20 Hz and the
+world drains its inbox 20 times a second); a flooding one is cut off here, counted, and cannot fill the memory."""
+TOTAL_LIMIT = 50_000
+"""Samples of all keys waiting in an inbox: against a flood spread over forged keys."""
 
 
 def zenoh_callback(function: Callable[[zenoh.Sample], None]) -> zenoh.handlers.Callback:
@@ -48,18 +57,76 @@ class Received(NamedTuple):
     alive: bool | None = None  # set for liveliness changes, None for data samples
 
 
+class Inbox:
+    """What a process has received and not yet handled: in arrival order, bounded per key and in all.
+
+    Excess is dropped on arrival and counted per topic (the key's last segment: forged rover ids must not grow the
+    table), so a client publishing as fast as it can costs the process the callback, never memory or a backlog.
+    """
+
+    def __init__(self, per_key: int = PER_KEY_LIMIT, total: int = TOTAL_LIMIT) -> None:
+        self.per_key, self.total = per_key, total
+        self.dropped: Counter[str] = Counter()
+        self._queue: queue.SimpleQueue[Received] = queue.SimpleQueue()
+        self._pending: dict[str, int] = {}
+        self._size = 0
+        self._lock = threading.Lock()
+
+    def put(self, item: Received) -> None:
+        key = item.key
+        with self._lock:
+            n = self._pending.get(key, 0)
+            if n >= self.per_key or self._size >= self.total:
+                self._drop(key)
+                return
+            self._pending[key] = n + 1
+            self._size += 1
+        self._queue.put(item)
+
+    def _drop(self, key: str) -> None:
+        topic = key.rsplit("/", 1)[-1]
+        self.dropped[topic] += 1
+        if self.dropped[topic] in (1, 10, 100) or self.dropped[topic] % 100_000 == 0:
+            log.warning("inbox full for %s: dropped %d sample(s) of %s so far (a publisher floods it)", key,
+                        self.dropped[topic], topic)
+
+    def get(self, timeout: float | None) -> Received:
+        """Raises ``queue.Empty`` as ``SimpleQueue.get`` does."""
+        item = self._queue.get(timeout=timeout) if timeout is None or timeout > 0 else self._queue.get_nowait()
+        with self._lock:
+            n = self._pending[item.key] - 1
+            if n:
+                self._pending[item.key] = n
+            else:
+                del self._pending[item.key]
+            self._size -= 1
+        return item
+
+    def get_nowait(self) -> Received:
+        return self.get(0)
+
+    def qsize(self) -> int:
+        return self._size
+
+
 class Bus:
-    def __init__(self, session: zenoh.Session, lossless: bool = False, declare_publishers: bool = True) -> None:
+    def __init__(self, session: zenoh.Session, lossless: bool = False, declare_publishers: bool = True,
+                 loss: float = 0.0, loss_seed: int = 0, per_key_limit: int = PER_KEY_LIMIT) -> None:
         """``lossless``: publications wait for a congested link instead of being dropped (Zenoh's default for
         puts), for a replay, which must deliver the whole recording, and a lockstep world, whose agents must
         see every sample. In real time the fresh sample beats the one held back, so the default drops.
 
         ``declare_publishers=False``: put through the session, for a session that is the router: there,
         declaring a publisher costs in proportion to every subscription in the network (1 ms each with a
-        thousand rovers' 13,000), while a put without one costs microseconds."""
+        thousand rovers' 13,000), while a put without one costs microseconds.
+
+        ``loss``: fault injection for tests and the chaos benchmark: this share of the samples this bus publishes
+        is dropped (seeded by ``loss_seed``), as a bad link would, and counted in ``lost``."""
         self.session = session
         self._declare = declare_publishers
-        self.inbox: queue.SimpleQueue[Received] = queue.SimpleQueue()
+        self.inbox = Inbox(per_key_limit)
+        self.loss, self.lost = loss, 0
+        self._loss_rng = random.Random(loss_seed)
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._declared: list = []
         self._congestion = zenoh.CongestionControl.BLOCK if lossless else zenoh.CongestionControl.DROP
@@ -94,6 +161,9 @@ class Bus:
         self.put(key, codec.encode(message))
 
     def put(self, key: str, payload: bytes) -> None:
+        if self.loss and self._loss_rng.random() < self.loss:
+            self.lost += 1
+            return
         if not self._declare:
             self.session.put(key, payload, congestion_control=self._congestion, timestamp=self.session.new_timestamp())
             return

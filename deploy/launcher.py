@@ -28,6 +28,13 @@ VIEW_PERIOD_S = 0.25
 lockstep world sends its state 75 times a second at 15 x real time, and the launcher shares the cores."""
 
 
+def _share(text: str) -> float:
+    value = float(text)
+    if not 0.0 <= value < 1.0:
+        raise argparse.ArgumentTypeError(f"must be at least 0 and below 1, got {text}")
+    return value
+
+
 def _positive(text: str) -> int:
     try:
         value = int(text)
@@ -66,6 +73,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", "-q", action="store_true", help="no live progress, only the summary")
     parser.add_argument("--no-record", action="store_true", help="do not record the session (by default it "
                         "goes to session.mcap in the run folder)")
+    parser.add_argument("--fault-loss", type=_share, default=0.0, metavar="P",
+                        help="fault injection: the world drops this share (0-1) of the samples it publishes, as a "
+                             "bad link would (seeded by the scenario's seed); to test what the agents survive")
 
 
 def run_from_args(args: argparse.Namespace) -> int:
@@ -189,6 +199,8 @@ class Mission:
             args += ["--max-sim-time", str(self.args.max_sim_time)]
         if self.args.lockstep:
             args.append("--lockstep")
+        if self.args.fault_loss:
+            args += ["--fault-loss", str(self.args.fault_loss)]
         if getattr(self.args, "verbose", False):
             args.append("--verbose")  # its progress (and lockstep's summary) into world.log
         return args

@@ -8,7 +8,7 @@ import threading
 import pytest
 from procs import wait_for
 
-from deploy.bus import Bus, zenoh_callback
+from deploy.bus import PER_KEY_LIMIT, Bus, zenoh_callback
 from deploy.zenoh_config import build_config, open_session
 
 pytestmark = pytest.mark.e2e
@@ -17,7 +17,8 @@ pytestmark = pytest.mark.e2e
 def test_samples_of_different_keys_arrive_in_publication_order(router):
     endpoint = router
     conf = build_config(connect=[endpoint])
-    with Bus(open_session(conf, endpoint)) as sender, Bus(open_session(conf, endpoint)) as receiver:
+    with (Bus(open_session(conf, endpoint)) as sender,
+          Bus(open_session(conf, endpoint), per_key_limit=3000) as receiver):
         keys = [f"lunar/order/rover/1/{topic}" for topic in ("navigation_status", "gyroscope", "perception")]
         for key in keys:
             receiver.subscribe(key)
@@ -30,6 +31,25 @@ def test_samples_of_different_keys_arrive_in_publication_order(router):
         wait_for(lambda: got.extend(int.from_bytes(r.payload, "big") for r in receiver.drain()
                                     if r.key in keys) or len(got) >= count, 30, f"{count} samples")
     assert got == list(range(count))
+
+
+def test_a_flooded_key_is_cut_at_its_bound_and_counted_while_other_keys_get_through(router):
+    endpoint = router
+    conf = build_config(connect=[endpoint])
+    with Bus(open_session(conf, endpoint)) as sender, Bus(open_session(conf, endpoint)) as receiver:
+        flood, other = "lunar/flood/rover/2/move_action", "lunar/flood/rover/1/status"
+        receiver.subscribe(flood)
+        receiver.subscribe(other)
+        wait_for(lambda: sender.put(other, b"ready") or receiver.drain(), 10, "the subscriptions")
+        for _ in range(5000):
+            sender.put(flood, b"x")
+        sender.put(other, b"after")
+        wait_for(lambda: receiver.inbox.dropped["move_action"] + receiver.inbox.qsize() >= 5000
+                 and receiver.inbox.qsize() > PER_KEY_LIMIT, 30, "the flood at the receiver")
+        items = receiver.drain()
+    assert sum(item.key == flood for item in items) == PER_KEY_LIMIT
+    assert b"after" in [item.payload for item in items if item.key == other]
+    assert receiver.inbox.dropped["move_action"] == 5000 - PER_KEY_LIMIT
 
 
 def test_zenoh_threads_keep_their_python_thread_state_between_samples(router):

@@ -33,6 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--twin", action="store_true",
                         help="follow real rovers (poses from their drivers' telemetry) instead of simulating "
                              "them; real time only")
+    parser.add_argument("--fault-loss", type=float, default=0.0, metavar="P",
+                        help="fault injection: drop this share (0-1) of the samples the world publishes, seeded by "
+                             "the scenario's seed, as a bad link would")
     add_zenoh_arguments(parser, listen=True, agent=True)
     parser.epilog = ("--listen makes the world the Zenoh router of the run: agents connect straight to it, one "
                      "hop less each way than through a router process (what 'lunarsim run' does).")
@@ -47,6 +50,8 @@ def run_from_args(args: argparse.Namespace) -> int:
 
     if args.time_scale < 0:
         raise process.UsageError(f"--time-scale must be 0 or more, got {args.time_scale}")
+    if not 0.0 <= args.fault_loss < 1.0:
+        raise process.UsageError(f"--fault-loss must be at least 0 and below 1, got {args.fault_loss}")
     scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers)
     if args.twin:
         from world_service import twin_service
@@ -55,7 +60,8 @@ def run_from_args(args: argparse.Namespace) -> int:
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
                                      lockstep=args.lockstep, photo_dir=args.photos)
     session = _open(args)  # before the terrain is built: agents may connect meanwhile
-    bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen)  # a router puts undeclared
+    bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen,  # a router puts undeclared
+              loss=args.fault_loss, loss_seed=scenario.seed)
     with bus, process.stop_on_signals() as stop:
         if args.twin:
             from world_service.twin import TwinWorld

@@ -38,6 +38,11 @@ from world_service.sim import World
 
 log = logging.getLogger("lunarsim.world")
 
+CLOCK_RESEND_S = (0.05, 1.0)
+"""Lockstep: a tick's clock is sent again after the first of these without every ack it waits for, then after
+twice as long each time up to the second. On a reliable link an ack comes within milliseconds and this is never
+needed; on a lossy one a lost clock would otherwise hold the run for ``ack_timeout``. An agent acks a clock it
+has already handled again, and does no more."""
 CAMERA_START_TIMEOUT_S = 60.0
 """How long the clock waits for the camera process to start (about a second here; Numba compiles its loops on a
 first run without a cache, a few seconds)."""
@@ -151,6 +156,7 @@ class Agents:
     desk: IdDesk | None = None
     plan: AckPlan | None = None
     waiting: set[int] = field(default_factory=set)
+    clock: m.Clock | None = None  # lockstep: the last clock sent, sent again while acks are overdue
 
     def arrive(self, alive_key: str, agent: int) -> None:
         self.present.add(alive_key)
@@ -252,6 +258,7 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
 def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) -> None:
     """One tick: due photos, the world's samples, then the clock, naming in lockstep whose ack it waits for."""
     photographer.take(world.tick + 1)
+    world.dropped_messages = sum(bus.inbox.dropped.values())
     out = world.step()
     clock_key = world.keys.clock
     clock = next(message for key, message in out if key == clock_key)
@@ -262,7 +269,7 @@ def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) ->
         agents.waiting = set(agents.plan.ask(world.tick, set(agents.ids.values())))
         if not agents.waiting:
             return  # no agent's timer is due and none has anything to answer: the clock would only cost them
-        clock = clock.model_copy(update={"acks": sorted(agents.waiting)})
+        clock = agents.clock = clock.model_copy(update={"acks": sorted(agents.waiting)})
     elif world.tick % world.clock_period and not world.hold.paused:
         return  # real time: the clock goes out at CLOCK_HZ (a granted step always shows)
     bus.publish(clock_key, clock)
@@ -375,8 +382,14 @@ def _collect_until_acked(world: World, bus: Bus, settings: ClockSettings, stop: 
     what else has arrived (answers no tick waited for, ground commands) without waiting for more."""
     data: list[Received] = []
     deadline = time.monotonic() + settings.ack_timeout
+    backoff = CLOCK_RESEND_S[0]
+    resend_at = time.monotonic() + backoff
     while not stop.is_set():
-        item = bus.receive(timeout=0.5 if agents.waiting else 0)
+        item = bus.receive(timeout=min(0.5, max(0.0, resend_at - time.monotonic())) if agents.waiting else 0)
+        if agents.waiting and agents.clock is not None and time.monotonic() > resend_at:
+            bus.publish(world.keys.clock, agents.clock)
+            backoff = min(2 * backoff, CLOCK_RESEND_S[1])
+            resend_at = time.monotonic() + backoff
         if item is None:
             if not agents.waiting:
                 break

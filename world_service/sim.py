@@ -106,6 +106,8 @@ class World:
         self.progress = ProgressWatch(p.watchdog.stall_after_s)
         self.stalled: frozenset[int] = frozenset()
         self.lander_rejected = 0
+        self._refused_on: dict[int, int] = {}  # rover -> the tick its last refusal was answered on
+        self.refusals_held = 0
         self.dropped_messages = 0  # counted by the service's inbox, reported here
         self.rover_collisions = 0
         self.obstacle_collisions = 0
@@ -171,7 +173,7 @@ class World:
         body = self.bodies[rid]
         reason = self._power_problem(rid) or self._move_problem(body, msg)
         if reason:
-            return [self._refuse(rid, "move", msg.action_id, *reason)]
+            return self._refuse(rid, "move", msg.action_id, *reason)
         slip, turn = self._noise(msg.x, msg.z)
         body.start_move(msg.x, msg.z, slip, turn)
         self.actions.start(rid, msg.action_id, "move", self.tick)
@@ -229,10 +231,10 @@ class World:
             return self._again(rid, record, "rotate")
         body = self.bodies[rid]
         if body.busy:
-            return [self._refuse(rid, "rotate", msg.action_id, "action_in_progress",
-                                 "a move or rotate is still running")]
+            return self._refuse(rid, "rotate", msg.action_id, "action_in_progress",
+                                 "a move or rotate is still running")
         if reason := self._power_problem(rid):
-            return [self._refuse(rid, "rotate", msg.action_id, *reason)]
+            return self._refuse(rid, "rotate", msg.action_id, *reason)
         noise = self.params.navigation.heading_noise_std_deg
         body.start_rotate(msg.degrees + (self.rng.normal(0.0, noise) if noise > 0 else 0.0))
         self.actions.start(rid, msg.action_id, "rotate", self.tick)
@@ -264,7 +266,7 @@ class World:
             return self._again(rid, record, "photo") if record.kind == STALE else []
         body = self.bodies[rid]
         if reason := self._power_problem(rid):
-            return [self._refuse(rid, "photo", msg.action_id, *reason)]
+            return self._refuse(rid, "photo", msg.action_id, *reason)
         self.actions.start(rid, msg.action_id, "photo", self.tick)
         if self.energy is not None:
             self.energy.spend(rid, self.params.power.photo_j)
@@ -513,11 +515,17 @@ class World:
         return self.keys.rover(rid, ks.ACTION_REJECTED), m.ActionRejected(action=action, reason=reason, detail=detail,
                                                                           action_id=action_id)
 
-    def _refuse(self, rid: int, action: str, action_id: int, reason: str, detail: str) -> Out:
-        """A refusal the ledger keeps, so the same action sent again gets the same answer."""
+    def _refuse(self, rid: int, action: str, action_id: int, reason: str, detail: str) -> list[Out]:
+        """A refusal the ledger keeps, so the same action sent again gets the same answer; answered at most once
+        a tick per rover, so a client flooding a rover's actions is not answered at its own rate (an agent whose
+        answer this holds back asks again and gets it from the ledger)."""
         answer = self._reject(rid, action, reason, detail, action_id)
         self.actions.refuse(rid, action_id, action, answer)
-        return answer
+        if self._refused_on.get(rid) == self.tick:
+            self.refusals_held += 1
+            return []
+        self._refused_on[rid] = self.tick
+        return [answer]
 
     def _other_positions(self, rid: int) -> tuple[np.ndarray, np.ndarray]:
         """Every other rover's position; the arrays are built once per tick, however many moves are checked."""
