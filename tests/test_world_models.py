@@ -528,6 +528,7 @@ def test_second_action_while_busy_is_rejected():
     world.step()
     rejection = _only_rejection(_send(world, 1, m.MoveAction(x=0.0, z=3.0)))
     assert (rejection.action, rejection.reason) == ("move", "action_in_progress")
+    world.step()  # a rover gets at most one refusal a tick
     rejection = _only_rejection(_send(world, 1, m.RotateAction(degrees=10.0)))
     assert (rejection.action, rejection.reason) == ("rotate", "action_in_progress")
 

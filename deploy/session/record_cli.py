@@ -90,7 +90,8 @@ def run_from_args(args: argparse.Namespace) -> int:
         sink = SplittingWriter(args.output, info, args.compression, args.split_size, args.split_duration)
     keep = TopicFilter(args.topics, args.exclude)
     with process.stop_on_signals() as stop:
-        recorder = Recorder(session, keys.all, _with_triggers(sink, keys), keep)
+        flush = sink.flush if isinstance(sink, SplittingWriter) else None
+        recorder = Recorder(session, keys.all, _with_triggers(sink, keys), keep, flush=flush)
         if isinstance(sink, RollingBuffer):
             signal.signal(signal.SIGUSR1, lambda *_: _snapshot(sink))
         print(f"recording {keys.all} to {args.output}", flush=True)

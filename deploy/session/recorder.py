@@ -24,17 +24,18 @@ from deploy.session.writer import SessionWriter
 
 log = logging.getLogger("lunarsim.record")
 QUEUE_SAMPLES = 200_000
-
-
+FLUSH_S = 1.0
+"""Seconds between chunk flushes while samples arrive: at most this much of a recording dies with a SIGKILL."""
 
 
 class Recorder:
     """Subscribes to ``key_expr`` and hands every sample that passes ``keep`` to ``sink`` on its own thread."""
 
     def __init__(self, session: zenoh.Session, key_expr: str, sink: Callable[[Sample], None],
-                 keep: TopicFilter | None = None, queue_samples: int = QUEUE_SAMPLES) -> None:
+                 keep: TopicFilter | None = None, queue_samples: int = QUEUE_SAMPLES,
+                 flush: Callable[[], None] | None = None, flush_s: float = FLUSH_S) -> None:
         self.keep = keep or TopicFilter()
-        self.sink = sink
+        self.sink, self.flush, self.flush_s = sink, flush, flush_s
         self.drops: Counter[str] = Counter()
         self.received = 0
         self._queue: queue.Queue[Sample | None] = queue.Queue(maxsize=queue_samples)
@@ -56,11 +57,33 @@ class Recorder:
             self.drops[key] += 1
 
     def _drain(self) -> None:
-        while (sample := self._queue.get()) is not None:
+        pending, last_flush = False, time.monotonic()
+        while True:
             try:
-                self.sink(sample)
-            except Exception:  # a bad sample must not stop the recording of the good ones
-                log.exception("could not write a sample of %s", sample.key)
+                sample = self._queue.get(timeout=self.flush_s)
+            except queue.Empty:
+                sample = ...  # quiet for a while: still flush what is pending
+            if sample is None:
+                return
+            if sample is not ...:
+                pending = self._write(sample) or pending
+            if pending and self.flush is not None and time.monotonic() - last_flush >= self.flush_s:
+                self._flush()
+                pending, last_flush = False, time.monotonic()
+
+    def _write(self, sample: Sample) -> bool:
+        try:
+            self.sink(sample)
+            return True
+        except Exception:  # a bad sample must not stop the recording of the good ones
+            log.exception("could not write a sample of %s", sample.key)
+            return False
+
+    def _flush(self) -> None:
+        try:
+            self.flush()
+        except OSError as exc:  # a full disk: keep receiving, the next flush may succeed
+            log.error("could not flush the recording: %s", exc)
 
     def stop(self) -> None:
         """Stop receiving, then write everything already received."""

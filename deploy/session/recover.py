@@ -7,12 +7,13 @@ from the start; the truncated tail is dropped. The result is rewritten as a prop
 
 from __future__ import annotations
 
+import struct
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from mcap.exceptions import McapError
-from mcap.records import Channel, Message, Metadata, Schema
+from mcap.records import Channel, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import Writer
 
@@ -36,6 +37,8 @@ class Recovered:
 def recover(broken: Path, fixed: Path, compression: str = "zstd") -> Recovered:
     """Copy every complete record of ``broken`` into a new, indexed ``fixed``."""
     result = Recovered()
+    if broken.stat().st_size == 0:
+        raise NotARecording(f"{broken}: empty: its writer never wrote the header")
     with open(broken, "rb") as source, open(fixed, "wb") as target:
         writer = Writer(target, chunk_size=CHUNK_SIZE, compression=COMPRESSION[compression])
         writer.start(profile=PROFILE, library="lunarsim recover")
@@ -44,15 +47,19 @@ def recover(broken: Path, fixed: Path, compression: str = "zstd") -> Recovered:
             for record in StreamReader(source, emit_chunks=False).records:
                 copier.copy(record)
         except McapError as exc:
-            if result.messages == 0 and not copier.schemas and not copier.channels:
+            if not copier.header:
                 fixed.unlink(missing_ok=True)
                 raise NotARecording(f"{broken}: not an MCAP recording ({exc})") from None
-            result.truncated, result.error = True, f"{type(exc).__name__}: {exc}"
-        except (EOFError, ValueError, OSError, KeyError) as exc:  # a chunk cut mid-way, or garbage after it
-            result.truncated, result.error = True, f"{type(exc).__name__}: {exc}"
+            result.truncated, result.error = True, _why(exc)
+        except (EOFError, ValueError, OSError, KeyError, struct.error) as exc:  # a chunk cut mid-way, or garbage after it
+            result.truncated, result.error = True, _why(exc)
         writer.finish()
     result.channels = len(copier.channels)
     return result
+
+
+def _why(exc: Exception) -> str:
+    return f"{type(exc).__name__}: {exc}" if str(exc) else "the file ends in the middle of a record"
 
 
 class _Copier:
@@ -62,9 +69,12 @@ class _Copier:
         self.writer, self.result = writer, result
         self.schemas: dict[int, int] = {}
         self.channels: dict[int, tuple[int, str]] = {}
+        self.header = False
 
     def copy(self, record: object) -> None:
-        if isinstance(record, Schema):
+        if isinstance(record, Header):
+            self.header = True
+        elif isinstance(record, Schema):
             self.schemas[record.id] = self.writer.register_schema(record.name, record.encoding, record.data)
         elif isinstance(record, Channel):
             schema = self.schemas.get(record.schema_id, 0)

@@ -21,7 +21,8 @@ from deploy.session.format import (
 
 COMPRESSION = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
 CHUNK_SIZE = 1 << 20
-"""Bytes per chunk: what a recorder killed mid-run can lose at most (``lunarsim recover`` keeps the rest)."""
+"""Bytes per chunk at most; the recorder also closes a chunk every ``FLUSH_S`` (``lunarsim recover`` keeps
+every closed chunk of a file whose writer was killed)."""
 
 
 class SessionWriter:
@@ -42,6 +43,11 @@ class SessionWriter:
         self.count = 0
         if session:
             self._writer.add_metadata(SESSION_METADATA, session)
+        self.flush()  # the header and the session are on disk before the first sample
+
+    def flush(self) -> None:
+        """Close the chunk in progress and hand it to the OS: what a SIGKILL can lose ends here."""
+        self._writer.flush()
 
     def write(self, sample: Sample) -> None:
         channel = self._channels.get(sample.key)
@@ -99,6 +105,9 @@ class SplittingWriter:
             self._current = current = self._open()
         current.write(sample)
         self.count += 1
+
+    def flush(self) -> None:
+        self._current.flush()
 
     def close(self, drops: Counter[str] | None = None) -> None:
         self._current.close(drops)
