@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from collections.abc import Callable
 
 from deploy import process
 
@@ -45,8 +46,27 @@ def build_parser() -> argparse.ArgumentParser:
         module = importlib.import_module(module_name)
         command = sub.add_parser(name, help=help_text, description=module.__doc__)
         module.add_arguments(command)
-        command.set_defaults(run=module.run_from_args)
+        command.set_defaults(run=_router_first(module.run_from_args) if name == "run" else module.run_from_args)
     return parser
+
+
+Command = Callable[[argparse.Namespace], int]
+
+
+def _router_first(run: Command) -> Command:
+    """``run --connect``: reach the router before anything starts. The launcher would start its recorder and world
+    against it, write the run folder, and give up on them only after half a minute; this fails within
+    ``ONE_SHOT_TIMEOUT_S``, exit code 3, with nothing written."""
+
+    def checked(args: argparse.Namespace) -> int:
+        if args.connect:
+            from deploy.zenoh_config import ONE_SHOT_TIMEOUT_S, build_config, open_session
+
+            open_session(build_config(connect=[args.connect]), args.connect, ONE_SHOT_TIMEOUT_S,
+                         who="lunarsim run").close()
+        return run(args)
+
+    return checked
 
 
 def main(argv: list[str] | None = None) -> int:

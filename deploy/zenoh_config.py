@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import time
 from collections.abc import Sequence
@@ -28,8 +29,17 @@ LunarSim's messages are small: a copy costs microseconds (the runs are in the RE
 may switch it back on."""
 
 
+ONE_SHOT_TIMEOUT_S = 10.0
+"""How long a one-shot tool (and ``lunarsim run --connect``) tries to reach its router before giving up."""
+
+
 class RouterUnreachable(RuntimeError):
     """No Zenoh router (or peer) answered at the configured endpoints."""
+
+
+def reason(exc: zenoh.ZError) -> str:
+    """A Zenoh error without the Rust source location it carries (``... at /root/.cargo/.../x.rs:447.``)."""
+    return re.split(r"\s+at\s+\S+\.rs:\d+", str(exc))[0].strip()
 
 
 def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False, agent: bool = False) -> None:
@@ -48,8 +58,9 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False, a
         group.add_argument("--router-timeout", type=float, default=None, metavar="S",
                            help="give up after S seconds without a router (default: wait for it, saying so)")
     else:
-        group.add_argument("--router-timeout", type=float, default=10.0, metavar="S",
-                           help="seconds to keep trying to reach the router before giving up (default 10)")
+        group.add_argument("--router-timeout", type=float, default=ONE_SHOT_TIMEOUT_S, metavar="S",
+                           help="seconds to keep trying to reach the router before giving up "
+                                f"(default {ONE_SHOT_TIMEOUT_S:g})")
 
 
 def build_config(mode: str = "client", config_file: str | None = None, connect: Sequence[str] | None = None,
@@ -63,14 +74,25 @@ def build_config(mode: str = "client", config_file: str | None = None, connect: 
         conf.insert_json5("scouting/multicast/enabled", "false")
         conf.insert_json5(SHARED_MEMORY, "false")
     if connect:
-        conf.insert_json5("connect/endpoints", json.dumps(list(connect)))
+        _insert_endpoints(conf, "connect", connect)
     elif not path and mode == "client":
         conf.insert_json5("connect/endpoints", json.dumps([DEFAULT_ENDPOINT]))
     if listen:
-        conf.insert_json5("listen/endpoints", json.dumps(list(listen)))
+        _insert_endpoints(conf, "listen", listen)
     if scouting:
         conf.insert_json5("scouting/multicast/enabled", "true")
     return conf
+
+
+def _insert_endpoints(conf: zenoh.Config, which: str, endpoints: Sequence[str]) -> None:
+    """Zenoh parses endpoints here: a typo is the user's, said as such rather than as a Json5 error."""
+    from deploy.process import UsageError
+
+    try:
+        conf.insert_json5(f"{which}/endpoints", json.dumps(list(endpoints)))
+    except zenoh.ZError:
+        raise UsageError(f"--{which} {' '.join(endpoints)}: not a Zenoh endpoint (the form is "
+                         f"<protocol>/<address>, e.g. {DEFAULT_ENDPOINT})") from None
 
 
 def _load(path: str, origin: str) -> zenoh.Config:
@@ -81,7 +103,7 @@ def _load(path: str, origin: str) -> zenoh.Config:
     try:
         return zenoh.Config.from_file(path)
     except zenoh.ZError as exc:
-        raise UsageError(f"Zenoh config file {path!r} (from {origin}) is not valid: {exc}") from None
+        raise UsageError(f"Zenoh config file {path!r} (from {origin}) is not valid: {reason(exc)}") from None
 
 
 def config_from_args(args: argparse.Namespace, mode: str = "client") -> zenoh.Config:
@@ -109,7 +131,7 @@ def open_router(conf: zenoh.Config, listen: Sequence[str], config_file: str | No
     try:
         return zenoh.open(conf)
     except zenoh.ZError as exc:
-        raise UsageError(f"cannot start a router listening on {where}: {exc} "
+        raise UsageError(f"cannot start a router listening on {where}: {reason(exc)} "
                          "(is another router already using the port?)") from None
 
 
@@ -126,7 +148,7 @@ def open_session(conf: zenoh.Config, where: str, timeout_s: float | None = 10.0,
             now = time.monotonic()
             if timeout_s is not None and now - start >= timeout_s:
                 raise RouterUnreachable(
-                    f"{who}: no Zenoh router reachable at {where} after {timeout_s:g} s ({exc}). "
+                    f"{who}: no Zenoh router reachable at {where} after {timeout_s:g} s ({reason(exc)}). "
                     "Start one with 'lunarsim router' or point --connect at a running one."
                 ) from None
             if now >= next_notice:

@@ -31,6 +31,7 @@ import numpy as np
 from schemas import messages as m
 from schemas import png, radio
 from schemas.scenario import Scenario
+from schemas.scenario_limits import MAP_MARGIN_M
 
 CLASSES = ("unknown", "free", "obstacle", "crater", "rover")
 UNKNOWN, FREE, OBSTACLE, CRATER, ROVER = range(len(CLASSES))
@@ -40,7 +41,7 @@ PRECEDENCE = (FREE, CRATER, OBSTACLE)
 """Weakest first: a later class overwrites an earlier one in the same cell."""
 COLOURS = np.array([[40, 40, 40], [200, 200, 190], [220, 40, 30], [90, 110, 200], [40, 200, 60]], np.uint8)
 """PNG colour per class: unknown dark grey, free light grey, obstacle red, crater blue, rover green."""
-MARGIN_M = 30.0
+MARGIN_M = MAP_MARGIN_M
 PNG_MIN_SIDE_PX = 600
 """Cells are drawn as squares of several pixels until the picture's longer side reaches this."""
 NPZ_FILE, PNG_FILE = "map.npz", "map.png"

@@ -9,19 +9,23 @@ import math
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from schemas.scenario_limits import MAX_RATE_HZ, MAX_ROVERS, Coordinate, Rate
+
 
 class Params(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    """Every float must be finite: a nan compares false with every bound, so it would pass them all."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class SpawnParams(Params):
     """Table 3: where ``--rovers N`` places a formation of rovers."""
 
-    rover_count: int = Field(10, ge=1, le=10_000)
-    start_spawn_x: float = -510.0
-    start_spawn_z: float = 100.0
-    spawn_spacing_x: float = Field(10.0, gt=0)
-    spawn_spacing_z: float = Field(10.0, gt=0)
+    rover_count: int = Field(10, ge=1, le=MAX_ROVERS)
+    start_spawn_x: Coordinate = -510.0
+    start_spawn_z: Coordinate = 100.0
+    spawn_spacing_x: float = Field(10.0, gt=0, le=10_000)
+    spawn_spacing_z: float = Field(10.0, gt=0, le=10_000)
     spawn_group_orientation: float = Field(90.0, description="direction in which a row of the formation runs")
     spawn_individual_orientation: float = Field(180.0, description="heading of each rover; 0 = +z, 90 = +x")
 
@@ -58,7 +62,7 @@ class NavigationParams(Params):
     speed_mode_three: float = Field(3.5, gt=0, description="m/s")
     angular_speed: float = Field(120.0, gt=0, description="deg/s while turning towards a move goal")
     acceleration: float = Field(20.0, gt=0, description="m/s^2, linear")
-    publish_frequency: float = Field(5.0, gt=0, description="navigation_status rate, Hz")
+    publish_frequency: Rate = Field(5.0, description="navigation_status rate, Hz")
     max_slope_deg: float = Field(25.0, gt=0, le=90, description="steepest traversable slope; steeper is 'terrain'")
     slope_slowdown: float = Field(0.6, ge=0, lt=1, description="fraction of speed lost climbing at max_slope_deg")
     slip_std: float = Field(0.0, ge=0, le=0.5, description="1-sigma slip as a fraction of each move's length")
@@ -74,8 +78,8 @@ class PerceptionParams(Params):
     field_of_view_degrees: float = Field(210.0, gt=0, le=360)
     perception_radius: float = Field(10.0, gt=0)
     perception_granularity: int = Field(50, ge=2, le=4096)
-    publish_frequency: float = Field(5.0, gt=0, description="perception rate, Hz")
-    gyroscope_frequency: float = Field(20.0, gt=0, description="gyroscope rate, Hz")
+    publish_frequency: Rate = Field(5.0, description="perception rate, Hz")
+    gyroscope_frequency: Rate = Field(20.0, description="gyroscope rate, Hz")
     gyroscope_noise_std_deg: float = Field(0.0, ge=0, le=10, description="1-sigma pitch noise")
 
 
@@ -86,7 +90,7 @@ class CommunicationParams(Params):
     lander_comm_range: float = Field(
         1000.0, gt=0, description="lander radio range, m; set it to comm_range to make the daisy chain matter"
     )
-    partners_frequency: float = Field(1.0, gt=0, description="comm_partners rate, Hz")
+    partners_frequency: Rate = Field(1.0, description="comm_partners rate, Hz")
     line_of_sight: bool = Field(True, description="links need line of sight over terrain and walls")
     antenna_height_m: float = Field(0.3, ge=0, description="rover antenna height above ground, for line of sight")
     lander_antenna_height_m: float = Field(3.0, ge=0, description="the lander's mast, for line of sight")
@@ -127,7 +131,8 @@ class MappingParams(Params):
 
     cell_m: float = Field(1.0, gt=0, le=100, description="side of a map cell, m: the rover keeps one point per "
                                                          "cell and kind, the lander's grid uses the same size")
-    report_period_s: float = Field(3.0, gt=0, description="s between two map reports (and resends) to the lander")
+    report_period_s: float = Field(3.0, ge=1 / MAX_RATE_HZ, le=3600,
+                                   description="s between two map reports (and resends) to the lander")
     max_cells_per_report: int = Field(1500, ge=1, le=20_000, description="bounds one MapReport (5 bytes a cell)")
     max_reports_per_send: int = Field(4, ge=1, description="unacknowledged reports sent at once, oldest first")
 
@@ -161,7 +166,7 @@ class PowerParams(Params):
     low_charge_fraction: float = Field(
         0.5, ge=0, le=1, description="behaviour: below this it does not go into shadow and stops in sun to charge")
     recharge_to_fraction: float = Field(0.95, ge=0, le=1, description="behaviour: charges in sun up to this")
-    publish_frequency: float = Field(1.0, gt=0, description="battery, temperature and sun sensor rate, Hz")
+    publish_frequency: Rate = Field(1.0, description="battery, temperature and sun sensor rate, Hz")
 
     @model_validator(mode="after")
     def _ordered(self) -> PowerParams:

@@ -85,6 +85,10 @@ def load_profile(path: str | Path, name: str | None = None) -> Scenario:
         raise ScenarioError(f"{path}: cannot read profile: {exc.strerror or exc}") from None
     except json.JSONDecodeError as exc:
         raise ScenarioError(f"{path}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{path}: cannot read profile: not UTF-8 text (offset {exc.start})") from None
+    except RecursionError:
+        raise ScenarioError(f"{path}: cannot read profile: nested too deeply") from None
     if not isinstance(profile, dict):
         raise ScenarioError(f"{path}: a profile is a JSON object")
     return profile_to_scenario(profile, name or path.stem)

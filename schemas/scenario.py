@@ -1,35 +1,37 @@
 """Scenario files: a declarative YAML description of one mission, validated by pydantic.
 
-An invalid file raises ``ScenarioError`` with one line naming the file, the field path and the problem.
+An invalid file raises ``ScenarioError`` naming the file, then every problem on a line of its own with its field
+path, so one edit can fix them all. The bounds are in ``schemas.scenario_limits``.
 """
 
 from __future__ import annotations
 
-import difflib
 import math
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from schemas import scenario_limits as limits
 from schemas.params import RoverParams, SpawnParams
+from schemas.scenario_errors import ScenarioError, error_lines, format_error, read_yaml
+from schemas.scenario_limits import Coordinate, SafeName
 
-
-class ScenarioError(ValueError):
-    """A scenario that cannot be used; the message is one line meant for the user."""
+Side = Annotated[float, Field(gt=0, le=limits.MAX_TERRAIN_SIDE_M)]
 
 
 class Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class TerrainSpec(Spec):
-    origin: tuple[float, float] = Field(description="x, z of the terrain's minimum corner, m")
-    size_m: tuple[float, float] = Field(description="extent along x and z, m")
-    resolution_m: float = Field(1.0, gt=0, le=100)
+    origin: tuple[Coordinate, Coordinate] = Field(description="x, z of the terrain's minimum corner, m")
+    size_m: tuple[Side, Side] = Field(description="extent along x and z, m")
+    resolution_m: float = Field(1.0, ge=limits.MIN_RESOLUTION_M, le=100)
     roughness_m: float = Field(0.0, ge=0, description="amplitude of seeded random undulation, m")
-    tile_size_m: float = Field(256.0, gt=0, description="side of a square terrain tile (chunk), loaded on first use")
+    tile_size_m: float = Field(256.0, gt=0, le=limits.MAX_TERRAIN_SIDE_M,
+                               description="side of a square terrain tile (chunk), loaded on first use")
     max_tiles_in_memory: int = Field(64, ge=1, description="tiles kept loaded at most (least recently used go)")
     chunk_activation_range_m: float = Field(
         500.0, gt=0, description="tiles within this distance of a rover stay loaded (report Table 6 "
@@ -40,11 +42,10 @@ class TerrainSpec(Spec):
     mesh_offset: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="added to scaled vertices, m")
 
     @model_validator(mode="after")
-    def _positive_size(self) -> TerrainSpec:
-        if min(self.size_m) <= 0:
-            raise ValueError("size_m must be positive along both axes")
+    def _fits(self) -> TerrainSpec:
         if self.tile_size_m < self.resolution_m:
             raise ValueError("tile_size_m must be at least resolution_m")
+        limits.check_terrain_memory(self.size_m, self.resolution_m, self.tile_size_m, self.max_tiles_in_memory)
         return self
 
     def contains(self, x: float, z: float) -> bool:
@@ -53,26 +54,34 @@ class TerrainSpec(Spec):
 
 
 class LanderSpec(Spec):
-    x: float
-    z: float
-    radius_m: float = Field(1.5, gt=0)
+    x: Coordinate
+    z: Coordinate
+    radius_m: float = Field(1.5, gt=0, le=100)
 
 
 class RoverSpawn(Spec):
-    x: float
-    z: float
+    x: Coordinate
+    z: Coordinate
     heading_deg: float = 180.0
 
 
 class Crater(Spec):
     """A bowl with a raised rim: crest at ``radius_m``, rim falling off outside over ``rim_width`` x radius."""
 
-    x: float
-    z: float
-    radius_m: float = Field(gt=0)
-    depth_m: float | None = Field(None, ge=0, description="default 0.2 x radius")
-    rim_height_m: float | None = Field(None, ge=0, description="default 0.04 x radius")
+    x: Coordinate
+    z: Coordinate
+    radius_m: float = Field(gt=0, le=limits.MAX_CRATER_RADIUS_M)
+    depth_m: float | None = Field(None, ge=0, description="default 0.2 x radius; at most the radius")
+    rim_height_m: float | None = Field(None, ge=0, description="default 0.04 x radius; at most the radius")
     rim_width: float = Field(0.3, gt=0, le=2, description="outer rim width as a fraction of the radius")
+
+    @model_validator(mode="after")
+    def _shallower_than_wide(self) -> Crater:
+        """A bowl deeper than its radius is no crater (simple ones are about a fifth as deep as wide)."""
+        for what, value in (("depth_m", self.depth_m), ("rim_height_m", self.rim_height_m)):
+            if value is not None and value > self.radius_m:
+                raise ValueError(f"{what} ({value:g}) must be at most radius_m ({self.radius_m:g})")
+        return self
 
     @property
     def depth(self) -> float:
@@ -89,26 +98,26 @@ class Crater(Spec):
 
 
 class Rock(Spec):
-    x: float
-    z: float
-    radius_m: float = Field(gt=0)
+    x: Coordinate
+    z: Coordinate
+    radius_m: float = Field(gt=0, le=limits.MAX_ROCK_RADIUS_M)
 
 
 class Wall(Spec):
-    points: list[tuple[float, float]] = Field(min_length=2)
-    thickness_m: float = Field(0.5, gt=0)
-    height_m: float = Field(1.0, gt=0, description="a radio line passing above the wall is not blocked")
+    points: list[tuple[Coordinate, Coordinate]] = Field(min_length=2, max_length=100_000)
+    thickness_m: float = Field(0.5, gt=0, le=1000)
+    height_m: float = Field(1.0, gt=0, le=10_000, description="a radio line passing above the wall is not blocked")
 
 
 class RockField(Spec):
     """Seeded random rocks scattered in a disc: where they fall follows from the scenario's seed."""
 
-    x: float
-    z: float
-    radius_m: float = Field(gt=0, description="radius of the area the rocks fall in")
+    x: Coordinate
+    z: Coordinate
+    radius_m: float = Field(gt=0, le=limits.MAX_TERRAIN_SIDE_M, description="radius of the area the rocks fall in")
     count: int = Field(ge=0, le=100_000)
-    min_radius_m: float = Field(0.3, gt=0)
-    max_radius_m: float = Field(1.2, gt=0)
+    min_radius_m: float = Field(0.3, gt=0, le=limits.MAX_ROCK_RADIUS_M)
+    max_radius_m: float = Field(1.2, gt=0, le=limits.MAX_ROCK_RADIUS_M)
 
     @model_validator(mode="after")
     def _ordered(self) -> RockField:
@@ -124,8 +133,8 @@ class Obstacles(Spec):
 
 
 class Goal(Spec):
-    x: float
-    z: float
+    x: Coordinate
+    z: Coordinate
     kind: Literal["crater", "waypoint"] = "waypoint"
 
 
@@ -171,11 +180,11 @@ class SunSpec(Spec):
 
 
 class Scenario(Spec):
-    name: str = Field(min_length=1)
-    seed: int = 0
+    name: SafeName = Field(description="also the run folder's name: no path in it")
+    seed: int = Field(0, ge=0, lt=limits.SEED_LIMIT)
     terrain: TerrainSpec | None = None
     lander: LanderSpec
-    rovers: list[RoverSpawn] = Field(min_length=1)
+    rovers: list[RoverSpawn] = Field(min_length=1, max_length=limits.MAX_ROVERS)
     craters: list[Crater] = Field(default_factory=list)
     obstacles: Obstacles = Obstacles()
     mission: list[Goal] = Field(min_length=1)
@@ -187,14 +196,32 @@ class Scenario(Spec):
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
-        for i, goal in enumerate(self.mission):
-            if goal.kind == "crater" and self.crater_of(goal) is None:
-                raise ValueError(f"mission.{i}: crater goal ({goal.x}, {goal.z}) lies in no crater")
+        """Every problem at once, one a line starting with its field path (``error_lines`` splits them)."""
+        problems = [f"mission.{i}: crater goal ({goal.x}, {goal.z}) lies in no crater"
+                    for i, goal in enumerate(self.mission) if goal.kind == "crater" and self.crater_of(goal) is None]
         if self.terrain is not None:
-            for what, x, z in self._placed():
-                if not self.terrain.contains(x, z):
-                    raise ValueError(f"{what} ({x}, {z}) lies outside the terrain")
+            problems += [f"{what} ({x}, {z}) lies outside the terrain" for what, x, z in self._placed()
+                         if not self.terrain.contains(x, z)]
+        else:
+            try:
+                self.terrain_spec()
+            except ValidationError as exc:
+                width, depth = self._extent(0.0)
+                problems += [f"terrain: none given, and one fitted around the lander, rovers, goals and craters "
+                             f"({width:,.0f} m x {depth:,.0f} m) would not do: {line}" for line in error_lines(exc)]
+        try:
+            limits.check_map_memory(self._extent(limits.MAP_MARGIN_M), self.rover_params.mapping.cell_m)
+        except ValueError as exc:
+            problems.append(f"rover_params.mapping.cell_m: {exc}")
+        if problems:
+            raise ValueError("\n".join(problems))
         return self
+
+    def _extent(self, margin_m: float) -> tuple[float, float]:
+        """Width and depth of the box around everything placed and every crater's rim, plus ``margin_m``."""
+        xs = [x for _, x, _ in self._placed()] + [c.x + s * c.outer_radius for c in self.craters for s in (-1, 1)]
+        zs = [z for _, _, z in self._placed()] + [c.z + s * c.outer_radius for c in self.craters for s in (-1, 1)]
+        return max(xs) - min(xs) + 2 * margin_m, max(zs) - min(zs) + 2 * margin_m
 
     def _placed(self) -> list[tuple[str, float, float]]:
         spots = [("lander", self.lander.x, self.lander.z)]
@@ -224,12 +251,16 @@ class Scenario(Spec):
         """Apply command-line overrides; ``rovers`` respawns N rovers in the Table 3 formation."""
         update: dict = {}
         if seed is not None:
+            if not 0 <= seed < limits.SEED_LIMIT:
+                raise ScenarioError(f"--seed must be at least 0 and below 2**63, got {seed}")
             update["seed"] = seed
         if rover_params is not None:
             update["rover_params"] = rover_params
         if rovers is not None:
             if rovers < 1:
                 raise ScenarioError(f"--rovers must be at least 1, got {rovers}")
+            if rovers > limits.MAX_ROVERS:
+                raise ScenarioError(f"--rovers must be at most {limits.MAX_ROVERS}, got {rovers}")
             spawn = self.spawn or SpawnParams()
             update["rovers"] = [RoverSpawn(x=x, z=z, heading_deg=h) for x, z, h in spawn.formation(rovers)]
         return parse_scenario({**self.model_dump(), **{k: _dump(v) for k, v in update.items()}}, self.name)
@@ -241,43 +272,21 @@ def _dump(value: object) -> object:
     return value
 
 
-def _format_error(source: str, exc: ValidationError) -> str:
-    """One line: an unknown field first (a typo is the likeliest mistake), with the field it probably meant."""
-    errors = exc.errors()
-    extras = [e for e in errors if e["type"] == "extra_forbidden"]
-    first = extras[0] if extras else errors[0]
-    where = ".".join(str(p) for p in first["loc"]) or "<root>"
-    message = first["msg"]
-    if extras:
-        parent, name = first["loc"][:-1], str(first["loc"][-1])
-        missing = [str(e["loc"][-1]) for e in errors if e["type"] == "missing" and e["loc"][:-1] == parent]
-        guess = difflib.get_close_matches(name, missing, n=1)
-        message = f"unknown field{f' (did you mean {guess[0]!r}?)' if guess else ''}"
-    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-    return f"{source}: {where}: {message}{more}"
-
-
 def parse_scenario(data: object, source: str = "<scenario>") -> Scenario:
     if not isinstance(data, dict):
         raise ScenarioError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
     try:
         return Scenario.model_validate(data)
     except ValidationError as exc:
-        raise ScenarioError(_format_error(source, exc)) from None
+        raise ScenarioError(format_error(source, exc)) from None
 
 
 def load_scenario(path: str | Path) -> Scenario:
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read scenario: {exc.strerror or exc}") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise ScenarioError(f"{path}: not valid YAML{at}: {getattr(exc, 'problem', exc)}") from None
+    data = read_yaml(path, "scenario")
+    if data is None:
+        raise ScenarioError(f"{path}: the scenario file is empty (it should be a YAML mapping with name, lander, "
+                            "rovers and mission)")
     scenario = parse_scenario(data, str(path))
     terrain = scenario.terrain
     if terrain is not None and terrain.mesh and not Path(terrain.mesh).is_absolute():
@@ -302,13 +311,10 @@ def load_rover_params(path: str | Path | None) -> RoverParams:
     if path is None:
         return RoverParams()
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise ScenarioError(f"{path}: cannot read rover parameters: {exc}") from None
+    data = read_yaml(path, "rover parameters") or {}
     if isinstance(data, dict) and ("rover_params" in data or "mission" in data):
         data = data.get("rover_params") or {}
     try:
         return RoverParams.model_validate(data)
     except ValidationError as exc:
-        raise ScenarioError(_format_error(str(path), exc)) from None
+        raise ScenarioError(format_error(str(path), exc)) from None

@@ -118,7 +118,9 @@ def scenario_for(recording: str | Path, override: str | Path | None = None) -> S
     try:
         text = read_metadata(recording).get(SESSION_METADATA, {}).get("scenario")
     except Exception as exc:  # the mcap reader raises many kinds; all mean an unreadable recording
-        raise ScenarioError(f"{recording}: not a readable MCAP recording ({exc})") from None
+        empty = Path(recording).is_file() and Path(recording).stat().st_size == 0
+        detail = "the file is empty" if empty else str(exc) or type(exc).__name__
+        raise ScenarioError(f"{recording}: not a readable MCAP recording ({detail})") from None
     if not text:
         return None
     try:

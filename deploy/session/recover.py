@@ -51,7 +51,8 @@ def recover(broken: Path, fixed: Path, compression: str = "zstd") -> Recovered:
                 fixed.unlink(missing_ok=True)
                 raise NotARecording(f"{broken}: not an MCAP recording ({exc})") from None
             result.truncated, result.error = True, _why(exc)
-        except (EOFError, ValueError, OSError, KeyError, struct.error) as exc:  # a chunk cut mid-way, or garbage after it
+        except (EOFError, ValueError, OSError, KeyError, struct.error) as exc:
+            # a chunk cut mid-way, or garbage after it
             result.truncated, result.error = True, _why(exc)
         writer.finish()
     result.channels = len(copier.channels)
