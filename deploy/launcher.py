@@ -141,6 +141,7 @@ class Mission:
         self.endpoint = args.connect or f"tcp/127.0.0.1:{args.port}"
         self.reported_dead: set[str] = set()
         self.lag = AgentLag()
+        self.rejected = 0  # malformed samples on the keys the launcher follows
 
     def run(self) -> int:
         from deploy.progress import summary_table
@@ -163,6 +164,9 @@ class Mission:
         self.console.print(summary_table(report))
         if behind := self.lag.summary():
             self.console.print(f"[yellow]{behind}[/]")
+        if self.rejected:
+            self.console.print(f"[yellow]ignored {self.rejected} malformed sample(s) on the world's statistics, "
+                               "state and status keys (not from this mission's processes)[/]")
         self.console.print(f"report written to {self.out / 'report.json'}")
         return code
 
@@ -236,18 +240,22 @@ class Mission:
         from deploy.bus import Bus
         from deploy.progress import ProgressView, StartUp
         from deploy.zenoh_config import build_config, open_session
-        from schemas import codec
         from schemas import messages as m
         from schemas.keyspace import STATUS, Keyspace
 
         keys = Keyspace(self.args.world)
         state: bytes | None = None  # the latest WorldState, decoded only when shown
+        last: m.WorldState | None = None
         report = None
         deadline = self._wall_deadline()
         next_view = 0.0
 
         def shown() -> m.WorldState | None:
-            return codec.decode(m.WorldState, state) if state is not None else None
+            nonlocal state, last
+            if state is not None:
+                last = self._decoded(m.WorldState, state) or last
+                state = None
+            return last
 
         session = open_session(build_config(connect=[self.endpoint]), self.endpoint, 10.0, who="lunarsim run")
         start_up = StartUp(len(self.scenario.rovers), keys.alive_lander)
@@ -279,7 +287,9 @@ class Mission:
                 if item.key != keys.stats:
                     self._note_status(keys, item)
                     continue
-                stats = codec.decode(m.WorldStats, item.payload)
+                stats = self._decoded(m.WorldStats, item.payload)
+                if stats is None:
+                    continue
                 self.lag.world(stats.stamp)
                 report = stats.report
                 if stats.final:
@@ -289,19 +299,31 @@ class Mission:
 
     def _note_status(self, keys, item) -> None:
         """A rover's status: is its agent keeping up with the world (``deploy.agent_lag``)?"""
-        from schemas import codec
         from schemas import messages as m
 
         try:
             rover_id, _ = keys.parse_rover_key(item.key)
-            status = codec.decode(m.RoverStatus, item.payload)
-        except (ValueError, codec.DecodeError):
-            return  # nothing to judge the agent by
+        except ValueError:
+            return
+        status = self._decoded(m.RoverStatus, item.payload)
+        if status is None or not 1 <= rover_id <= len(self.scenario.rovers):
+            return  # nothing to judge an agent of this mission by
         if self.lag.status(rover_id, status.stamp):
             self.console.print(f"[yellow]warning: rover {rover_id}'s agent is {self.lag.worst[rover_id]:.1f} s behind "
                                "the world's clock, deciding on old samples. If this machine is short of CPU: in real "
                                "time the agents run below the world's priority, and --agent-priority equal slows the "
                                "world instead[/]")
+
+    def _decoded(self, model, payload: bytes):
+        """A sample on the world's keys, or None for one that is not a ``model``: anyone on the router may publish
+        there, and the launcher must still end the mission and write its report (counted, said at the end)."""
+        from schemas import codec
+
+        try:
+            return codec.decode(model, payload)
+        except codec.DecodeError:
+            self.rejected += 1
+            return None
 
     def _wall_deadline(self) -> float | None:
         if self.args.max_sim_time is None or self.args.lockstep:

@@ -63,6 +63,7 @@ class RoverAgent:
         self.run = ""  # the world's run (Clock.run), once heard
         self.ids = ActionIds()
         self.heard_action = 0  # the last action whose end this agent has heard (RoverStatus.action_id)
+        self.ids_heard = False  # the world's answers name this agent's action ids (a driver's may not)
         self.queries = 0  # actions sent again after silence
         self.lost = False  # restarted mid-mission with no saved state of this run: it does not know where it is
         self.pose: Pose | None = None
@@ -343,10 +344,19 @@ class RoverAgent:
 
     # ---- navigation feedback ----
 
+    def _answered(self, action_id: int) -> InFlight | None:
+        """The navigating action in flight, if an answer naming ``action_id`` is about it. Once an answer has named
+        this agent's own id, one naming 0 is about someone else's id-less action (a ground tool's), not this one."""
+        flight = self.in_flight
+        if flight is None or not flight.navigating:
+            return None
+        self.ids_heard = self.ids_heard or action_id == flight.action_id
+        return flight if flight.mine(action_id, self.ids_heard) else None
+
     def _on_navigation_status(self, msg: m.NavigationStatus) -> list[Out]:
         self.now = max(self.now, msg.stamp)
-        flight = self.in_flight
-        if flight is None or not flight.navigating or not flight.mine(msg.action_id):
+        flight = self._answered(msg.action_id)
+        if flight is None:
             return []  # an old action's end sent again, or a photo's (not a navigation action)
         flight.heard_at = self.now
         if msg.outcome == "running":
@@ -363,8 +373,8 @@ class RoverAgent:
         return []
 
     def _on_cancel_result(self, msg: m.CancelResult) -> list[Out]:
-        flight = self.in_flight
-        if flight is None or not flight.navigating or not flight.mine(msg.action_id):
+        flight = self._answered(msg.action_id)
+        if flight is None:
             return []
         self.pose = flight.start.after_partial(msg.x, msg.z, msg.angle_deg)
         self.behaviour.moved(math.hypot(msg.x, msg.z))
@@ -373,8 +383,8 @@ class RoverAgent:
         return []
 
     def _on_action_rejected(self, msg: m.ActionRejected) -> list[Out]:
-        flight = self.in_flight
-        if flight is None or not flight.navigating or not flight.mine(msg.action_id):
+        flight = self._answered(msg.action_id)
+        if flight is None:
             return []
         if msg.action == "cancel":  # the world never had the action (its sample was lost): the rover did not move
             if msg.action_id == flight.action_id:

@@ -89,7 +89,7 @@ def _state_file(args: argparse.Namespace, rover_id: int) -> Path | None:
         home = Path(os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state")
         path = default_state_file(home, args.world, rover_id)
     elif args.ids is None:
-        return args.state
+        path = args.state
     else:
         path = args.state / f"rover{rover_id}.json"
     try:

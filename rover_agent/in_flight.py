@@ -36,9 +36,10 @@ class InFlight:
     cancel_sent: bool = False
     queries: int = 0
 
-    def mine(self, action_id: int) -> bool:
-        """Whether an answer is about this action (0: from a world or driver that sends no ids)."""
-        return action_id in (0, self.action_id)
+    def mine(self, action_id: int, ids_heard: bool = False) -> bool:
+        """Whether an answer is about this action. 0 comes from a world or driver that sends no ids; once answers
+        have carried ids, a 0 names someone else's id-less action (a ground tool's), never this one."""
+        return action_id == self.action_id or (action_id == 0 and not ids_heard)
 
     @property
     def navigating(self) -> bool:

@@ -48,3 +48,6 @@ def test_pause_step_and_resume_hold_and_release_the_world_clock(router):
         assert world.poll() is None, "the world keeps running"
     finally:
         stop(world)
+    log = world.stdout.read()
+    assert log.count("clock paused by a ground command") == 1, log  # the steps keep it paused: said once
+    assert log.count("clock resumed by a ground command") == 1, log

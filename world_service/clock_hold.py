@@ -3,7 +3,11 @@ controls and ``lunarsim command pause|resume|step``). The world service asks ``h
 
 from __future__ import annotations
 
+import logging
+
 from schemas import messages as m
+
+log = logging.getLogger("lunarsim.world")
 
 
 class ClockHold:
@@ -12,12 +16,20 @@ class ClockHold:
         self.steps_granted = 0  # ticks asked for one at a time while paused
 
     def command(self, command: m.GroundCommand) -> None:
+        """Logged when the hold changes: a paused clock stops every rover until the ground resumes it, so the
+        world's log must say who holds it (any client allowed on the ground command key may)."""
+        was = self.paused
         if command.command == "pause":
             self.paused = True
         elif command.command == "resume":
             self.paused, self.steps_granted = False, 0
         elif command.command == "step":
             self.paused, self.steps_granted = True, self.steps_granted + 1
+        else:
+            return
+        if self.paused != was:
+            log.warning("clock %s by a ground command (request %r)%s", "paused" if self.paused else "resumed",
+                        command.request_id, ": nothing moves until 'lunarsim command resume'" if self.paused else "")
 
     @property
     def waiting(self) -> bool:

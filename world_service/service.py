@@ -219,13 +219,17 @@ def _publish(bus: Bus, agents: Agents, key: str, message: m.Message) -> None:
 
 
 def _note_ack(world: World, agents: Agents, item: Received) -> None:
-    if agents.plan is None:
-        return  # acks matter only in lockstep
+    """Acks matter only in lockstep (agents send none in real time), but a malformed one is counted and logged
+    as any other rejected input, whatever the clock."""
     try:
         ack = codec.decode(m.Ack, item.payload)
+        if agents.plan is None:
+            return
         agent = agents.plan.agent_of(item.key)
+        if agent != ks.LANDER_ID and agent not in world.bodies:
+            raise ValueError(f"no rover {agent} in this scenario")
     except (codec.DecodeError, ValueError) as exc:
-        log.warning("rejected ack on %s: %s", item.key, exc)
+        world.count_rejected(item.key, exc)
         return
     if ack.tick == world.tick:
         agents.waiting.discard(agent)

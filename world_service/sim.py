@@ -155,10 +155,10 @@ class World:
                 raise ValueError(f"topic {topic!r} is not an input of the world")
             return handler(self, rover_id, codec.decode(m.TOPIC_MODELS[topic], payload))
         except (codec.DecodeError, ValueError) as exc:
-            self._count_rejected(key, exc)
+            self.count_rejected(key, exc)
             return []
 
-    def _count_rejected(self, key: str, exc: Exception) -> None:
+    def count_rejected(self, key: str, exc: Exception) -> None:
         """Counted per topic (not per key: forged rover ids would grow the table without end), and logged at
         most ``REJECTION_LOGS`` times a topic, then once every thousandth: a flood must not flood the log too."""
         topic = key.rsplit("/", 1)[-1] if key.startswith(self.keys.prefix + "/") else "<other world>"
