@@ -276,6 +276,44 @@ def test_every_process_reconnects_after_the_router_is_killed_and_restarted_on_it
         stop(run, router)
 
 
+# ---- c2) recorders killed ----
+
+
+@pytest.mark.parametrize("kill_after_s", [1.0, 10.0])
+def test_a_recorder_killed_at_any_moment_loses_at_most_its_last_second(router, tmp_path, kill_after_s):
+    """A second recorder beside the run's own is SIGKILLed ``kill_after_s`` into the mission: what ``recover``
+    makes of its file holds every sample the run's recorder holds up to a second and a half before the kill,
+    and samples from that last second and a half (the recorder flushes every second; half a second for the two
+    recorders' own queues)."""
+    keys = Keyspace("reckill")
+    victim_file, fixed = tmp_path / "victim.mcap", tmp_path / "fixed.mcap"
+    victim = lunarsim("record", "-o", str(victim_file), "--world", keys.world, "--connect", router)
+    run = lunarsim("run", str(CRATER), "--world", keys.world, "--connect", router, "--time-scale", "5", "--quiet",
+                   "--max-sim-time", str(5 * kill_after_s + 30), "--out", str(tmp_path / "run"))
+    watch = Watch(router, keys)
+    try:
+        wait_for(lambda: victim.stdout.readline().startswith("recording"), 20, "the second recorder")
+        wait_for(lambda: watch.state is not None and watch.state.stamp > 0, 60, "the mission's clock running")
+        started = time.monotonic()
+        wait_for(lambda: time.monotonic() - started >= kill_after_s, kill_after_s + 1, "the moment to kill")
+        victim.send_signal(signal.SIGKILL)
+        killed_ns = time.time_ns()
+        victim.wait(timeout=10)
+        assert run.wait(timeout=240) == 0, run.stderr.read()
+    finally:
+        watch.close()
+        stop(run, victim)
+    done = lunarsim("recover", str(victim_file), "-o", str(fixed))
+    assert done.wait(timeout=60) == 0, done.stderr.read()
+    reference = {(s.key, s.payload) for s in read_samples(tmp_path / "run" / "session.mcap")
+                 if s.log_time_ns <= killed_ns - 1_500_000_000}
+    samples = list(read_samples(fixed))
+    recovered = {(s.key, s.payload) for s in samples}
+    assert reference <= recovered, f"{len(reference - recovered)} of {len(reference)} lost"
+    newest_s = (killed_ns - max(s.log_time_ns for s in samples)) / 1e9
+    assert newest_s < 1.5, f"the newest recovered sample is {newest_s:.2f} s older than the kill"
+
+
 # ---- d) malformed payloads ----
 
 
