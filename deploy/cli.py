@@ -20,7 +20,7 @@ COMMANDS = {
     "world": ("world_service.app", "run the world service (simulated terrain, sensors, radio, clock)"),
     "lander": ("lander_agent.app", "run the lander agent"),
     "rover": ("rover_agent.app", "run one rover agent"),
-    "scenario": ("deploy.scenario_cli", "import, export and check scenarios"),
+    "scenario": ("deploy.scenario_cli", "import, export, check and generate scenarios"),
     "command": ("deploy.command_cli", "send a ground command to the lander: set-target, stop, return"),
     "check-behaviour": ("deploy.behaviour_check", "check that a rover behaviour keeps the contract"),
     "record": ("deploy.session.record_cli", "record a world's traffic into an MCAP session file"),

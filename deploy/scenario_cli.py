@@ -1,4 +1,5 @@
-"""``lunarsim scenario import|export|check``: the report's editor profiles and scenario validation."""
+"""``lunarsim scenario import|export|check|generate``: the report's editor profiles, scenario validation and
+seeded scenarios drawn by ``scenarios.generator``."""
 
 from __future__ import annotations
 
@@ -7,9 +8,11 @@ import json
 import sys
 from pathlib import Path
 
+from deploy import process
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="scenario_command", required=True, metavar="{import,export,check}")
+    sub = parser.add_subparsers(dest="scenario_command", required=True, metavar="{import,export,check,generate}")
     imp = sub.add_parser("import", help="scenario YAML from a LunarSim scenario-editor profile (JSON)")
     imp.add_argument("profile", type=Path)
     imp.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.yaml")
@@ -20,6 +23,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     exp.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.json")
     chk = sub.add_parser("check", help="validate a scenario file and summarise it")
     chk.add_argument("scenario", type=Path)
+    gen = sub.add_parser("generate", help="a varied, valid mission drawn from a seed (scenarios/generator.py)")
+    gen.add_argument("--seed", type=int, required=True, metavar="N", help="the same seed gives the same scenario")
+    gen.add_argument("--kind", help="the family: crater, traverse, maze or daisy (default: drawn from the seed "
+                     "too); checked by the generator, which lists them")
+    gen.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.yaml")
 
 
 def run_from_args(args: argparse.Namespace) -> int:
@@ -34,8 +42,29 @@ def run_from_args(args: argparse.Namespace) -> int:
     elif args.scenario_command == "export":
         args.output.write_text(json.dumps(scenario_to_profile(load_scenario(args.scenario))) + "\n")
         print(f"wrote {args.output} (profiles carry no obstacles, terrain or parameters)", file=sys.stderr)
+    elif args.scenario_command == "generate":
+        _generate(args)
     else:
         s = load_scenario(args.scenario)
         print(f"{args.scenario}: ok: {s.name!r}, seed {s.seed}, {len(s.rovers)} rovers, {len(s.craters)} craters, "
-              f"{len(s.obstacles.rocks)} rocks, {len(s.obstacles.walls)} walls, {len(s.mission)} goals")
+              f"{len(s.obstacles.rocks) + sum(f.count for f in s.obstacles.rock_fields)} rocks, "
+              f"{len(s.obstacles.walls)} walls, {len(s.mission)} goals")
     return 0
+
+
+def _generate(args: argparse.Namespace) -> None:
+    from scenarios.generator import generate
+    from schemas.scenario import dump_scenario
+
+    try:
+        made = generate(args.seed, args.kind)
+    except ValueError as exc:
+        raise process.UsageError(str(exc)) from None
+    s = made.scenario
+    head = [f"lunarsim scenario generate --seed {args.seed}" + (f" --kind {args.kind}" if args.kind else ""),
+            "classes: " + ", ".join(f"{k}={v}" for k, v in made.classes.items())]
+    head += [f"rovers {what}: {', '.join(map(str, ids))}" for what, ids in
+             (("starting in a crater", made.in_crater), ("out of radio range", made.out_of_range)) if ids]
+    args.output.write_text("".join(f"# {line}\n" for line in head) + dump_scenario(s))
+    print(f"wrote {args.output}: {s.name!r}, {len(s.rovers)} rovers, {len(s.mission)} goals; "
+          + " ".join(f"{k}={v}" for k, v in made.classes.items()))
