@@ -151,6 +151,7 @@ def aggregate(reports: list[dict]) -> dict:
         "relative_path_length_m": mean("relative_path_length_m"),
         "average_distance_covered_m": mean("average_distance_covered_m"),
         "average_path_efficiency": mean("average_path_efficiency"),
+        "reached_path_efficiency": _reached_efficiency(reports),
         "total_distance_covered_m": mean("total_distance_covered_m"),
         "rovers_reached_final_goal": reached,
         "rovers_total": total,
@@ -164,6 +165,14 @@ def aggregate(reports: list[dict]) -> dict:
         "max_rovers_in_daisy_chain": max(r["max_rovers_in_daisy_chain"] for r in reports),
         "photos_at_lander": sum(r["photos_at_lander"] for r in reports),
     }
+
+
+def _reached_efficiency(reports: list[dict]) -> float | None:
+    """The rovers that reached their goal, over every run: each run's mean weighted by how many did."""
+    weighted = [(r["reached_path_efficiency"], r["rovers_reached_final_goal"]) for r in reports
+                if r.get("reached_path_efficiency") is not None]
+    count = sum(n for _, n in weighted)
+    return round(sum(e * n for e, n in weighted) / count, 4) if count else None
 
 
 def table_2(name: str, reports: list[dict], agg: dict):

@@ -37,7 +37,10 @@ def summary_table(report: m.MissionReport) -> Table:
     rows = [
         ("relative path length (m)", f"{report.relative_path_length_m:.2f}"),
         ("average distance covered (m)", f"{report.average_distance_covered_m:.2f}"),
-        ("average path efficiency", f"{report.average_path_efficiency:.3f}"),
+        ("average path efficiency (report 3.4.7: every rover)", f"{report.average_path_efficiency:.3f}"
+         + (" (above 1: rovers stopped short)" if report.average_path_efficiency > 1 else "")),
+        ("path efficiency of the rovers that reached their goal", "-" if report.reached_path_efficiency is None
+         else f"{report.reached_path_efficiency:.3f}"),
         ("total distance covered (m)", f"{report.total_distance_covered_m:.2f}"),
         ("rovers that reached final goal", f"{report.rovers_reached_final_goal}/{report.rovers_total}"),
         ("rover collisions", str(report.rover_collisions)),

@@ -383,7 +383,11 @@ class MissionReport(Message):
     seed: int
     relative_path_length_m: float
     average_distance_covered_m: float
-    average_path_efficiency: float
+    average_path_efficiency: float = Field(description="the report's: relative path length over the average "
+                                           "distance covered, over every rover; above 1 when rovers stopped short")
+    reached_path_efficiency: float | None = Field(None, description="mean over the rovers that reached their final "
+                                                  "goal of each one's ideal path over the distance it covered (at "
+                                                  "most about 1); None when none reached it")
     total_distance_covered_m: float
     rovers_reached_final_goal: int
     rovers_total: int

@@ -108,6 +108,7 @@ def build_report(
     power: dict | None = None,
     stalled: int = 0,
     counters: WorldCounters | None = None,
+    reached_efficiencies: Sequence[float] = (),
 ) -> MissionReport:
     total = float(sum(distances))
     average = total / len(distances) if distances else 0.0
@@ -118,6 +119,8 @@ def build_report(
         relative_path_length_m=round(path, 4),
         average_distance_covered_m=round(average, 4),
         average_path_efficiency=round(path / average, 6) if average > 0 else 0.0,
+        reached_path_efficiency=(round(sum(reached_efficiencies) / len(reached_efficiencies), 6)
+                                 if reached_efficiencies else None),
         total_distance_covered_m=round(total, 4),
         rovers_reached_final_goal=reached,
         rovers_total=len(distances),
@@ -199,13 +202,27 @@ class MissionStats:
         self.links.update({r.id: r.id in reach for r in state.rovers if r.alive}, len(state.relays), elapsed)
         self.last = state
 
-    def reached(self, state: WorldState) -> int:
-        count = 0
+    def reached(self, state: WorldState) -> list[int]:
+        """Ids of the rovers that finished their final goal and stand at it."""
+        ids = []
         for r in state.rovers:
             final = self.missions.final_index(r.id)
-            count += (r.state == "done" and r.goal_index == final
-                      and at_goal(self.scenario, self.missions.goal(r.id, final), r.x, r.z))
-        return count
+            if (r.state == "done" and r.goal_index == final
+                    and at_goal(self.scenario, self.missions.goal(r.id, final), r.x, r.z)):
+                ids.append(r.id)
+        return ids
+
+    def path_efficiencies(self, state: WorldState, ids: Sequence[int]) -> list[float]:
+        """Each listed rover's ideal path (from its start through its own goals) over the distance it covered:
+        the efficiency of a rover that got there, which stopping short cannot inflate."""
+        rovers = {r.id: r for r in state.rovers}
+        result = []
+        for rid in ids:
+            r, spawn = rovers[rid], self.scenario.rovers[rid - 1]
+            goals = [self.missions.goal(rid, i) for i in range(self.missions.final_index(rid) + 1)]
+            if r.distance_covered_m > 0:
+                result.append(remaining_path(self.scenario, goals, spawn.x, spawn.z) / r.distance_covered_m)
+        return result
 
     def power_fields(self, state: WorldState) -> dict | None:
         """Power budget efficiency, energy and shutdowns; None when the world has no power model."""
@@ -233,10 +250,12 @@ class MissionStats:
         if state is None:
             raise ValueError("no world state observed yet: nothing to report")
         c = state.counters
+        reached = self.reached(state)
         return build_report(
             self.scenario,
             distances=[r.distance_covered_m for r in state.rovers],
-            reached=self.reached(state),
+            reached=len(reached),
+            reached_efficiencies=self.path_efficiencies(state, reached),
             stuck=sum(r.state == "stuck" or r.stalled for r in state.rovers),
             stalled=sum(r.stalled and r.state != "stuck" for r in state.rovers),
             rover_collisions=c.rover_collisions,

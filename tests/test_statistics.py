@@ -1,0 +1,50 @@
+"""Report 3.4.7's statistics from world states: the report's path efficiency and the one over rovers that got there."""
+
+from __future__ import annotations
+
+import pytest
+
+from schemas import messages as m
+from schemas.mission import RoverMissions
+from schemas.scenario import parse_scenario
+from world_service.statistics import MissionStats
+
+SCENARIO = parse_scenario({
+    "name": "two", "lander": {"x": 0.0, "z": 0.0},
+    "rovers": [{"x": 0.0, "z": 10.0}, {"x": 10.0, "z": 10.0}],
+    "mission": [{"x": 0.0, "z": 110.0}],
+})
+
+
+def _truth(rid: int, x: float, z: float, covered: float, state: str) -> m.RoverTruth:
+    return m.RoverTruth(id=rid, x=x, z=z, heading_deg=0.0, action="idle", state=state, goal_index=0,
+                        distance_to_goal_m=0.0, distance_covered_m=covered, alive=True)
+
+
+def _report(*rovers: m.RoverTruth) -> m.MissionReport:
+    stats = MissionStats(SCENARIO, RoverMissions(SCENARIO))
+    stats.observe(m.WorldState(stamp=100.0, rovers=list(rovers), completed_at=100.0))
+    return stats.report()
+
+
+def test_a_rover_that_stopped_short_cannot_raise_the_efficiency_of_those_that_reached():
+    """Rover 1 walks 125 m for its 100 m; rover 2 gives up after 20 m. The report's figure (the mean ideal path
+    over the mean distance walked) comes out above 1; over the rovers that reached it is rover 1's 0.8."""
+    report = _report(_truth(1, 0.0, 110.0, 125.0, "done"), _truth(2, 10.0, 30.0, 20.0, "stuck"))
+    assert report.rovers_reached_final_goal == 1 and report.rovers_stuck == 1
+    ideal = (100.0 + (10.0**2 + 100.0**2) ** 0.5) / 2
+    assert report.average_path_efficiency == pytest.approx(ideal / 72.5, abs=1e-6)
+    assert report.average_path_efficiency > 1
+    assert report.reached_path_efficiency == pytest.approx(100.0 / 125.0)
+
+
+def test_no_rover_reached_gives_no_reached_efficiency():
+    report = _report(_truth(1, 0.0, 30.0, 20.0, "stuck"), _truth(2, 10.0, 30.0, 20.0, "done"))
+    assert report.rovers_reached_final_goal == 0 and report.reached_path_efficiency is None
+
+
+def test_a_stalled_rover_counts_as_stuck_whatever_its_state_name():
+    stalled = _truth(2, 10.0, 30.0, 20.0, "migration").model_copy(update={"stalled": True})
+    report = _report(_truth(1, 0.0, 110.0, 100.0, "done"), stalled)
+    assert report.rovers_stuck == 1 and report.rovers_stalled == 1
+    assert report.reached_path_efficiency == pytest.approx(1.0)
