@@ -160,9 +160,10 @@ def main() -> int:
                 return 1
             time.sleep(3.0)  # a baseline stretch before the flood
             rss_before = rss_mib(world)
-            counter = multiprocessing.Value("q", 0)
-            flooder = multiprocessing.Process(target=flood, args=(endpoint, keys.rover(2, ks.MOVE_ACTION),
-                                                                   args.seconds, counter))
+            spawn = multiprocessing.get_context("spawn")  # a forked child would inherit this Zenoh session's
+            counter = spawn.Value("q", 0)                 # runtime without its threads, and hang in zenoh.open
+            flooder = spawn.Process(target=flood, args=(endpoint, keys.rover(2, ks.MOVE_ACTION), args.seconds,
+                                                        counter))
             start = time.monotonic()
             flooder.start()
             rss_peak = rss_before

@@ -18,6 +18,7 @@ from rover_agent.behaviour import BaseBehaviour
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.mission import calibration
 from schemas.scenario import Scenario
 from world_service.lockstep import AckPlan
 from world_service.sim import PhotoJob, World
@@ -35,8 +36,8 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
     world.lockstep = True
     lander = Lander(MissionPlan(scenario), keys, archive, map_folder)
     params = scenario.rover_params
-    agents = {rid: RoverAgent(rid, keys, params, behaviour(rid, params) if behaviour else None)
-              for rid in world.bodies}
+    agents = {rid: RoverAgent(rid, keys, params, behaviour(rid, params) if behaviour else None,
+                              dispatch=calibration(scenario, rid)) for rid in world.bodies}
     plan = AckPlan(keys, world.dt)
     photos: list[PhotoJob] = []
 
@@ -96,3 +97,4 @@ def _deliver(key, payload, world, lander, agents, keys):
             return world.receive(key, payload)
         return agents[rid].handle(topic, payload)
     return []
+

@@ -16,7 +16,7 @@ from lander_agent.daisy_chain import Chain, plan_chain
 from lander_agent.stations import pick_station, station_offsets
 from schemas import messages as m
 from schemas.frames import bearing_deg
-from schemas.mission import RoverMissions
+from schemas.mission import RoverMissions, calibration
 from schemas.radio import GoalReport, StationRequest
 from schemas.scenario import Goal, Scenario
 
@@ -27,9 +27,7 @@ OBSTACLE_GAP_M = 1.0
 class MissionPlan:
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario
-        lx, lz = scenario.lander.x, scenario.lander.z
-        self.calibration = {i + 1: m.Calibration(x=r.x - lx, z=r.z - lz, heading_deg=r.heading_deg)
-                            for i, r in enumerate(scenario.rovers)}
+        self.calibration = {rid: calibration(scenario, rid) for rid in range(1, len(scenario.rovers) + 1)}
         self.missions = RoverMissions(scenario)
         self.goal_of = dict.fromkeys(self.calibration, 0)
         self.outcome: dict[int, str] = {}

@@ -21,9 +21,11 @@ from rover_agent.behaviour import (
     TakePhoto,
     View,
 )
+from rover_agent.contact import ContactSearch
 from rover_agent.dead_reckoning import Pose
 from rover_agent.in_flight import ActionIds, InFlight
 from rover_agent.map_report import MapRecorder
+from rover_agent.navigation_feedback import NavigationFeedback
 from rover_agent.saved_state import STATE_WRITER, SavedState, load_state
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -51,9 +53,10 @@ JOINED_LATE_S = 2.0
 """An agent whose first clock is later than this joined a mission already under way: a restart."""
 
 
-class RoverAgent:
+class RoverAgent(NavigationFeedback):
     def __init__(self, rover_id: int, keys: ks.Keyspace, params: RoverParams,
-                 behaviour: BaseBehaviour | None = None, state_file: Path | None = None) -> None:
+                 behaviour: BaseBehaviour | None = None, state_file: Path | None = None,
+                 dispatch: m.Calibration | None = None) -> None:
         self.id = rover_id
         self.keys = keys
         self.params = params
@@ -66,6 +69,7 @@ class RoverAgent:
         self.ids_heard = False  # the world's answers name this agent's action ids (a driver's may not)
         self.queries = 0  # actions sent again after silence
         self.lost = False  # restarted mid-mission with no saved state of this run: it does not know where it is
+        self.contact = ContactSearch(rover_id, dispatch)  # what it does while the lander is silent
         self.pose: Pose | None = None
         self.goal: Goal | None = None
         self.now = 0.0
@@ -152,6 +156,7 @@ class RoverAgent:
     def _join(self, clock: m.Clock) -> None:
         """The first clock of a run: resume the saved state if it is this run's; a restart without one is lost."""
         first, self.run = not self.run, clock.run
+        self.contact.heard_at = clock.sim_time  # silence is counted from the first clock of a run
         saved, self.saved = self.saved, None
         if saved is not None and saved.run == clock.run:
             self.pose, self.ids = saved.pose, ActionIds(saved.next_action)
@@ -175,6 +180,9 @@ class RoverAgent:
         return []
 
     def _on_mission_direction(self, msg: m.MissionDirection) -> list[Out]:
+        if self.contact.seeking:  # back in contact: wait for (or take up) the lander's word again
+            self.behaviour.state = "waiting" if self.finished_goal or self.goal is None else self.behaviour.state
+        self.contact.heard(self.now)
         rad = math.radians(msg.bearing_deg)
         goal = Goal(msg.goal_index, msg.goals_total, msg.kind, msg.distance_m * math.sin(rad),
                     msg.distance_m * math.cos(rad), msg.station, msg.shared, msg.relayed)
@@ -263,7 +271,7 @@ class RoverAgent:
 
     def _view(self, stamp: float, pose: Pose, hits: tuple[Hit, ...]) -> View:
         charge = self.battery.fraction if self.battery is not None else None
-        return View(stamp, pose, self.goal, hits, self.pitch[0], charge, self.sunlit)
+        return View(stamp, pose, self.contact.goal or self.goal, hits, self.pitch[0], charge, self.sunlit)
 
     def _on_perception(self, msg: m.Perception) -> list[Out]:
         self.now = max(self.now, msg.stamp)
@@ -273,12 +281,29 @@ class RoverAgent:
             return ask + self._watch(hits)
         if self.pose is not None and msg.stamp >= self.settled_at:  # standing still where dead reckoning says
             self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
-        ready = (self.pose is not None and self.goal is not None and not self.lost and self.finished_goal is None
+        heading_out = (self.goal is not None and self.finished_goal is None) or self._seek_contact()
+        ready = (self.pose is not None and heading_out and not self.lost
                  and self.state not in ("done", "stuck", "stopped") and not self.powered_off
                  and msg.stamp >= self.settled_at and self.pitch[1] >= self.settled_at)
         if not ready:
             return ask
         return ask + self._act(self.behaviour.decide(self._view(msg.stamp, self.pose, hits)))
+
+    def _seek_contact(self) -> bool:
+        """Whether the rover heads for the lander to regain radio contact (``rover_agent.contact``): it waits for
+        the lander's word (at the start, or between goals) and has heard none for a while."""
+        if self.lost or self.powered_off:
+            return False
+        if self.pose is None and (assumed := self.contact.assumed_pose(self.now)) is not None:
+            self.pose = Pose(assumed.x, assumed.z, assumed.heading_deg % 360.0)
+            self._save()
+        waiting = (self.goal is None or self.finished_goal is not None) and (
+            self.state == "waiting" or self.contact.seeking)
+        was = self.contact.seeking
+        goal = self.contact.target(self.now, waiting and self.pose is not None)
+        if goal is not None and not was:
+            self.behaviour.start_goal(goal)
+        return goal is not None
 
     def _ask_station(self) -> list[Out]:
         """Near a waypoint the team shares and with no station yet: ask the lander for one, again every
@@ -311,6 +336,10 @@ class RoverAgent:
         return [self.in_flight.request(self.keys, self.id)]
 
     def _finish(self, outcome: str) -> list[Out]:
+        if self.contact.seeking:  # at the lander's estimated spot, or stuck on the way: wait there for its word
+            self.contact.arrive()
+            self.behaviour.state = "stuck" if outcome == "stuck" else "waiting"
+            return [self._status()]
         goal = self.goal
         self.finished_goal = (goal.index, outcome)
         if outcome in ("stuck", "relay"):
@@ -338,73 +367,11 @@ class RoverAgent:
             detail = "off: battery empty" if self.battery and self.battery.empty else "off: too cold"
         if self.lost:
             detail = "restarted without a saved pose: position unknown"
+        elif self.contact.seeking:
+            detail = self.contact.detail
         return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(
             stamp=self.now, state=self.state, goal_index=index, detail=detail, photos_pending=len(self.photo_outbox),
             action_id=self.heard_action, rejected=self.rejected)
-
-    # ---- navigation feedback ----
-
-    def _answered(self, action_id: int) -> InFlight | None:
-        """The navigating action in flight, if an answer naming ``action_id`` is about it. Once an answer has named
-        this agent's own id, one naming 0 is about someone else's id-less action (a ground tool's), not this one."""
-        flight = self.in_flight
-        if flight is None or not flight.navigating:
-            return None
-        self.ids_heard = self.ids_heard or action_id == flight.action_id
-        return flight if flight.mine(action_id, self.ids_heard) else None
-
-    def _on_navigation_status(self, msg: m.NavigationStatus) -> list[Out]:
-        self.now = max(self.now, msg.stamp)
-        flight = self._answered(msg.action_id)
-        if flight is None:
-            return []  # an old action's end sent again, or a photo's (not a navigation action)
-        flight.heard_at = self.now
-        if msg.outcome == "running":
-            return []
-        if msg.outcome == "completed":
-            decision = flight.decision
-            if isinstance(decision, MoveTo):
-                self.pose = flight.start.after_move(decision.x, decision.z)
-                self.behaviour.moved(math.hypot(decision.x, decision.z))
-            else:
-                self.pose = flight.start.after_rotate(decision.degrees)
-            self._settle(msg.stamp)
-        # otherwise the action ended early: the CancelResult that follows says where the rover stopped
-        return []
-
-    def _on_cancel_result(self, msg: m.CancelResult) -> list[Out]:
-        flight = self._answered(msg.action_id)
-        if flight is None:
-            return []
-        self.pose = flight.start.after_partial(msg.x, msg.z, msg.angle_deg)
-        self.behaviour.moved(math.hypot(msg.x, msg.z))
-        self.behaviour.cancelled(self.now)
-        self._settle(self.now)
-        return []
-
-    def _on_action_rejected(self, msg: m.ActionRejected) -> list[Out]:
-        flight = self._answered(msg.action_id)
-        if flight is None:
-            return []
-        if msg.action == "cancel":  # the world never had the action (its sample was lost): the rover did not move
-            if msg.action_id == flight.action_id:
-                self._settle(self.now)
-            return []
-        if msg.action not in ("move", "rotate"):
-            return []
-        if isinstance(flight.decision, MoveTo):
-            self.behaviour.rejected(math.degrees(math.atan2(flight.decision.x, flight.decision.z)))
-        log.info("rover %d: %s rejected (%s): %s", self.id, msg.action, msg.reason, msg.detail)
-        self._settle(self.now)
-        return []
-
-    def _settle(self, stamp: float) -> None:
-        """The action is over; decide again only on sensor data taken after this moment."""
-        if self.in_flight is not None:
-            self.heard_action = max(self.heard_action, self.in_flight.action_id)
-        self.in_flight = None
-        self.settled_at = stamp
-        self._save()
 
     def _save(self) -> None:
         """Pose, action in flight and next id, written in the background: what a restart resumes from."""

@@ -72,10 +72,20 @@ def run_from_args(args: argparse.Namespace) -> int:
             print(f"rover {granted}: id handed out by the world service", file=sys.stderr, flush=True)
             rover_ids = [granted]
         logging.getLogger("lunarsim.rover").info("%s connected", who)
-        agents = [RoverAgent(rid, keys, params, behaviour_class(rid, params), state_file=_state_file(args, rid))
-                  for rid in rover_ids]
+        agents = [RoverAgent(rid, keys, params, behaviour_class(rid, params), state_file=_state_file(args, rid),
+                             dispatch=_dispatch(args.params, rid)) for rid in rover_ids]
         runtime.run(agents, bus, stop)
     return 0
+
+
+def _dispatch(params: Path | None, rover_id: int):
+    """The planned dispatch pose when ``--params`` is a mission (scenario) file: the fallback for a rover that
+    never hears the lander's calibration (``rover_agent.contact``)."""
+    from schemas.mission import calibration
+    from schemas.scenario import load_mission_file
+
+    scenario = load_mission_file(params)
+    return calibration(scenario, rover_id) if scenario is not None and 1 <= rover_id <= len(scenario.rovers) else None
 
 
 def _state_file(args: argparse.Namespace, rover_id: int) -> Path | None:

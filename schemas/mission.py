@@ -6,8 +6,15 @@ which goal is each rover's final one. One implementation, so the two never disag
 
 from __future__ import annotations
 
-from schemas.messages import GroundCommand
+from schemas.messages import Calibration, GroundCommand
 from schemas.scenario import Goal, Scenario
+
+
+def calibration(scenario: Scenario, rover_id: int) -> Calibration:
+    """Where the lander sets rover ``rover_id`` down, relative to itself: what it tells the rover (dispatch), and
+    what the rover's own mission file says when that word never comes (``rover_agent.contact``)."""
+    spawn = scenario.rovers[rover_id - 1]
+    return Calibration(x=spawn.x - scenario.lander.x, z=spawn.z - scenario.lander.z, heading_deg=spawn.heading_deg)
 
 
 class CommandRefused(ValueError):

@@ -303,6 +303,14 @@ def dump_scenario(scenario: Scenario) -> str:
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
 
 
+def load_mission_file(path: str | Path | None) -> Scenario | None:
+    """The scenario in ``path`` when it is one (a rover's ``--params`` may be a bare parameter file instead)."""
+    if path is None:
+        return None
+    data = read_yaml(Path(path), "rover parameters")
+    return load_scenario(path) if isinstance(data, dict) and "mission" in data else None
+
+
 def load_rover_params(path: str | Path | None) -> RoverParams:
     """Rover parameters from a YAML file: either a bare parameter mapping or a scenario's ``rover_params``.
 
