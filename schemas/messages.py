@@ -386,8 +386,8 @@ class MissionReport(Message):
     average_path_efficiency: float = Field(description="the report's: relative path length over the average "
                                            "distance covered, over every rover; above 1 when rovers stopped short")
     reached_path_efficiency: float | None = Field(None, description="mean over the rovers that reached their final "
-                                                  "goal of each one's ideal path over the distance it covered (at "
-                                                  "most about 1); None when none reached it")
+                                                  "goal, relays aside, of each one's ideal path over the distance "
+                                                  "it covered (at most about 1); None when none did")
     total_distance_covered_m: float
     rovers_reached_final_goal: int
     rovers_total: int

@@ -314,7 +314,8 @@ def load_mission_file(path: str | Path | None) -> Scenario | None:
 def load_rover_params(path: str | Path | None) -> RoverParams:
     """Rover parameters from a YAML file: either a bare parameter mapping or a scenario's ``rover_params``.
 
-    A rover agent reads only these (its own specification), never the rest of a scenario.
+    A rover agent reads these (its own specification) and, from a scenario, only its planned dispatch pose
+    (``load_mission_file``, ``schemas.mission.calibration``), never the rest: the world is for it to sense.
     """
     if path is None:
         return RoverParams()

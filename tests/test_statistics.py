@@ -48,3 +48,14 @@ def test_a_stalled_rover_counts_as_stuck_whatever_its_state_name():
     report = _report(_truth(1, 0.0, 110.0, 100.0, "done"), stalled)
     assert report.rovers_stuck == 1 and report.rovers_stalled == 1
     assert report.reached_path_efficiency == pytest.approx(1.0)
+
+
+def test_a_rover_that_relayed_is_left_out_of_the_reached_efficiency():
+    """A relay held a chain spot instead of walking its goals: its ideal path is not the one it was sent on."""
+    stats = MissionStats(SCENARIO, RoverMissions(SCENARIO))
+    relay, walker = _truth(1, 0.0, 110.0, 20.0, "done"), _truth(2, 0.0, 110.0, 125.0, "done")
+    stats.observe(m.WorldState(stamp=50.0, rovers=[relay, walker], relays=[1]))
+    stats.observe(m.WorldState(stamp=100.0, rovers=[relay, walker], completed_at=100.0))
+    report = stats.report()
+    assert report.rovers_reached_final_goal == 2
+    assert report.reached_path_efficiency == pytest.approx((10.0**2 + 100.0**2) ** 0.5 / 125.0)

@@ -189,6 +189,8 @@ class MissionStats:
     missions: RoverMissions
     links: LinkStats = field(default_factory=LinkStats)
     last: WorldState | None = None
+    relayed: set[int] = field(default_factory=set)
+    """Rovers that have held a daisy-chain spot: sent there instead of along their goals."""
 
     def command(self, command: GroundCommand) -> None:
         """Follow the ground's changes to the mission, so each rover is judged at its real final goal."""
@@ -200,6 +202,7 @@ class MissionStats:
         elapsed = state.stamp - self.last.stamp if self.last is not None else 0.0
         reach = lander_component(state)
         self.links.update({r.id: r.id in reach for r in state.rovers if r.alive}, len(state.relays), elapsed)
+        self.relayed.update(state.relays)
         self.last = state
 
     def reached(self, state: WorldState) -> list[int]:
@@ -214,10 +217,11 @@ class MissionStats:
 
     def path_efficiencies(self, state: WorldState, ids: Sequence[int]) -> list[float]:
         """Each listed rover's ideal path (from its start through its own goals) over the distance it covered:
-        the efficiency of a rover that got there, which stopping short cannot inflate."""
+        the efficiency of a rover that got there, which stopping short cannot inflate. Relays are left out: the
+        lander sent them to a chain spot instead of along their goals, so their ideal path is not theirs."""
         rovers = {r.id: r for r in state.rovers}
         result = []
-        for rid in ids:
+        for rid in (i for i in ids if i not in self.relayed):
             r, spawn = rovers[rid], self.scenario.rovers[rid - 1]
             goals = [self.missions.goal(rid, i) for i in range(self.missions.final_index(rid) + 1)]
             if r.distance_covered_m > 0:
