@@ -10,19 +10,10 @@ import logging
 import math
 from pathlib import Path
 
-from rover_agent.behaviour import (
-    BaseBehaviour,
-    DefaultBehaviour,
-    Finish,
-    Goal,
-    Hit,
-    Hold,
-    MoveTo,
-    TakePhoto,
-    View,
-)
+from rover_agent.behaviour import DefaultBehaviour
 from rover_agent.contact import ContactSearch
 from rover_agent.dead_reckoning import Pose
+from rover_agent.decisions import BaseBehaviour, Finish, Goal, Hit, Hold, MoveTo, TakePhoto, View
 from rover_agent.in_flight import ActionIds, InFlight
 from rover_agent.map_report import MapRecorder
 from rover_agent.navigation_feedback import NavigationFeedback

@@ -18,7 +18,8 @@ lasts, and gives up only after a long time. A rover that walks on without gettin
 (pacing along a wall) switches to routing, and in the end gives up rather than pace for ever.
 
 No I/O here: the runtime feeds a ``View`` and sends what ``decide`` returns, so this is tested with
-scripted sensor data and no router.
+scripted sensor data and no router. The interface every behaviour shares (``View``, the decisions,
+``BaseBehaviour``) is in ``rover_agent.decisions``, importable from here too.
 """
 
 from __future__ import annotations
@@ -27,176 +28,45 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
-from rover_agent.dead_reckoning import Pose
+from rover_agent import free_space
+from rover_agent.decisions import (
+    BaseBehaviour,
+    Decision,
+    Finish,
+    Goal,
+    Hit,
+    Hold,
+    MoveTo,
+    Rotate,
+    TakePhoto,
+    View,
+)
+from rover_agent.free_space import OBSTACLE_MARGIN, ROVER_GAP_CLOSE, ray_angles
 from rover_agent.planner import OccupancyGrid, next_waypoint
 from rover_agent.sunlight import CHARGE, SunSeeker
+from rover_agent.tuning import (
+    BOWL_PITCH,
+    CHARGE_CHECK_S,
+    CLIMB_PITCH,
+    CREST_FACING,
+    CREST_PITCH,
+    CROWD_LOOKS,
+    CROWD_SQUEEZE_S,
+    MAX_BACKS,
+    MAX_BLOCKED_ROTATIONS,
+    MAX_CREST_LOOKS,
+    MAX_CROWD_WAIT_S,
+    NEAR_CREST_PITCH,
+    NO_PROGRESS_ROUTE_M,
+    NO_PROGRESS_WALK_M,
+    RELAY_CLOSE_M,
+    RIGHT_OF_WAY_DEG,
+    STATION_CLOSE_M,
+    WAYPOINT_CLOSE,
+    WAYPOINT_IN_VIEW,
+)
 from schemas.frames import bearing_deg, wrap_deg
 from schemas.params import RoverParams
-
-SOLID_KINDS = frozenset({"rover", "obstacle", "lander", "terrain"})
-OBSTACLE_MARGIN = 0.6
-"""Metres kept between the rover's body and a perceived obstacle; rays are sparse, so stay a bit wide."""
-CLIMB_PITCH = 2.0
-"""Degrees of nose-up pitch that count as having started up the crater rim."""
-CREST_PITCH = 0.5
-"""At or below this pitch, after climbing, the rover stands on the crest."""
-NEAR_CREST_PITCH = 4.0
-"""Below this pitch, after climbing, the crest is close: half steps."""
-CREST_FACING = 30.0
-"""Degrees within which the rover must face the crater for its pitch to say anything about the crest."""
-WAYPOINT_IN_VIEW = 0.9
-"""A waypoint is in view within this fraction of the perception radius (report 6.6)..."""
-WAYPOINT_CLOSE = 0.5
-"""...but the rover walks on to within this fraction, leaving room for dead-reckoning drift, unless rovers
-already there block the way."""
-RELAY_CLOSE_M = 1.5
-"""A relay holds its spot within this distance: the chain's spacing margin is for drift, not for slack."""
-STATION_CLOSE_M = 1.5
-"""A station (the rover's own spot at a shared waypoint) is reached within ``STATION_CLOSE_M``; when the
-rovers standing at theirs leave no way in, wherever the waypoint is in view (the report's rule), but not
-short of the station with the waypoint out of view: that would not be at the goal."""
-MAX_BLOCKED_ROTATIONS = 12
-"""Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
-MAX_CROWD_WAIT_S = 90.0
-"""Seconds without progress among other rovers before giving up: rovers move on, rocks do not."""
-NO_PROGRESS_ROUTE_M = 20.0
-"""Metres walked without getting any closer to the goal before the rover plans a route on its map: the
-greedy scan can pace along a long wall (turn to the goal, slide right, turn, slide left...) without ever
-being blocked everywhere in view, which is what otherwise switches routing on."""
-NO_PROGRESS_WALK_M = 300.0
-"""Metres walked without getting any closer to the goal, routing or not, before giving up."""
-CROWD_SQUEEZE_S = 15.0
-"""After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
-CROWD_LOOKS = 3
-"""While waiting in a crowd, every this many waits the rover rotates to look for another way."""
-RIGHT_OF_WAY_DEG = 10.0
-"""A rover ahead, or to the right of this many degrees left of ahead, has right of way (report 7.2.1)."""
-MAX_CREST_LOOKS = 3
-BOWL_PITCH = 6.0
-"""Degrees nose-down, facing the crater after a climb, that only the bowl's inner wall gives: a step took the
-rover over the crest (the outer rim is still steep just below it, so steps there are whole). When its radio
-route runs through a daisy chain, standing there would hide it from the last relay outside the rim, so it
-turns round and steps back; the crest is then known, and it observes from where it stands once, facing the
-crater, the pitch says it is out of the bowl. Without a chain it observes from the wall, as the report's
-rover does."""
-MAX_BACKS = 3
-CHARGE_CHECK_S = 1.0
-"""While charging in sunlight the rover looks at its battery again this often."""
-ROVER_GAP_CLOSE = 0.5
-"""Metres kept between bodies in close quarters, where rovers step 2 m at a time among others standing
-still: on a crater rim, and near the rover's station at a waypoint."""
-
-
-@dataclass(frozen=True)
-class Hit:
-    angle_deg: float
-    distance_m: float
-    kind: str
-
-
-@dataclass(frozen=True)
-class Goal:
-    index: int
-    total: int
-    kind: str
-    x: float  # lander frame
-    z: float
-    station: tuple[float, float] | None = None  # this rover's spot at a shared waypoint, offset from it
-    shared: bool = False  # a waypoint the team shares: the lander gives out stations on request
-    relayed: bool = False  # a daisy chain stands for this goal: the radio route runs through relays before it
-
-    @property
-    def final(self) -> bool:
-        return self.index >= self.total - 1
-
-    @property
-    def target(self) -> tuple[float, float]:
-        """Where to walk: the goal, or this rover's station at it."""
-        if self.station is None:
-            return self.x, self.z
-        return self.x + self.station[0], self.z + self.station[1]
-
-
-@dataclass(frozen=True)
-class View:
-    time: float
-    pose: Pose
-    goal: Goal
-    hits: tuple[Hit, ...]
-    pitch_deg: float
-    battery: float | None = None  # charge as a share of capacity; None: no power sensors (no sun in the world)
-    sunlit: bool | None = None  # whether the solar panel is lit
-
-
-@dataclass(frozen=True)
-class MoveTo:
-    x: float
-    z: float
-
-
-@dataclass(frozen=True)
-class Rotate:
-    degrees: float
-
-
-@dataclass(frozen=True)
-class Hold:
-    until: float
-
-
-@dataclass(frozen=True)
-class Finish:
-    outcome: str  # "reached" | "stuck" | "relay" (holding a daisy-chain spot)
-
-
-@dataclass(frozen=True)
-class TakePhoto:
-    label: str
-
-
-Decision = MoveTo | Rotate | Hold | TakePhoto | Finish
-
-
-class BaseBehaviour:
-    """What a rover behaviour is to the agent (report 4.4: any behaviour that keeps the interface will do).
-
-    Write your own by subclassing this and implementing ``decide``; select it by name in the scenario
-    (``behaviour: my_package.module:MyBehaviour``) or with ``lunarsim rover --behaviour``, and check it with
-    ``lunarsim check-behaviour``. The agent owns all I/O and keeps one action in flight:
-
-    - ``decide(view)`` is called with fresh sensor data whenever no action is running. Return ``MoveTo``
-      (rover-relative, in view and within the perception radius), ``Rotate``, ``TakePhoto``, ``Hold`` (do
-      nothing until a time) or ``Finish("reached" | "stuck")`` for the current goal.
-    - ``should_cancel(view)`` is asked on every perception while a move runs.
-    - the event hooks below say what happened to the last action; the defaults ignore them.
-    ``state`` is shown to the ground (one of the ``RoverState`` names of schemas.messages).
-    """
-
-    name = "base"
-
-    def __init__(self, rover_id: int, params: RoverParams) -> None:
-        self.rover_id = rover_id
-        self.params = params
-        self.state = "waiting"
-
-    def decide(self, view: View) -> Decision:
-        raise NotImplementedError
-
-    def should_cancel(self, view: View) -> bool:
-        return False
-
-    def start_goal(self, goal: Goal) -> None:
-        self.state = "migration"
-        self._routing = False
-
-    def moved(self, distance: float) -> None:
-        """A move ended (completed or cut short) after ``distance`` metres."""
-
-    def rejected(self, relative_angle: float) -> None:
-        """The rover refused a move in this direction (blocked, out of view or range)."""
-
-    def cancelled(self, now: float) -> None:
-        """A move this behaviour cancelled has come to a stop."""
 
 
 @dataclass
@@ -429,7 +299,7 @@ class DefaultBehaviour(BaseBehaviour):
     def _remember(self, view: View) -> None:
         """Add what is in view to the rover's map: static obstacles where rays hit, free ground where not."""
         p = self.params
-        rays = _ray_angles(p.perception.field_of_view_degrees, p.perception.perception_granularity)
+        rays = ray_angles(p.perception.field_of_view_degrees, p.perception.perception_granularity)
         seen = {round(h.angle_deg, 3) for h in view.hits}
         free = [a for a in rays if round(a, 3) not in seen]
         self._map.observe(view.pose, view.hits, p.perception.perception_radius, free)
@@ -501,28 +371,11 @@ class DefaultBehaviour(BaseBehaviour):
         return Hold(self._hold_until)
 
     def _candidates(self, to_goal: float, window: float) -> list[float]:
-        """Directions to try, nearest the goal first, right before left."""
-        scan = self.params.behaviour.scan_angle
-        out = [to_goal]
-        for k in range(1, int(2 * window / scan) + 2):
-            out += [to_goal + k * scan, to_goal - k * scan]
-        return [a for a in out if abs(a) <= window
-                and all(abs(a - r) > scan / 2 for r in self._rejected)]
+        return free_space.candidates(to_goal, window, self.params.behaviour.scan_angle, self._rejected)
 
     def _free_distance(self, angle: float, hits: tuple[Hit, ...]) -> float:
-        """How far the rover's body can go along ``angle`` before coming too close to a perceived thing."""
-        b = self.params.behaviour
-        free = 0.9 * self.params.perception.perception_radius
-        rover_gap = ROVER_GAP_CLOSE if self._close_quarters else b.extra_distance_between_rovers
-        for h in hits:
-            if h.kind not in SOLID_KINDS:
-                continue
-            clearance = b.rover_radius + (b.rover_radius + rover_gap if h.kind == "rover" else OBSTACLE_MARGIN)
-            delta = math.radians(h.angle_deg - angle)
-            along, across = h.distance_m * math.cos(delta), abs(h.distance_m * math.sin(delta))
-            if across < clearance and along > 0:
-                free = min(free, along - math.sqrt(clearance * clearance - across * across))
-        return max(free, 0.0)
+        gap = ROVER_GAP_CLOSE if self._close_quarters else self.params.behaviour.extra_distance_between_rovers
+        return free_space.free_distance(angle, hits, self.params, gap)
 
 
 class SunIgnoring(DefaultBehaviour):
@@ -532,7 +385,3 @@ class SunIgnoring(DefaultBehaviour):
     name = "sun_ignoring"
     uses_sunlight: ClassVar[bool] = False
 
-
-def _ray_angles(fov_deg: float, count: int) -> list[float]:
-    """The perception's ray angles, as the world casts them (evenly over the field of view)."""
-    return [-fov_deg / 2 + fov_deg * i / (count - 1) for i in range(count)]

@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 from importlib.metadata import entry_points
 
-from rover_agent.behaviour import BaseBehaviour
+from rover_agent.decisions import BaseBehaviour
 
 BUILT_IN = {
     "default": "rover_agent.behaviour:DefaultBehaviour",

@@ -22,7 +22,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 
-from rover_agent.behaviour import Goal
+from rover_agent.decisions import Goal
 from schemas import messages as m
 
 log = logging.getLogger("lunarsim.rover")

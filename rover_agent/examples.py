@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from rover_agent.behaviour import BaseBehaviour, Decision, Finish, MoveTo, Rotate, View
+from rover_agent.decisions import BaseBehaviour, Decision, Finish, MoveTo, Rotate, View
 from schemas.frames import bearing_deg, wrap_deg
 
 SIDESTEP_M = 3.0

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from rover_agent.behaviour import MoveTo, Rotate, TakePhoto
 from rover_agent.dead_reckoning import Pose
+from rover_agent.decisions import MoveTo, Rotate, TakePhoto
 from rover_agent.saved_state import SavedFlight
 from schemas import keyspace as ks
 from schemas import messages as m

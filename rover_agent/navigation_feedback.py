@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 import math
 
-from rover_agent.behaviour import MoveTo
+from rover_agent.decisions import MoveTo
 from rover_agent.in_flight import InFlight
 from schemas import messages as m
 

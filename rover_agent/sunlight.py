@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from rover_agent.behaviour import View
+    from rover_agent.decisions import View
 
 CHARGE = "charge"
 LIT_SPOT_M = 1.0

@@ -1,0 +1,124 @@
+"""What a rover behaviour is to the rover agent: what it sees (``View``), what it may decide, and ``BaseBehaviour``.
+
+Kept apart from the default behaviour so that the planner, the sunlight rules and user behaviours build on the
+interface alone (report 4.4: any behaviour that keeps the interface will do).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rover_agent.dead_reckoning import Pose
+from schemas.params import RoverParams
+
+
+@dataclass(frozen=True)
+class Hit:
+    angle_deg: float
+    distance_m: float
+    kind: str
+
+
+@dataclass(frozen=True)
+class Goal:
+    index: int
+    total: int
+    kind: str
+    x: float  # lander frame
+    z: float
+    station: tuple[float, float] | None = None  # this rover's spot at a shared waypoint, offset from it
+    shared: bool = False  # a waypoint the team shares: the lander gives out stations on request
+    relayed: bool = False  # a daisy chain stands for this goal: the radio route runs through relays before it
+
+    @property
+    def final(self) -> bool:
+        return self.index >= self.total - 1
+
+    @property
+    def target(self) -> tuple[float, float]:
+        """Where to walk: the goal, or this rover's station at it."""
+        if self.station is None:
+            return self.x, self.z
+        return self.x + self.station[0], self.z + self.station[1]
+
+
+@dataclass(frozen=True)
+class View:
+    time: float
+    pose: Pose
+    goal: Goal
+    hits: tuple[Hit, ...]
+    pitch_deg: float
+    battery: float | None = None  # charge as a share of capacity; None: no power sensors (no sun in the world)
+    sunlit: bool | None = None  # whether the solar panel is lit
+
+
+@dataclass(frozen=True)
+class MoveTo:
+    x: float
+    z: float
+
+
+@dataclass(frozen=True)
+class Rotate:
+    degrees: float
+
+
+@dataclass(frozen=True)
+class Hold:
+    until: float
+
+
+@dataclass(frozen=True)
+class Finish:
+    outcome: str  # "reached" | "stuck" | "relay" (holding a daisy-chain spot)
+
+
+@dataclass(frozen=True)
+class TakePhoto:
+    label: str
+
+
+Decision = MoveTo | Rotate | Hold | TakePhoto | Finish
+
+
+class BaseBehaviour:
+    """What a rover behaviour is to the agent (report 4.4: any behaviour that keeps the interface will do).
+
+    Write your own by subclassing this and implementing ``decide``; select it by name in the scenario
+    (``behaviour: my_package.module:MyBehaviour``) or with ``lunarsim rover --behaviour``, and check it with
+    ``lunarsim check-behaviour``. The agent owns all I/O and keeps one action in flight:
+
+    - ``decide(view)`` is called with fresh sensor data whenever no action is running. Return ``MoveTo``
+      (rover-relative, in view and within the perception radius), ``Rotate``, ``TakePhoto``, ``Hold`` (do
+      nothing until a time) or ``Finish("reached" | "stuck")`` for the current goal.
+    - ``should_cancel(view)`` is asked on every perception while a move runs.
+    - the event hooks below say what happened to the last action; the defaults ignore them.
+    ``state`` is shown to the ground (one of the ``RoverState`` names of schemas.messages).
+    """
+
+    name = "base"
+
+    def __init__(self, rover_id: int, params: RoverParams) -> None:
+        self.rover_id = rover_id
+        self.params = params
+        self.state = "waiting"
+
+    def decide(self, view: View) -> Decision:
+        raise NotImplementedError
+
+    def should_cancel(self, view: View) -> bool:
+        return False
+
+    def start_goal(self, goal: Goal) -> None:
+        self.state = "migration"
+        self._routing = False
+
+    def moved(self, distance: float) -> None:
+        """A move ended (completed or cut short) after ``distance`` metres."""
+
+    def rejected(self, relative_angle: float) -> None:
+        """The rover refused a move in this direction (blocked, out of view or range)."""
+
+    def cancelled(self, now: float) -> None:
+        """A move this behaviour cancelled has come to a stop."""

@@ -1,0 +1,46 @@
+"""Where a rover's body can go, from one perception scan: the free distance along a direction, and the directions
+to try (nearest the goal first, right before left as the report turns right). Pure geometry on the hits."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+from rover_agent.decisions import Hit
+from schemas.params import RoverParams
+
+SOLID_KINDS = frozenset({"rover", "obstacle", "lander", "terrain"})
+OBSTACLE_MARGIN = 0.6
+"""Metres kept between the rover's body and a perceived obstacle; rays are sparse, so stay a bit wide."""
+ROVER_GAP_CLOSE = 0.5
+"""Metres kept between bodies in close quarters, where rovers step 2 m at a time among others standing
+still: on a crater rim, and near the rover's station at a waypoint."""
+
+
+def candidates(to_goal: float, window: float, scan: float, rejected: Iterable[float]) -> list[float]:
+    """Directions to try, nearest the goal first, right before left, leaving out those the world refused."""
+    rejected = list(rejected)
+    out = [to_goal]
+    for k in range(1, int(2 * window / scan) + 2):
+        out += [to_goal + k * scan, to_goal - k * scan]
+    return [a for a in out if abs(a) <= window and all(abs(a - r) > scan / 2 for r in rejected)]
+
+
+def free_distance(angle: float, hits: tuple[Hit, ...], params: RoverParams, rover_gap: float) -> float:
+    """How far the rover's body can go along ``angle`` before coming too close to a perceived thing."""
+    b = params.behaviour
+    free = 0.9 * params.perception.perception_radius
+    for h in hits:
+        if h.kind not in SOLID_KINDS:
+            continue
+        clearance = b.rover_radius + (b.rover_radius + rover_gap if h.kind == "rover" else OBSTACLE_MARGIN)
+        delta = math.radians(h.angle_deg - angle)
+        along, across = h.distance_m * math.cos(delta), abs(h.distance_m * math.sin(delta))
+        if across < clearance and along > 0:
+            free = min(free, along - math.sqrt(clearance * clearance - across * across))
+    return max(free, 0.0)
+
+
+def ray_angles(fov_deg: float, count: int) -> list[float]:
+    """The perception's ray angles, as the world casts them (evenly over the field of view)."""
+    return [-fov_deg / 2 + fov_deg * i / (count - 1) for i in range(count)]

@@ -1,0 +1,51 @@
+"""The default behaviour's tuning: thresholds in degrees, metres and seconds, each with the reason for its value.
+Kept apart from the rules that use them (``rover_agent.behaviour``) so they can be read, and changed, together."""
+
+from __future__ import annotations
+
+CLIMB_PITCH = 2.0
+"""Degrees of nose-up pitch that count as having started up the crater rim."""
+CREST_PITCH = 0.5
+"""At or below this pitch, after climbing, the rover stands on the crest."""
+NEAR_CREST_PITCH = 4.0
+"""Below this pitch, after climbing, the crest is close: half steps."""
+CREST_FACING = 30.0
+"""Degrees within which the rover must face the crater for its pitch to say anything about the crest."""
+WAYPOINT_IN_VIEW = 0.9
+"""A waypoint is in view within this fraction of the perception radius (report 6.6)..."""
+WAYPOINT_CLOSE = 0.5
+"""...but the rover walks on to within this fraction, leaving room for dead-reckoning drift, unless rovers
+already there block the way."""
+RELAY_CLOSE_M = 1.5
+"""A relay holds its spot within this distance: the chain's spacing margin is for drift, not for slack."""
+STATION_CLOSE_M = 1.5
+"""A station (the rover's own spot at a shared waypoint) is reached within ``STATION_CLOSE_M``; when the
+rovers standing at theirs leave no way in, wherever the waypoint is in view (the report's rule), but not
+short of the station with the waypoint out of view: that would not be at the goal."""
+MAX_BLOCKED_ROTATIONS = 12
+"""Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
+MAX_CROWD_WAIT_S = 90.0
+"""Seconds without progress among other rovers before giving up: rovers move on, rocks do not."""
+NO_PROGRESS_ROUTE_M = 20.0
+"""Metres walked without getting any closer to the goal before the rover plans a route on its map: the
+greedy scan can pace along a long wall (turn to the goal, slide right, turn, slide left...) without ever
+being blocked everywhere in view, which is what otherwise switches routing on."""
+NO_PROGRESS_WALK_M = 300.0
+"""Metres walked without getting any closer to the goal, routing or not, before giving up."""
+CROWD_SQUEEZE_S = 15.0
+"""After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
+CROWD_LOOKS = 3
+"""While waiting in a crowd, every this many waits the rover rotates to look for another way."""
+RIGHT_OF_WAY_DEG = 10.0
+"""A rover ahead, or to the right of this many degrees left of ahead, has right of way (report 7.2.1)."""
+MAX_CREST_LOOKS = 3
+BOWL_PITCH = 6.0
+"""Degrees nose-down, facing the crater after a climb, that only the bowl's inner wall gives: a step took the
+rover over the crest (the outer rim is still steep just below it, so steps there are whole). When its radio
+route runs through a daisy chain, standing there would hide it from the last relay outside the rim, so it
+turns round and steps back; the crest is then known, and it observes from where it stands once, facing the
+crater, the pitch says it is out of the bowl. Without a chain it observes from the wall, as the report's
+rover does."""
+MAX_BACKS = 3
+CHARGE_CHECK_S = 1.0
+"""While charging in sunlight the rover looks at its battery again this often."""
