@@ -27,9 +27,9 @@ from schemas.scenario import load_scenario
 from world_service import camera
 from world_service.lockstep import AckPlan
 from world_service.photos import CameraProcess, build_ground
-from world_service.service import ClockSettings, Photographer
+from world_service.service import Photographer
 from world_service.sim import World
-from world_service.terrain import DenseView
+from world_service.terrain_views import DenseView, UncachedView
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 KEYS = ks.Keyspace("test")
@@ -189,7 +189,7 @@ def test_the_clock_waits_for_the_camera_process_and_renders_itself_if_it_cannot_
     stop, waits = threading.Event(), []
     process = CameraProcess(scenario)
     try:
-        photographer = Photographer(world, lambda key, message: None, ClockSettings(lockstep=True), process)
+        photographer = Photographer(world, lambda key, message: None, True, process)
         photographer.await_camera(stop, lambda: waits.append(1))
         assert process.started.done() and photographer.camera is process  # up: it will render
     finally:
@@ -198,7 +198,7 @@ def test_the_clock_waits_for_the_camera_process_and_renders_itself_if_it_cannot_
     broken = CameraProcess(scenario)
     for child in set(multiprocessing.active_children()) - others:  # the camera dies while it starts
         os.kill(child.pid, signal.SIGKILL)
-    photographer = Photographer(world, lambda key, message: None, ClockSettings(lockstep=True), broken)
+    photographer = Photographer(world, lambda key, message: None, True, broken)
     photographer.await_camera(stop, lambda: waits.append(1))
     assert photographer.camera is None and "the camera process died" in caplog.text  # photos rendered in the world
     broken.close()
@@ -237,5 +237,5 @@ def test_dropping_rays_above_the_highest_ground_does_not_change_the_photo(crater
     for body in world.bodies.values():
         args = (world.scene, np.zeros(0), np.zeros(0), 0.3, body.x, body.z, body.heading,
                 scenario.rover_params.camera)
-        fast = camera.render(world.terrain.uncached(), *args, tilt_deg=-5.0)  # looking up: much sky
+        fast = camera.render(UncachedView(world.terrain), *args, tilt_deg=-5.0)  # looking up: much sky
         assert np.array_equal(fast, camera.render(_NoBound(world.terrain), *args, tilt_deg=-5.0))

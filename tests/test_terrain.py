@@ -12,8 +12,10 @@ import trimesh
 
 from schemas.scenario import Crater, TerrainSpec
 from world_service import terrain as terrain_module
-from world_service.terrain import Heightmap, crater_profile
-from world_service.terrain_mesh import MeshSurface, export_glb, fit_spec
+from world_service.landforms import crater_profile
+from world_service.terrain import Heightmap
+from world_service.terrain_export import export_glb
+from world_service.terrain_mesh import MeshSurface, fit_spec
 
 CRATERS = [Crater(x=30.0, z=40.0, radius_m=20.0), Crater(x=70.0, z=64.0, radius_m=10.0, rim_width=0.5)]
 SMALL = TerrainSpec(origin=(0.0, 0.0), size_m=(130.0, 110.0), resolution_m=0.5, roughness_m=0.4)

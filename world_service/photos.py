@@ -23,7 +23,8 @@ from schemas.params import RoverParams
 from schemas.scenario import Scenario
 from world_service import camera
 from world_service.scene import Scene
-from world_service.terrain import FULL_GRID_LIMIT, DenseView, Heightmap
+from world_service.terrain import FULL_GRID_LIMIT, Heightmap
+from world_service.terrain_views import DenseView
 
 log = logging.getLogger("lunarsim.world")
 

@@ -20,8 +20,6 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable
-from concurrent.futures import BrokenExecutor, Future
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,7 +30,8 @@ from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from world_service.lockstep import AckPlan
-from world_service.photos import CameraProcess, PhotoJob
+from world_service.photographer import Photographer
+from world_service.photos import CameraProcess
 from world_service.rover_ids import IdDesk
 from world_service.sim import World
 
@@ -43,11 +42,6 @@ CLOCK_RESEND_S = (0.05, 1.0)
 twice as long each time up to the second. On a reliable link an ack comes within milliseconds and this is never
 needed; on a lossy one a lost clock would otherwise hold the run for ``ack_timeout``. An agent acks a clock it
 has already handled again, and does no more."""
-CAMERA_START_TIMEOUT_S = 60.0
-"""How long the clock waits for the camera process to start (about a second here; Numba compiles its loops on a
-first run without a cache, a few seconds)."""
-
-
 @dataclass
 class ClockSettings:
     time_scale: float = 1.0
@@ -57,93 +51,6 @@ class ClockSettings:
     lockstep: bool = False
     ack_timeout: float = 30.0
     photo_dir: Path | None = None
-
-
-class Photographer:
-    """Renders the world's photo jobs in a camera process and publishes (and saves) the PNGs when they are due.
-
-    A photo is due ``capture_time_s`` after its PhotoAction. In real time it goes out as soon as it is both
-    due and rendered; in lockstep exactly on its due tick, waiting for the render if need be, so runs stay
-    reproducible while the render overlaps the ticks before it. Should the camera process die, the photos are
-    rendered here instead, and the run goes on.
-    """
-
-    def __init__(self, world: World, publish: Callable[[str, m.Message], None], settings: ClockSettings,
-                 camera: CameraProcess | None) -> None:
-        self.world, self.publish, self.settings = world, publish, settings
-        self.wait = settings.lockstep
-        self.camera = camera
-        self.queued: list[tuple[PhotoJob, Future]] = []
-        self.waited_s = 0.0  # lockstep: how long the clock waited for renders
-
-    def take(self, tick: int) -> None:
-        """Start the new jobs; publish what is due by ``tick``, the tick about to be stepped."""
-        jobs, self.world.photo_jobs = self.world.photo_jobs, []
-        self.queued += [(job, self._submit(job)) for job in jobs]
-        due = [(job, f) for job, f in self.queued if job.due_tick <= tick and (self.wait or f.done())]
-        for job, future in due:
-            self.queued.remove((job, future))
-            t0 = time.perf_counter()
-            photo = self._result(job, future)
-            self.waited_s += time.perf_counter() - t0
-            self._publish(job, photo)
-
-    def _submit(self, job: PhotoJob) -> Future:
-        if self.camera is not None:
-            try:
-                return self.camera.submit(job)
-            except BrokenExecutor:
-                self._lost_camera()
-        done: Future = Future()
-        done.set_result(self.world.render(job))
-        return done
-
-    def _result(self, job: PhotoJob, future: Future) -> m.Photo:
-        try:
-            return future.result()
-        except BrokenExecutor:
-            self._lost_camera()
-            return self.world.render(job)
-
-    def await_camera(self, stop: threading.Event, waiting: Callable[[], None]) -> None:
-        """Before the clock starts, calling ``waiting`` every half second meanwhile. The camera process's start-up
-        (a second of CPU on this machine: NumPy, Numba's loops, the terrain) would otherwise compete for the cores
-        with the first seconds of the mission, and a five-rover lockstep mission lasts three or four. One that
-        fails to start is lost, as one that dies later; one not up after ``CAMERA_START_TIMEOUT_S`` is left to
-        finish while the mission runs."""
-        if self.camera is None:
-            return
-        deadline = time.monotonic() + CAMERA_START_TIMEOUT_S
-        while not stop.is_set() and time.monotonic() < deadline:
-            try:
-                self.camera.started.result(timeout=0.5)
-                return
-            except TimeoutError:
-                waiting()
-            except BrokenExecutor:
-                self._lost_camera()
-                return
-        if not stop.is_set():
-            log.warning("the camera process is not up after %g s; starting the clock anyway", CAMERA_START_TIMEOUT_S)
-
-    def _lost_camera(self) -> None:
-        if self.camera is not None:
-            log.error("the camera process died; rendering photos in the world's own process from now on")
-            self.camera = None
-
-    def _publish(self, job: PhotoJob, photo: m.Photo) -> None:
-        self.publish(self.world.keys.rover(job.rover_id, ks.PHOTO), photo)
-        if self.settings.photo_dir is not None:
-            self.settings.photo_dir.mkdir(parents=True, exist_ok=True)
-            name = f"rover{job.rover_id}_t{job.stamp:09.2f}{'_' + job.label if job.label else ''}.png"
-            (self.settings.photo_dir / name).write_bytes(photo.png)
-
-    def close(self) -> None:
-        """Publish the photos still on their way, then stop the camera process."""
-        self.wait = True
-        self.take(max((job.due_tick for job, _ in self.queued), default=0))
-        if self.camera is not None:
-            self.camera.close()
 
 
 @dataclass
@@ -300,7 +207,8 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
     camera = (CameraProcess(world.scenario, priority.for_mode("auto", settings.lockstep))
               if world.RENDERS_PHOTOS else None)  # starts while the agents connect
     agents = Agents(world.keys)
-    photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings, camera)
+    photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings.lockstep,
+                                camera, settings.photo_dir)
     try:
         wait_for_agents(world, bus, settings, stop, agents)
         photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock(running=False)))

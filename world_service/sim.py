@@ -7,7 +7,6 @@ Keeping them apart lets the whole world be tested, and later stepped in lockstep
 from __future__ import annotations
 
 import logging
-import math
 import uuid
 from collections import Counter
 from collections.abc import Callable, Iterable
@@ -23,15 +22,17 @@ from schemas.params import RoverParams
 from schemas.scenario import Scenario
 from world_service import navigation as nav
 from world_service import statistics as stats
-from world_service.actions import STALE, ActionLedger, ActionRecord
+from world_service.actions import ActionLedger
 from world_service.clock_hold import ClockHold
 from world_service.energy import Energy
 from world_service.perception import Perceiver
 from world_service.photos import PhotoJob, render_photo
 from world_service.progress import ProgressWatch
-from world_service.radio import CommGraph, build_graph, line_of_sight
-from world_service.scene import Scene, circle_pairs, in_view
+from world_service.scene import Scene, circle_pairs
 from world_service.terrain import Heightmap
+from world_service.terrain_views import UncachedView
+from world_service.world_actions import ActionInputs
+from world_service.world_radio import RadioLink
 
 log = logging.getLogger("lunarsim.world")
 
@@ -73,7 +74,7 @@ def all_finished(status: dict[int, m.RoverStatus], moving: Iterable[bool],
     return not any(reach.get(rid, False) for rid in pending)
 
 
-class World:
+class World(ActionInputs, RadioLink):
     RENDERS_PHOTOS: ClassVar[bool] = True
     """The service starts a camera process for it (a twin's photos come from the rovers' own cameras)."""
 
@@ -167,134 +168,9 @@ class World:
         if n <= REJECTION_LOGS or n % 1000 == 0:
             log.warning("rejected sample on %s: %s (%d on %s so far)", key, exc, n, topic)
 
-    def _on_move(self, rid: int, msg: m.MoveAction) -> list[Out]:
-        if (record := self.actions.known(rid, msg.action_id)) is not None:
-            return self._again(rid, record, "move")
-        body = self.bodies[rid]
-        reason = self._power_problem(rid) or self._move_problem(body, msg)
-        if reason:
-            return self._refuse(rid, "move", msg.action_id, *reason)
-        slip, turn = self._noise(msg.x, msg.z)
-        body.start_move(msg.x, msg.z, slip, turn)
-        self.actions.start(rid, msg.action_id, "move", self.tick)
-        return [self._nav_status(body, "move")]
-
-    def _again(self, rid: int, record: ActionRecord, action: str) -> list[Out]:
-        """An action sent again (its agent heard nothing of it): how it stands, never a second start."""
-        if record.kind == STALE:
-            return [self._reject(rid, action, "stale", "older than the rover's latest action", record.action_id)]
-        if record.answer is not None:
-            return list(record.answer)
-        body = self.bodies[rid]
-        return [self._nav_status(body, record.kind)] if body.busy and record.kind != "photo" else []
-
-    def _power_problem(self, rid: int) -> tuple[str, str] | None:
-        return self.energy.refusal(rid) if self.energy is not None else None
-
-    def _noise(self, x: float, z: float) -> tuple[tuple[float, float], float]:
-        """How a move goes wrong (seeded): the ground slips it by a share of its length, the heading drifts."""
-        nav_p = self.params.navigation
-        sigma = nav_p.slip_std * math.hypot(x, z)
-        turn = self.rng.normal(0.0, nav_p.heading_noise_std_deg) if nav_p.heading_noise_std_deg > 0 else 0.0
-        slip = (self.rng.normal(0.0, sigma), self.rng.normal(0.0, sigma)) if sigma > 0 else (0.0, 0.0)
-        return slip, turn
-
-    def _move_problem(self, body: nav.RoverBody, msg: m.MoveAction) -> tuple[str, str] | None:
-        p = self.params
-        if body.busy:
-            return "action_in_progress", "a move or rotate is still running"
-        if not in_view(msg.x, msg.z, p.perception.field_of_view_degrees):
-            return "out_of_view", f"({msg.x:.2f}, {msg.z:.2f}) is outside the field of view"
-        limit = p.perception.perception_radius * (1 + p.navigation.move_action_tolerance_factor)
-        if math.hypot(msg.x, msg.z) > limit:
-            return "out_of_range", f"{math.hypot(msg.x, msg.z):.2f} m is beyond the {limit:.2f} m perception range"
-        gx, gz = nav.to_world(body.x, body.z, body.heading, msg.x, msg.z)
-        radius = p.behaviour.rover_radius
-        clearance = radius if p.navigation.strict_line_of_sight else 0.0
-        ox, oz = self._other_positions(body.id)
-        if self.scene.line_blocked(body.x, body.z, gx, gz, clearance, ox, oz, radius):
-            return "blocked", "the line to the goal is not clear"
-        if self._too_steep(body.x, body.z, gx, gz):
-            return "blocked", f"the ground on the way is steeper than {p.navigation.max_slope_deg:g} degrees"
-        return None
-
-    def _too_steep(self, x0: float, z0: float, x1: float, z1: float) -> bool:
-        length = math.hypot(x1 - x0, z1 - z0)
-        if length < 1e-9:
-            return False
-        f = np.linspace(0.0, 1.0, max(2, math.ceil(length / 0.5) + 1))
-        pitch = self.terrain.pitch_deg(x0 + f * (x1 - x0), z0 + f * (z1 - z0), np.degrees(np.arctan2(x1 - x0, z1 - z0)))
-        return bool(np.any(pitch > self.params.navigation.max_slope_deg))
-
-    def _on_rotate(self, rid: int, msg: m.RotateAction) -> list[Out]:
-        if (record := self.actions.known(rid, msg.action_id)) is not None:
-            return self._again(rid, record, "rotate")
-        body = self.bodies[rid]
-        if body.busy:
-            return self._refuse(rid, "rotate", msg.action_id, "action_in_progress",
-                                 "a move or rotate is still running")
-        if reason := self._power_problem(rid):
-            return self._refuse(rid, "rotate", msg.action_id, *reason)
-        noise = self.params.navigation.heading_noise_std_deg
-        body.start_rotate(msg.degrees + (self.rng.normal(0.0, noise) if noise > 0 else 0.0))
-        self.actions.start(rid, msg.action_id, "rotate", self.tick)
-        return [self._nav_status(body, "rotate")]
-
-    def _on_cancel(self, rid: int, msg: m.CancelAction) -> list[Out]:
-        """Cancel the running action; a cancel naming an action that has already ended gets that end again."""
-        body = self.bodies[rid]
-        running = self.actions.running_id(rid)
-        if body.busy and msg.action_id in (0, running):
-            body.cancel()
-            return []
-        record = self.actions.started.get(rid)
-        if msg.action_id and record is not None and record.action_id == msg.action_id and record.answer:
-            return list(record.answer)
-        return [self._reject(rid, "cancel", "no_action", "nothing to cancel", msg.action_id)]
-
-    def _on_speed(self, rid: int, msg: m.SpeedAction) -> list[Out]:
-        self.bodies[rid].speed_level = msg.level
-        return []
-
-    def _on_comm_out(self, rid: int, msg: m.OutboundComm) -> list[Out]:
-        return self._radio(rid, msg, from_lander=False)
-
-    def _on_photo_action(self, rid: int, msg: m.PhotoAction) -> list[Out]:
-        """Queue a photo of what the rover sees now; rendering is slow, so the service decides when."""
-        if (record := self.actions.known(rid, msg.action_id)) is not None:
-            # taken already: the photo is on its way (or lost, and the agent gives up on it in time)
-            return self._again(rid, record, "photo") if record.kind == STALE else []
-        body = self.bodies[rid]
-        if reason := self._power_problem(rid):
-            return self._refuse(rid, "photo", msg.action_id, *reason)
-        self.actions.start(rid, msg.action_id, "photo", self.tick)
-        if self.energy is not None:
-            self.energy.spend(rid, self.params.power.photo_j)
-        others = [b for b in self.bodies.values() if b.id != rid]
-        due = self.tick + max(1, round(self.params.camera.capture_time_s / self.dt))
-        self.photo_jobs.append(PhotoJob(rid, self.sim_time, msg.label, due, body.x, body.z, body.heading,
-                                        np.array([b.x for b in others]), np.array([b.z for b in others])))
-        return []
-
     def render(self, job: PhotoJob) -> m.Photo:
         """The photo rendered here (tests, the loopback); the service renders in a ``photos.CameraProcess``."""
-        return render_photo(self.terrain.uncached(), self.scene, self.params, job)
-
-    def _on_status(self, rid: int, msg: m.RoverStatus) -> list[Out]:
-        self.status[rid] = msg
-        self.actions.note_heard(rid, msg.action_id)
-        return []
-
-    _handlers: ClassVar[dict] = {
-        ks.MOVE_ACTION: _on_move,
-        ks.ROTATE_ACTION: _on_rotate,
-        ks.CANCEL_ACTION: _on_cancel,
-        ks.SPEED_ACTION: _on_speed,
-        ks.COMM_OUT: _on_comm_out,
-        ks.STATUS: _on_status,
-        ks.PHOTO_ACTION: _on_photo_action,
-    }
-    INPUT_TOPICS = tuple(_handlers)
+        return render_photo(UncachedView(self.terrain), self.scene, self.params, job)
 
     def _on_ground_command(self, command: m.GroundCommand) -> None:
         """Follow the ground's changes to the mission, so statistics judge each rover's real final goal; pause,
@@ -310,59 +186,6 @@ class World:
         self.alive[rover_id] = alive
         if not alive:
             self.bodies[rover_id].cancel()
-
-    # ---- radio ----
-
-    def _radio(self, sender: int, msg: m.OutboundComm, from_lander: bool) -> list[Out]:
-        if msg.channel != "comm_in" and not from_lander:
-            raise ValueError(f"only the lander may transmit on channel {msg.channel!r}")
-        model = m.RADIO_CHANNEL_MODELS.get(msg.channel)
-        inner = codec.decode(model, msg.payload) if model else None
-        if self.energy is not None and not from_lander:
-            self.energy.spend(sender, self.params.power.radio_transmit_j)
-        out: list[Out] = []
-        for target in msg.targets:
-            if target != ks.LANDER_ID and target not in self.bodies:
-                self.rejected["radio target"] += 1
-                continue
-            if not self.graph.connected(sender, target):
-                self.radio_dropped += 1
-                continue
-            c = self.params.communication
-            if c.loss_probability > 0 and self.radio_rng.random() < c.loss_probability:
-                self.radio_lost += 1
-                continue
-            delivery = self._deliver(sender, target, msg, inner)
-            if c.latency_s > 0:
-                self._in_flight_radio.append((self.tick + max(1, round(c.latency_s / self.dt)), delivery))
-            else:
-                out.append(delivery)
-        return out
-
-    def _due_radio(self) -> list[Out]:
-        due = [d for t, d in self._in_flight_radio if t <= self.tick]
-        self._in_flight_radio = [(t, d) for t, d in self._in_flight_radio if t > self.tick]
-        return due
-
-    def _deliver(self, sender: int, target: int, msg: m.OutboundComm, inner: m.Message | None) -> Out:
-        if inner is not None:
-            return self.keys.rover(target, msg.channel), inner
-        key = self.keys.lander(ks.COMM_IN) if target == ks.LANDER_ID else self.keys.rover(target, ks.COMM_IN)
-        return key, m.InboundComm(sender=sender, payload=msg.payload)
-
-    def _build_graph(self) -> CommGraph:
-        ids = np.array([ks.LANDER_ID, *self.bodies], int)
-        x = np.array([self.scenario.lander.x] + [b.x for b in self.bodies.values()])
-        z = np.array([self.scenario.lander.z] + [b.z for b in self.bodies.values()])
-        c = self.params.communication
-        sight = None
-        if c.line_of_sight:
-            antenna = np.full(len(ids), c.antenna_height_m)
-            antenna[0] = c.lander_antenna_height_m
-
-            def sight(i, j):
-                return line_of_sight(self.terrain, self.scene.edges, self.scene.edge_height, x, z, antenna, i, j)
-        return build_graph(ids, x, z, c.comm_range, c.lander_comm_range, sight)
 
     def _activate_terrain(self) -> None:
         """Chunk activation (report 10.7.1): keep terrain tiles near rovers loaded, let far ones go."""
@@ -510,31 +333,6 @@ class World:
         status = m.NavigationStatus(stamp=self.sim_time, action=action, remaining=round(body.remaining(), 4),
                                     action_id=self.actions.running_id(body.id))
         return self.keys.rover(body.id, ks.NAVIGATION_STATUS), status
-
-    def _reject(self, rid: int, action: str, reason: str, detail: str, action_id: int = 0) -> Out:
-        return self.keys.rover(rid, ks.ACTION_REJECTED), m.ActionRejected(action=action, reason=reason, detail=detail,
-                                                                          action_id=action_id)
-
-    def _refuse(self, rid: int, action: str, action_id: int, reason: str, detail: str) -> list[Out]:
-        """A refusal the ledger keeps, so the same action sent again gets the same answer; answered at most once
-        a tick per rover, so a client flooding a rover's actions is not answered at its own rate (an agent whose
-        answer this holds back asks again and gets it from the ledger)."""
-        answer = self._reject(rid, action, reason, detail, action_id)
-        self.actions.refuse(rid, action_id, action, answer)
-        if self._refused_on.get(rid) == self.tick:
-            self.refusals_held += 1
-            return []
-        self._refused_on[rid] = self.tick
-        return [answer]
-
-    def _other_positions(self, rid: int) -> tuple[np.ndarray, np.ndarray]:
-        """Every other rover's position; the arrays are built once per tick, however many moves are checked."""
-        if self._positions is None:
-            self._positions = (np.array(list(self.bodies)), np.array([b.x for b in self.bodies.values()]),
-                               np.array([b.z for b in self.bodies.values()]))
-        ids, xs, zs = self._positions
-        others = ids != rid
-        return xs[others], zs[others]
 
     # ---- ground truth and statistics ----
 

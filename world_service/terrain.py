@@ -7,9 +7,7 @@ what lets a 50 km² terrain run while only the tiles near rovers are in memory (
 activation). Tiles live in an LRU with a cap (``TerrainSpec.max_tiles_in_memory``); ``keep_near`` loads
 the tiles around the rovers and drops the far ones.
 
-The crater profile, with r = distance / radius: inside, a parabolic bowl rising to the crest
-(``rim_height`` at r = 1); outside, the rim falls off with a half cosine to the plain at 1 + rim_width.
-The crest is the highest point on any radial line, which is what the gyroscope-based climb seeks.
+The layers themselves (undulation, craters) are in ``world_service.landforms``.
 
 Grid node (i, j) sits at (origin_x + i * resolution, origin_z + j * resolution); arrays are indexed
 [j, i] (row = z). Tile (tz, tx) holds nodes tx*T .. tx*T + T along x (T cells per tile, edge nodes shared
@@ -25,11 +23,12 @@ from collections import OrderedDict
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from schemas.scenario import Crater, Scenario, TerrainSpec
+from world_service.landforms import CraterSet, HeightSource, Undulation
 
 if TYPE_CHECKING:
     from world_service.height_grid import HeightGrid
@@ -44,91 +43,6 @@ FEW_POINTS = 8
 """At most this many points are sampled in plain Python (``_sample_few``): below it that is the faster way."""
 TileKey = tuple[int, int]
 """(tz, tx): tile row along z, tile column along x."""
-
-
-def crater_profile(r: np.ndarray, crater: Crater) -> np.ndarray:
-    """Height added by one crater at normalised radius ``r`` (0 at the centre, 1 on the crest)."""
-    bowl = crater.rim_height - crater.depth * (1.0 - r * r)
-    u = np.clip((r - 1.0) / crater.rim_width, 0.0, 1.0)
-    rim = crater.rim_height * 0.5 * (1.0 + np.cos(np.pi * u))
-    return np.where(r < 1.0, bowl, rim)
-
-
-class HeightSource(Protocol):
-    """A base surface under the procedural layers (an imported mesh, a raster): heights on a node block."""
-
-    def block(self, x0: float, z0: float, resolution: float, nx: int, nz: int) -> np.ndarray:
-        """Heights, shape (nz, nx), at nodes (x0 + i * resolution, z0 + j * resolution)."""
-        ...
-
-
-@dataclass(frozen=True)
-class Undulation:
-    """Gentle seeded ground roll: a few long-wavelength sinusoids, a pure function of (x, z)."""
-
-    k: np.ndarray
-    cos_a: np.ndarray
-    sin_a: np.ndarray
-    phase: np.ndarray
-    amplitude: float
-
-    @classmethod
-    def draw(cls, amplitude: float, rng: np.random.Generator, waves: int = 6) -> Undulation:
-        """Draw the waves in the same order the untiled generator did, so seeded worlds are unchanged."""
-        params = []
-        for _ in range(waves):
-            wavelength = rng.uniform(20.0, 120.0)
-            angle = rng.uniform(0, 2 * np.pi)
-            phase = rng.uniform(0, 2 * np.pi)
-            params.append((2 * np.pi / wavelength, np.cos(angle), np.sin(angle), phase))
-        k, c, s, p = (np.array(v) for v in zip(*params, strict=True))
-        return cls(k, c, s, p, amplitude)
-
-    def grid(self, xs: np.ndarray, zs: np.ndarray) -> np.ndarray:
-        """Values on the grid xs (columns) x zs (rows).
-
-        Each wave is separable, sin(a(x) + b(z)) = sin a cos b + cos a sin b, so a tile costs sines of its
-        rows and columns plus two outer products per wave instead of a sine per node (10x faster).
-        """
-        out = np.zeros((zs.size, xs.size))
-        for k, c, s, p in zip(self.k, self.cos_a, self.sin_a, self.phase, strict=True):
-            a, b = k * c * xs + p, k * s * zs
-            out += np.cos(b)[:, None] * np.sin(a)[None, :]
-            out += np.sin(b)[:, None] * np.cos(a)[None, :]
-        return out * (self.amplitude / self.k.size)
-
-
-@dataclass(frozen=True)
-class CraterSet:
-    """Craters as arrays, so finding the ones that reach a tile is one vectorised test."""
-
-    craters: tuple[Crater, ...]
-    x: np.ndarray
-    z: np.ndarray
-    reach: np.ndarray  # outer radius: where the rim meets the plain
-
-    @classmethod
-    def of(cls, craters: Iterable[Crater]) -> CraterSet:
-        cs = tuple(craters)
-        return cls(cs, np.array([c.x for c in cs]), np.array([c.z for c in cs]),
-                   np.array([c.radius_m * (1.0 + c.rim_width) for c in cs]))
-
-    def reaching(self, x0: float, x1: float, z0: float, z1: float) -> np.ndarray:
-        """Indices of craters whose rim reaches the rectangle [x0, x1] x [z0, z1]."""
-        dx = np.maximum(np.maximum(x0 - self.x, self.x - x1), 0.0)
-        dz = np.maximum(np.maximum(z0 - self.z, self.z - z1), 0.0)
-        return np.flatnonzero(np.hypot(dx, dz) < self.reach)
-
-    def add_to(self, out: np.ndarray, xs: np.ndarray, zs: np.ndarray) -> None:
-        """Add every crater reaching the block to ``out`` (rows zs, columns xs), only over its own footprint."""
-        for index in self.reaching(xs[0], xs[-1], zs[0], zs[-1]):
-            c, reach = self.craters[index], self.reach[index]
-            i0, i1 = np.searchsorted(xs, [c.x - reach, c.x + reach], side="left")
-            j0, j1 = np.searchsorted(zs, [c.z - reach, c.z + reach], side="left")
-            i1, j1 = min(i1 + 1, xs.size), min(j1 + 1, zs.size)
-            r = np.hypot(xs[None, i0:i1] - c.x, zs[j0:j1, None] - c.z) / c.radius_m
-            near = r < 1.0 + c.rim_width
-            out[j0:j1, i0:i1][near] += crater_profile(r[near], c)
 
 
 @dataclass
@@ -393,10 +307,6 @@ class Heightmap:
         roll = self.undulation.amplitude if self.undulation is not None else 0.0
         return roll + sum(max(c.rim_height, 0.0) for c in self.craters.craters)
 
-    def uncached(self) -> UncachedView:
-        """A height-only view that never touches the tile cache: safe beside the world's own thread."""
-        return UncachedView(self)
-
     def gradient(self, x, z) -> tuple[np.ndarray, np.ndarray]:
         """(dh/dx, dh/dz) at the points: the ground's rise per metre along +x and +z."""
         gx, gz = self._sample(("slope_x", "slope_z"), x, z)
@@ -465,34 +375,6 @@ class Heightmap:
                 out[rows.start - j0:rows.stop - j0, cols.start - i0:cols.stop - i0] = \
                     g[rows.start - tile.j0:rows.stop - tile.j0, cols.start - tile.i0:cols.stop - tile.i0]
         return out
-
-
-class DenseView:
-    """The whole height grid held at once, sampled by compiled loops (``HeightGrid``): for the camera's hundreds
-    of thousands of samples a photo. Same bilinear formula, so the same values as the Heightmap's; only for
-    terrains small enough to assemble (``FULL_GRID_LIMIT``)."""
-
-    def __init__(self, terrain: Heightmap) -> None:
-        self._grid = terrain.grid(0, terrain.nx - 1, 0, terrain.nz - 1, cache=False)
-
-    def height(self, x, z) -> np.ndarray:
-        return self._grid.height(x, z)
-
-    def grid_around(self, x: float, z: float, reach: float) -> HeightGrid:
-        return self._grid
-
-
-class UncachedView:
-    """``height(x, z)`` of a Heightmap, sampled with ``cache=False`` (the camera renders off the world thread)."""
-
-    def __init__(self, terrain: Heightmap) -> None:
-        self._terrain = terrain
-
-    def height(self, x, z) -> np.ndarray:
-        return self._terrain.height(x, z, cache=False)
-
-    def grid_around(self, x: float, z: float, reach: float) -> HeightGrid:
-        return self._terrain.grid_around(x, z, reach, cache=False)
 
 
 def _groups(ids: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:
