@@ -1,7 +1,7 @@
 """Packaging hook: build the web front end (three.js, bundled by esbuild) before the Python package is built.
 
-``pip install .`` runs ``npm ci && npm run build`` in ``deploy/web/frontend`` when the bundle is missing or
-older than its sources, so the wheel carries ``deploy/web/static/bundle.js`` and the page needs no CDN.
+``pip install .`` runs ``npm ci && npm run build`` in ``web/frontend`` when the bundle is missing or
+older than its sources, so the wheel carries ``web/static/bundle.js`` and the page needs no CDN.
 Everything else about the package is in pyproject.toml.
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 from setuptools import setup
 from setuptools.command.build_py import build_py
 
-FRONTEND = Path(__file__).resolve().parent / "deploy" / "web" / "frontend"
+FRONTEND = Path(__file__).resolve().parent / "web" / "frontend"
 BUNDLE = FRONTEND.parent / "static" / "bundle.js"
 
 

@@ -15,7 +15,7 @@ return) and for each rover's role (formation, in_crater, out_of_range):
   goal and whether it ever heard the lander (it holds a goal index only once a mission direction reached it).
 ``MissionReport`` carries no per-rover figures, so they come from the world's last published state.
 
-Path: ``deploy.loopback.run_mission``, the world, lander and rover agents wired in one process through their pure
+Path: ``harness.loopback.run_mission``, the world, lander and rover agents wired in one process through their pure
 handlers, every message still through the codec, the world waiting on each tick for exactly the agents it would
 wait for in lockstep (``AckPlan``); an agent publishing on a tick nobody waits for is an error there. No test
 compares it with ``lunarsim run --lockstep`` (tests/test_loopback_mission.py runs its missions, test_e2e_run.py
@@ -46,7 +46,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
 
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from scenarios.generator import CLASS_VALUES, GeneratedScenario, generate
 from schemas.scenario import Scenario
 from world_service import statistics as stats

@@ -31,12 +31,12 @@ from pathlib import Path
 import zenoh
 from host import describe, line
 
+from bus.zenoh_config import build_config
 from deploy.children import wait_for_port
-from deploy.session.format import read_samples
-from deploy.zenoh_config import build_config
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace
+from sessions.format import read_samples
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIO = REPO / "scenarios" / "crater_observation.yaml"

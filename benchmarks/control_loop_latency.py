@@ -19,9 +19,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import math
-import platform
 import queue
 import signal
 import socket
@@ -33,9 +31,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import zenoh
+from latency_summary import Summary, print_table, write_json
 
+from bus.zenoh_config import RouterUnreachable, build_config, open_session
 from deploy.children import Children, port_in_use, wait_for_port
-from deploy.zenoh_config import RouterUnreachable, build_config, open_session
 from rover_agent.agent import RoverAgent
 from rover_agent.dead_reckoning import Pose
 from schemas import codec
@@ -47,8 +46,6 @@ from schemas.params import RoverParams
 WORLD = "bench"
 ROVER_ID = 1
 HOST = "127.0.0.1"
-TARGET_P50_MS = 1.0
-TARGET_P99_MS = 5.0
 LOOP_DT_S = 0.2
 """Simulated seconds per loop: Perception at t, action over at t + LOOP_DT_S / 2, next Perception at t + LOOP_DT_S."""
 GOAL_AHEAD_M = 100.0
@@ -104,35 +101,6 @@ class ScriptedWorld:
         gx, gz = self.goal
         return m.MissionDirection(goal_index=self.goal_index, goals_total=GOALS_TOTAL, kind="waypoint",
                                   bearing_deg=bearing_deg(gx, gz), distance_m=math.hypot(gx, gz))
-
-
-# ---- statistics ----
-
-
-@dataclass(frozen=True)
-class Summary:
-    loops: int
-    p50_ms: float
-    p90_ms: float
-    p99_ms: float
-    max_ms: float
-    mean_ms: float
-
-    @classmethod
-    def of(cls, samples_ns: list[int]) -> Summary:
-        s = sorted(samples_ns)
-        return cls(len(s), _ms(_percentile(s, 50)), _ms(_percentile(s, 90)), _ms(_percentile(s, 99)),
-                   _ms(s[-1]), _ms(sum(s) / len(s)))
-
-
-def _percentile(sorted_ns: list[int], p: float) -> int:
-    """Nearest-rank percentile: the smallest sample with at least p % of the samples at or below it."""
-    rank = max(1, math.ceil(p / 100 * len(sorted_ns)))
-    return sorted_ns[rank - 1]
-
-
-def _ms(ns: float) -> float:
-    return ns / 1e6
 
 
 # ---- over Zenoh: router and rover as processes ----
@@ -317,54 +285,6 @@ def measure_in_process(loops: int, warmup: int) -> list[int]:
     return samples
 
 
-# ---- report ----
-
-
-def verdict(value_ms: float, target_ms: float) -> str:
-    return "PASS" if value_ms < target_ms else "FAIL"
-
-
-def print_table(zenoh_summary: Summary, local: Summary, endpoint: str, missed: int,
-                args: argparse.Namespace) -> None:
-    rows = [("over Zenoh (world -> router -> rover -> router -> world)", zenoh_summary),
-            ("agent only, in process (decode + decide + encode)", local)]
-    print(f"\nControl-loop latency: Perception -> MoveAction, rover {ROVER_ID}, router {endpoint}, "
-          f"{args.warmup} warm-up loops not counted, {args.gap_ms:g} ms idle gap between loops")
-    print(f"{'':58}{'loops':>7}{'p50':>9}{'p90':>9}{'p99':>9}{'max':>9}{'mean':>9}   (ms)")
-    for label, s in rows:
-        print(f"{label:58}{s.loops:>7}{s.p50_ms:>9.3f}{s.p90_ms:>9.3f}{s.p99_ms:>9.3f}{s.max_ms:>9.3f}"
-              f"{s.mean_ms:>9.3f}")
-    z = zenoh_summary
-    print(f"\nTarget p50 < {TARGET_P50_MS:g} ms: {z.p50_ms:.3f} ms  {verdict(z.p50_ms, TARGET_P50_MS)}")
-    print(f"Target p99 < {TARGET_P99_MS:g} ms: {z.p99_ms:.3f} ms  {verdict(z.p99_ms, TARGET_P99_MS)}")
-    print(f"Perceptions the rover ignored (it took them before the previous NavigationStatus/Gyroscope; "
-          f"a fresh one was sent after {args.stall_ms:g} ms): {missed}")
-    if z.p50_ms > 0:
-        print(f"Agent share of the median round trip: {100 * local.p50_ms / z.p50_ms:.0f} %")
-
-
-def write_json(path: Path, zenoh_summary: Summary, local: Summary, args: argparse.Namespace, endpoint: str,
-               missed: int) -> None:
-    doc = {
-        "benchmark": "control_loop_latency",
-        "endpoint": endpoint,
-        "loops": args.loops,
-        "warmup": args.warmup,
-        "gap_ms": args.gap_ms,
-        "stall_ms": args.stall_ms,
-        "missed_perceptions": missed,
-        "python": platform.python_version(),
-        "platform": platform.platform(),
-        "zenoh": vars(zenoh_summary),
-        "in_process": vars(local),
-        "targets": {
-            "p50_ms": TARGET_P50_MS, "p99_ms": TARGET_P99_MS,
-            "p50_pass": zenoh_summary.p50_ms < TARGET_P50_MS, "p99_pass": zenoh_summary.p99_ms < TARGET_P99_MS,
-        },
-    }
-    path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-
-
 # ---- command line ----
 
 
@@ -422,7 +342,7 @@ def run(args: argparse.Namespace) -> int:
             children.stop(grace_s=5.0)  # SIGTERM, then SIGKILL after 5 s
     local = measure_in_process(args.loops, args.warmup)
     z, loc = Summary.of(over_zenoh.samples_ns), Summary.of(local)
-    print_table(z, loc, endpoint, over_zenoh.missed, args)
+    print_table(z, loc, endpoint, over_zenoh.missed, args, ROVER_ID)
     if args.json:
         write_json(args.json, z, loc, args, endpoint, over_zenoh.missed)
         print(f"figures written to {args.json}")

@@ -30,8 +30,8 @@ import zenoh
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from bus.zenoh_config import build_config  # noqa: E402
 from deploy.flight.build_wheel import build  # noqa: E402
-from deploy.zenoh_config import build_config  # noqa: E402
 from schemas.keyspace import Keyspace  # noqa: E402
 
 SETTLE_S = 3.0

@@ -29,7 +29,7 @@ import zenoh
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
 
-from deploy.zenoh_config import build_config
+from bus.zenoh_config import build_config
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m

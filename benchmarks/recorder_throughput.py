@@ -24,13 +24,13 @@ from pathlib import Path
 
 from world_scale import MOVE, SCENARIO, drive
 
-from deploy.bus import Bus
+from bus.bus import Bus
+from bus.zenoh_config import build_config, open_session
 from deploy.children import wait_for_port
-from deploy.session.format import DROPS_METADATA, read_metadata, read_samples
-from deploy.zenoh_config import build_config, open_session
 from schemas import codec
 from schemas import keyspace as ks
 from schemas.scenario import load_scenario
+from sessions.format import DROPS_METADATA, read_metadata, read_samples
 from world_service.sim import World
 
 

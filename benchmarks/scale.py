@@ -19,7 +19,7 @@ for every series). The benchmark process watches through the same router (see sc
   lockstep measurement is run ``--lockstep-repeats`` times, interleaved with the others, and its median kept;
 - start-up: from spawning the rover processes until the benchmark sees every rover's liveliness token.
 
-The agents run at the CPU priority ``lunarsim run`` gives them (``--agent-priority``, see deploy/priority.py):
+The agents run at the CPU priority ``lunarsim run`` gives them (``--agent-priority``, see bus/priority.py):
 in real time below the world's. The benchmark's own observer keeps the default priority; the witness process
 runs at the agents', so its delivery figures are those a rover agent's Zenoh thread sees.
 
@@ -51,13 +51,12 @@ from pathlib import Path
 import host
 import scale_witness
 from control_loop_latency import BenchmarkError, free_port
+from proc_meter import ProcessMeter, cpu_seconds, with_descendants
 from scale_observe import (
     Observer,
-    ProcessMeter,
     agent_lag,
     clock_missing,
     combined_latency,
-    cpu_seconds,
     delivery,
     drop_events,
     late_events,
@@ -65,15 +64,14 @@ from scale_observe import (
     no_collector_pauses,
     schedule_lateness,
     sim_rate,
-    with_descendants,
 )
 from scale_report import holds, print_report, slopes, targets
 from world_scale import SCENARIO
 
-from deploy import priority
+from bus import priority
+from bus.priority import Priority, lower
+from bus.zenoh_config import RouterUnreachable, build_config, open_session
 from deploy.children import Children, wait_for_port
-from deploy.priority import Priority, lower
-from deploy.zenoh_config import RouterUnreachable, build_config, open_session
 from rover_agent.app import PRELOAD
 from schemas import keyspace as ks
 from schemas.scenario import Scenario, dump_scenario, load_scenario
@@ -136,7 +134,7 @@ class Cluster:
         self.children = Children(logs, preload=PRELOAD)
         self.plan, self.scenario_file, self.scenario = plan, scenario_file, scenario
         self.agents = agents
-        """The agents' CPU priority (``deploy.priority``), as ``lunarsim run`` would give them."""
+        """The agents' CPU priority (``bus.priority``), as ``lunarsim run`` would give them."""
         self.router_process = router_process
         self.port = free_port()
         self.endpoint = f"tcp/{HOST}:{self.port}"

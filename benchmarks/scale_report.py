@@ -17,7 +17,7 @@ RTF_TOLERANCE = 0.005
 the clock samples at the window's ends; a factor within this of 1.0 holds real time."""
 AGENT_LAG_LIMIT_MS = 1000.0
 """A shared-process count holds real time only if the sampled agents also keep up: their status no later than
-this (p99) after the world's tick it answers. Below the world's priority (``deploy.priority``) agents that cannot
+this (p99) after the world's tick it answers. Below the world's priority (``bus.priority``) agents that cannot
 keep up no longer slow the world's clock, so its factor alone would call a run whose agents fall behind holding."""
 LOCKSTEP_TARGET = 20.0
 STARTUP_TARGET_S = 20.0
@@ -45,7 +45,7 @@ def print_report(doc: dict) -> None:
           [routing])
     priorities = sorted({f"{r['mode']} {r['agent_priority']}" for r in rows if "agent_priority" in r})
     if priorities:
-        print(f"the agents' CPU priority against the world (deploy/priority.py): {', '.join(priorities)}; a shared "
+        print(f"the agents' CPU priority against the world (bus/priority.py): {', '.join(priorities)}; a shared "
               f"count holds real time if the world keeps pace and the sampled agents' lag p99 is at most "
               f"{AGENT_LAG_LIMIT_MS:g} ms")
     if rows:

@@ -18,8 +18,8 @@ from pathlib import Path
 
 from scale_observe import ClockMark, Observer, Reading, no_collector_pauses
 
-from deploy import process
-from deploy.zenoh_config import build_config, open_session
+from bus import process
+from bus.zenoh_config import build_config, open_session
 from schemas.keyspace import Keyspace
 
 

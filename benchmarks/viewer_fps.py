@@ -61,7 +61,7 @@ def synthetic_state(n: int, t: float, lander: tuple[float, float]):
 
 
 def publish(endpoint: str, rovers: list[int], rate: float, stop: threading.Event, current: list[int]) -> None:
-    from deploy.zenoh_config import build_config, open_session
+    from bus.zenoh_config import build_config, open_session
     from schemas import codec
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario

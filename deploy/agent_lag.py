@@ -1,6 +1,6 @@
 """Whether the rover agents keep up with the world's clock, judged from their status (``lunarsim run`` says so).
 
-In real time the agents run below the world's priority (``deploy.priority``): on a machine short of CPU the
+In real time the agents run below the world's priority (``bus.priority``): on a machine short of CPU the
 world keeps its pace and the agents fall behind it, where at equal priority the world itself would slow down.
 An agent behind the world decides on old samples, as a slow flight computer would, which a user should know.
 A status carries the agent's own time (the newest stamp it has handled); the world's time comes from its

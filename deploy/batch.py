@@ -20,7 +20,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from deploy import process
+from bus import process
 
 TABLE_WIDTH = 140
 """Columns of the printed table when the output is not a terminal (a log, CI): wide enough for every figure."""

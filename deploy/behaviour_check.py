@@ -12,7 +12,7 @@ import argparse
 import math
 from pathlib import Path
 
-from deploy import process
+from bus import process
 
 DEFAULT_SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "crater_observation.yaml"
 
@@ -70,7 +70,7 @@ def scripted_problems(cls, params) -> list[str]:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    from deploy.loopback import run_mission
+    from harness.loopback import run_mission
     from rover_agent.behaviours import UnknownBehaviour, load_behaviour
     from schemas.scenario import load_scenario
 

@@ -6,8 +6,6 @@ even when the launcher itself is killed with SIGKILL.
 
 from __future__ import annotations
 
-import contextlib
-import ctypes
 import os
 import signal
 import socket
@@ -19,18 +17,11 @@ from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from deploy.priority import Priority, lower
+from bus.priority import Priority, lower
+from deploy.lifeline import die_with_parent
 
 if TYPE_CHECKING:
     from deploy.warm_start import WarmProcess
-
-PR_SET_PDEATHSIG = 1
-
-
-def die_with_parent() -> None:
-    with contextlib.suppress(OSError):  # not Linux: the launcher's own shutdown still stops children
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
-
 
 def _child_setup(priority: Priority) -> None:
     die_with_parent()
@@ -48,7 +39,7 @@ class Children:
               priority: Priority = "equal") -> subprocess.Popen | WarmProcess:
         """``python -m module args``, logging into ``<log_dir>/<name>.log``; ``warm``: forked from the warm
         server, for the many agents of one run, which would otherwise each spend their start importing;
-        ``priority``: its CPU priority against this machine's other processes (``deploy.priority``)."""
+        ``priority``: its CPU priority against this machine's other processes (``bus.priority``)."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
         if warm:
             from deploy import warm_start

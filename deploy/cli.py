@@ -11,7 +11,7 @@ import importlib
 import sys
 from collections.abc import Callable
 
-from deploy import process
+from bus import process
 
 COMMANDS = {
     "run": ("deploy.launcher", "run a whole mission locally: router, world, lander and rovers"),
@@ -23,16 +23,16 @@ COMMANDS = {
     "scenario": ("deploy.scenario_cli", "import, export, check and generate scenarios"),
     "command": ("deploy.command_cli", "send a ground command to the lander: set-target, stop, return"),
     "check-behaviour": ("deploy.behaviour_check", "check that a rover behaviour keeps the contract"),
-    "record": ("deploy.session.record_cli", "record a world's traffic into an MCAP session file"),
-    "replay": ("deploy.session.replay_cli", "replay a recorded session onto Zenoh with its original timing"),
-    "recover": ("deploy.session.recover_cli", "recover the readable part of a recording cut short"),
-    "report": ("deploy.session.report_cli", "mission statistics and a trajectory plot from a recording alone"),
-    "export-foxglove": ("deploy.session.export_cli",
+    "record": ("sessions.record_cli", "record a world's traffic into an MCAP session file"),
+    "replay": ("sessions.replay_cli", "replay a recorded session onto Zenoh with its original timing"),
+    "recover": ("sessions.recover_cli", "recover the readable part of a recording cut short"),
+    "report": ("sessions.report_cli", "mission statistics and a trajectory plot from a recording alone"),
+    "export-foxglove": ("sessions.export_cli",
                         "write Foxglove channels (3D scene, transforms, photos) for a recording"),
-    "view": ("deploy.session.view_cli", "a live world or replay in the browser (--foxglove: in the Foxglove app)"),
-    "bridge": ("deploy.hardware.bridge_app", "put one real rover (a hardware driver) on a rover's keys"),
-    "emulate-device": ("deploy.hardware.emulator", "an emulated serial rover base on a pseudo-terminal"),
-    "check-driver": ("deploy.hardware.check_cli", "drive a hardware driver through the interface, list violations"),
+    "view": ("web.view_cli", "a live world or replay in the browser (--foxglove: in the Foxglove app)"),
+    "bridge": ("hardware.bridge_app", "put one real rover (a hardware driver) on a rover's keys"),
+    "emulate-device": ("hardware.emulator", "an emulated serial rover base on a pseudo-terminal"),
+    "check-driver": ("hardware.check_cli", "drive a hardware driver through the interface, list violations"),
     "acl": ("deploy.security.acl_cli", "secured router config: TLS, mTLS, passwords, access control per role"),
 }
 
@@ -60,7 +60,7 @@ def _router_first(run: Command) -> Command:
 
     def checked(args: argparse.Namespace) -> int:
         if args.connect:
-            from deploy.zenoh_config import ONE_SHOT_TIMEOUT_S, build_config, open_session
+            from bus.zenoh_config import ONE_SHOT_TIMEOUT_S, build_config, open_session
 
             open_session(build_config(connect=[args.connect]), args.connect, ONE_SHOT_TIMEOUT_S,
                          who="lunarsim run").close()

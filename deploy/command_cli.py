@@ -19,17 +19,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-import uuid
 
-from deploy import process
-from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+from bus.ground_commands import RESEND_S, build_command
+from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
 
 EXIT_REFUSED = 1
 EXIT_NO_ANSWER = 4
-RESEND_S = 1.0
-"""Unanswered mission commands go again this often (the lander answers a repeat without acting twice)."""
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("command", choices=["set-target", "stop", "return", "snapshot", "pause", "resume",
                                             "step", "seek"])
@@ -43,25 +38,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_zenoh_arguments(parser)
 
 
-def build_command(command: str, rover: int | None = None, x: float | None = None, z: float | None = None,
-                  kind: str = "waypoint", seconds: float | None = None):
-    """A GroundCommand with a fresh request id; UsageError names what a command lacks (also for the web page)."""
-    from schemas import messages as m
-
-    if command == "set-target" and (x is None or z is None):
-        raise process.UsageError("set-target needs --x and --z")
-    if command in ("stop", "return") and rover is None:
-        raise process.UsageError(f"{command} needs --rover N")
-    if command == "seek" and seconds is None:
-        raise process.UsageError("seek needs --seconds S")
-    return m.GroundCommand(request_id=uuid.uuid4().hex, command=command.replace("-", "_"), rover_id=rover, x=x,
-                           z=z, kind=kind, seconds=seconds)
-
-
 def run_from_args(args: argparse.Namespace) -> int:
     import time
 
-    from deploy.bus import Bus
+    from bus.bus import Bus
     from schemas import codec
     from schemas import messages as m
     from schemas.keyspace import Keyspace

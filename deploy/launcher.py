@@ -17,9 +17,9 @@ import shutil
 import time
 from pathlib import Path
 
-from deploy import priority, process
+from bus import priority, process
+from bus.zenoh_config import DEFAULT_PORT
 from deploy.agent_lag import AgentLag
-from deploy.zenoh_config import DEFAULT_PORT
 
 START_TIMEOUT_S = 30.0
 SESSION_FILE = "session.mcap"
@@ -105,7 +105,7 @@ def _base_scenario(args: argparse.Namespace):
         raise process.UsageError("give a scenario file or --from FILE.mcap (one of them)")
     if args.scenario is not None:
         return load_scenario(args.scenario)
-    from deploy.session.format import scenario_for
+    from sessions.format import scenario_for
 
     if not args.from_recording.is_file():
         raise process.UsageError(f"{args.from_recording}: no such file")
@@ -144,7 +144,7 @@ class Mission:
         self.rejected = 0  # malformed samples on the keys the launcher follows
 
     def run(self) -> int:
-        from deploy.progress import summary_table
+        from sessions.summary import summary_table
 
         started = time.monotonic()
         report, code = None, 0
@@ -237,9 +237,9 @@ class Mission:
 
     def _monitor(self, stop) -> tuple:
         """Follow the world's statistics until the final report; returns (report, interrupted)."""
-        from deploy.bus import Bus
+        from bus.bus import Bus
+        from bus.zenoh_config import build_config, open_session
         from deploy.progress import ProgressView, StartUp
-        from deploy.zenoh_config import build_config, open_session
         from schemas import messages as m
         from schemas.keyspace import STATUS, Keyspace
 

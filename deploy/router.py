@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from deploy import process
-from deploy.zenoh_config import DEFAULT_ENDPOINT, add_zenoh_arguments, build_config, open_router
+from bus import process
+from bus.zenoh_config import DEFAULT_ENDPOINT, add_zenoh_arguments, build_config, open_router
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -8,7 +8,7 @@ import json
 import sys
 from pathlib import Path
 
-from deploy import process
+from bus import process
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -28,8 +28,8 @@ from pathlib import Path
 
 import setproctitle
 
-from deploy.children import die_with_parent
-from deploy.priority import Priority, lower
+from bus.priority import Priority, lower
+from deploy.lifeline import die_with_parent
 
 _context: ForkServerContext | None = None
 
@@ -50,7 +50,7 @@ def available() -> bool:
 
 def _child(module: str, args: list[str], log_path: str, priority: Priority) -> None:
     """In the forked process: what ``python -m module args`` would do, writing into ``log_path``, at
-    ``priority`` (``deploy.priority``)."""
+    ``priority`` (``bus.priority``)."""
     lowered = lower(priority)
     log = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
     os.dup2(log, 1)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from deploy import process
-from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+from bus import process
+from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -18,7 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    from deploy.bus import Bus
+    from bus.bus import Bus
     from lander_agent.mission import MissionPlan
     from lander_agent.runtime import Lander, PhotoArchive, run
     from schemas.keyspace import Keyspace

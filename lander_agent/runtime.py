@@ -8,9 +8,9 @@ import logging
 import threading
 from pathlib import Path
 
-from deploy.bus import Bus
-from deploy.process import freeze_start_up_heap
-from deploy.world_watch import ClockWatch
+from bus.bus import Bus
+from bus.process import freeze_start_up_heap
+from bus.world_watch import ClockWatch
 from lander_agent.mapping import TraverseMap
 from lander_agent.mission import MissionPlan
 from schemas import codec, radio

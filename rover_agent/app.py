@@ -8,10 +8,10 @@ import os
 import sys
 from pathlib import Path
 
-from deploy import process
-from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+from bus import process
+from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
 
-PRELOAD = ("rover_agent.app", "deploy.bus", "rover_agent.identity", "rover_agent.runtime", "rover_agent.agent",
+PRELOAD = ("rover_agent.app", "bus.bus", "rover_agent.identity", "rover_agent.runtime", "rover_agent.agent",
            "rover_agent.behaviours", "schemas.keyspace", "schemas.scenario")
 """What ``run_from_args`` imports: a launcher's warm server (``deploy.warm_start``) has it loaded before it
 forks the rover agents of a run, so none of them spends its start importing."""
@@ -42,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    from deploy.bus import Bus
+    from bus.bus import Bus
     from rover_agent import identity, runtime
     from rover_agent.agent import RoverAgent
     from rover_agent.behaviours import UnknownBehaviour, load_behaviour

@@ -12,7 +12,7 @@ import threading
 
 import zenoh
 
-from deploy.process import UsageError
+from bus.process import UsageError
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace

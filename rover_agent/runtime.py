@@ -5,9 +5,9 @@ from __future__ import annotations
 import logging
 import threading
 
-from deploy.bus import Bus
-from deploy.process import freeze_start_up_heap
-from deploy.world_watch import ClockWatch
+from bus.bus import Bus
+from bus.process import freeze_start_up_heap
+from bus.world_watch import ClockWatch
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
 from rover_agent.saved_state import STATE_WRITER
 from schemas import codec

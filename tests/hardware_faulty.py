@@ -7,7 +7,7 @@ silently does nothing; and speed levels are clamped into 1..3 rather than refuse
 
 from __future__ import annotations
 
-from deploy.hardware.serial_driver import SerialDriver, expect_ok
+from hardware.serial_driver import SerialDriver, expect_ok
 
 
 class OldFirmwareDriver(SerialDriver):

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
 from rover_agent.dead_reckoning import Pose
 from rover_agent.in_flight import ACTION_QUERY_S, ActionIds

@@ -10,7 +10,7 @@ import pytest
 from procs import REPO
 
 from deploy.behaviour_check import scripted_problems
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from rover_agent.behaviour import BaseBehaviour, DefaultBehaviour, MoveTo, Rotate
 from rover_agent.behaviours import UnknownBehaviour, load_behaviour
 from rover_agent.examples import StraightLine

@@ -8,8 +8,8 @@ import threading
 import pytest
 from procs import wait_for
 
-from deploy.bus import PER_KEY_LIMIT, Bus, zenoh_callback
-from deploy.zenoh_config import build_config, open_session
+from bus.bus import PER_KEY_LIMIT, Bus, zenoh_callback
+from bus.zenoh_config import build_config, open_session
 
 pytestmark = pytest.mark.e2e
 

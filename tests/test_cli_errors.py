@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 from procs import SCENARIOS, free_port, lunarsim
 
-from deploy.process import EXIT_NO_ROUTER, EXIT_USAGE
-from deploy.zenoh_config import ONE_SHOT_TIMEOUT_S
+from bus.process import EXIT_NO_ROUTER, EXIT_USAGE
+from bus.zenoh_config import ONE_SHOT_TIMEOUT_S
 
 SCENARIO = str(SCENARIOS / "crater_observation.yaml")
 NO_ROUTER = f"tcp/127.0.0.1:{free_port()}"

@@ -9,7 +9,7 @@ import math
 
 import pytest
 
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import Rotate
 from rover_agent.contact import CONTACT_WAIT_S

@@ -7,7 +7,7 @@ import math
 import pytest
 from procs import SCENARIOS
 
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from lander_agent.daisy_chain import SPACING, plan_chain, relays_needed
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import PhotoArchive

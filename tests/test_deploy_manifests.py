@@ -25,9 +25,9 @@ import zenoh
 from mcap.reader import make_reader
 from procs import REPO, free_port, stop, wait_for
 
+from bus.zenoh_config import build_config
 from deploy.children import wait_for_port
 from deploy.cli import build_parser
-from deploy.zenoh_config import build_config
 from rover_agent.identity import id_from_hostname, parse_id
 from schemas.keyspace import PERCEPTION, Keyspace
 from schemas.scenario import load_scenario
@@ -379,10 +379,10 @@ def test_dockerignore_sends_what_the_dockerfile_copies_and_leaves_the_rest_out()
     needed = package_files()
     assert len(needed) > 50
     built = {dest for stage, _, dest in copies(build_stage()) if stage == "frontend"}
-    assert built == {"/src/deploy/web/static/bundle.js"}, built
+    assert built == {"/src/web/static/bundle.js"}, built
     left_out = [f for f in needed if dockerignore_excludes(f) and f"/src/{f}" not in built]
     assert not left_out, f"pip install . needs these, the context leaves them out: {left_out[:5]}"
-    assert dockerignore_excludes("deploy/web/frontend/node_modules/three/package.json")
+    assert dockerignore_excludes("web/frontend/node_modules/three/package.json")
     for path in (".git/HEAD", "runs/crater/report.json", ".ci-venv/bin/python", "tests/test_bus.py",
                  "benchmarks/x.py", "schemas/__pycache__/m.cpython-312.pyc", "deploy/compose.yaml",
                  "deploy/k8s/router.yaml", "lunarsim.egg-info/PKG-INFO"):

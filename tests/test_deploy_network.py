@@ -14,9 +14,9 @@ import yaml
 import zenoh
 from procs import REPO, SCENARIOS, free_port, module, stop, wait_for, wait_for_output
 
+from bus.world_watch import ClockWatch
+from bus.zenoh_config import SHARED_MEMORY, build_config
 from deploy.children import wait_for_port
-from deploy.world_watch import ClockWatch
-from deploy.zenoh_config import SHARED_MEMORY, build_config
 from rover_agent.identity import id_from_hostname, parse_id
 from schemas import codec
 from schemas import messages as m
@@ -139,7 +139,7 @@ def test_peer_config_files_talk_without_a_router():
 
 
 def test_a_missing_or_broken_config_file_is_named(tmp_path):
-    from deploy.process import UsageError
+    from bus.process import UsageError
 
     with pytest.raises(UsageError, match="does not exist"):
         build_config(config_file=str(tmp_path / "nope.json5"))
@@ -159,7 +159,7 @@ def test_scouting_is_off_unless_asked_for():
 LARGE_PUT = """
 import json, sys, threading, time
 import zenoh
-from deploy.zenoh_config import build_config
+from bus.zenoh_config import build_config
 
 endpoint, config = sys.argv[1], sys.argv[2] or None
 got = threading.Event()

@@ -13,7 +13,7 @@ import yaml
 import zenoh
 from procs import SCENARIOS, free_port, lunarsim, processes_mentioning, run_cli_mission, wait_for
 
-from deploy.zenoh_config import build_config
+from bus.zenoh_config import build_config
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace
@@ -66,7 +66,7 @@ def test_ctrl_c_stops_every_process_and_keeps_a_report(tmp_path):
                 codec.decode(m.WorldStats, s.payload.to_bytes())))
             wait_for(lambda: any(x.stamp >= 2.0 for x in stats), 60, "the mission to be under way")
             sub.undeclare()
-        # real time: the agents run on what the world leaves (deploy.priority)
+        # real time: the agents run on what the world leaves (bus.priority)
         assert _policies(port, "rover_agent") == _policies(port, "lander_agent") == {os.SCHED_IDLE}
         assert _policies(port, "world_service") == {os.SCHED_OTHER}
         proc.send_signal(signal.SIGINT)

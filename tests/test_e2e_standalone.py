@@ -12,7 +12,7 @@ import yaml
 import zenoh
 from procs import REPO, SCENARIOS, lunarsim, module, run_cli_mission, stop, wait_for
 
-from deploy.zenoh_config import build_config
+from bus.zenoh_config import build_config
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace

@@ -25,15 +25,15 @@ import yaml
 import zenoh
 from procs import REPO, SCENARIOS, free_port, lunarsim, run_cli_mission, stop, wait_for
 
+from bus.zenoh_config import build_config
 from deploy.children import wait_for_port
-from deploy.session.format import TopicFilter, read_samples
-from deploy.zenoh_config import build_config
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
+from sessions.format import TopicFilter, read_samples
 from world_service.sim import World
 
 pytestmark = pytest.mark.faults

@@ -14,14 +14,16 @@ import pytest
 import zenoh
 from procs import REPO, stop, wait_for
 
+from bus.zenoh_config import build_config
 from deploy.flight import build_wheel as flight
-from deploy.zenoh_config import build_config
 from schemas.keyspace import Keyspace
 
 THIRD_PARTY = {"zenoh", "msgpack", "pydantic", "yaml", "serial"}
 """What the flight wheel's dependencies provide (pyserial only with its ``serial`` extra)."""
-PROJECT_ROOTS = {"schemas", "rover_agent", "deploy", "world_service", "lander_agent", "scenarios"}
-GROUND_ONLY = ("world_service", "numpy", "trimesh", "matplotlib", "mcap", "foxglove", "rich", "lander_agent")
+PROJECT_ROOTS = {"schemas", "bus", "rover_agent", "lander_agent", "world_service", "scenarios", "harness", "sessions",
+                 "hardware", "web", "deploy"}
+GROUND_ONLY = ("world_service", "numpy", "trimesh", "matplotlib", "mcap", "foxglove", "rich", "lander_agent",
+               "sessions", "web", "harness", "deploy")
 UNITS = REPO / "deploy" / "systemd"
 
 
@@ -57,9 +59,9 @@ def test_flight_code_imports_nothing_outside_the_wheel_and_its_dependencies():
 
 def test_the_flight_wheel_carries_the_agent_and_the_bridge_but_no_ground_code():
     modules = _flight_modules()
-    assert {"rover_agent.app", "deploy.hardware.bridge_app", "deploy.zenoh_config", "schemas.messages"} <= modules
+    assert {"rover_agent.app", "hardware.bridge_app", "bus.zenoh_config", "schemas.messages"} <= modules
     assert not any(m.split(".")[0] in ("world_service", "lander_agent") for m in modules)
-    assert not any(m.startswith(("deploy.session", "deploy.launcher", "deploy.batch")) for m in modules)
+    assert not any(m.startswith(("sessions", "deploy.launcher", "deploy.batch")) for m in modules)
 
 
 @pytest.fixture(scope="module")

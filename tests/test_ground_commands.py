@@ -7,7 +7,7 @@ import math
 import pytest
 from procs import SCENARIOS, lunarsim, module, stop, wait_for
 
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import Lander
 from schemas import keyspace as ks
@@ -88,7 +88,7 @@ def test_the_command_line_reaches_the_lander_and_reports_refusals(router, tmp_pa
     try:
         import zenoh
 
-        from deploy.zenoh_config import build_config
+        from bus.zenoh_config import build_config
 
         with zenoh.open(build_config(connect=[router])) as session:
             alive = []

@@ -20,14 +20,15 @@ import serial
 import zenoh
 from procs import REPO, lunarsim, module, stop, wait_for, wait_for_output
 
-from deploy.hardware import protocol as p
-from deploy.hardware.bridge import Bridge
-from deploy.hardware.clock import MissionClock
-from deploy.hardware.device_model import DeviceModel
-from deploy.hardware.driver import ActionRefused, DriverTimeout, UnknownDriver, load_driver
-from deploy.hardware.emulator import DeviceServer, EmulatedRadio, Emulator
-from deploy.hardware.serial_driver import LineClient, SerialDriver, expect_ok
-from deploy.zenoh_config import build_config
+from bus.zenoh_config import build_config
+from hardware import protocol as p
+from hardware.bridge import Bridge
+from hardware.clock import MissionClock
+from hardware.device_model import DeviceModel
+from hardware.driver import ActionRefused, DriverTimeout
+from hardware.drivers import UnknownDriver, load_driver
+from hardware.emulator import DeviceServer, EmulatedRadio, Emulator
+from hardware.serial_driver import LineClient, SerialDriver, expect_ok
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m

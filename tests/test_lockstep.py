@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from deploy import priority
-from deploy.loopback import run_mission
+from bus import priority
+from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
 from schemas import codec
 from schemas import keyspace as ks
@@ -174,7 +174,7 @@ def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world
 
 
 def test_the_camera_renders_in_the_idle_class_in_real_time_only(crater_world):
-    """In real time it renders on what the world leaves; in lockstep the clock waits for it (deploy.priority)."""
+    """In real time it renders on what the world leaves; in lockstep the clock waits for it (bus.priority)."""
     scenario, _ = crater_world
     for lockstep, policy in ((False, os.SCHED_IDLE), (True, os.SCHED_OTHER)):
         process = CameraProcess(scenario, priority.for_mode("auto", lockstep))

@@ -1,4 +1,4 @@
-"""The in-process loopback mission (``deploy.loopback``) that the behaviour suite runs hundreds of times gives the
+"""The in-process loopback mission (``harness.loopback``) that the behaviour suite runs hundreds of times gives the
 same report as ``lunarsim run --lockstep`` of the same scenario and seed through real processes and a router: the
 suite's figures are the product's, not a model of it."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 from procs import SCENARIOS, free_port, run_cli_mission
 
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from scenarios.generator import generate
 from schemas.scenario import dump_scenario, load_scenario
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from schemas.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"

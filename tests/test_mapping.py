@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from lander_agent import mapping
 from rover_agent.behaviour import Hit
 from rover_agent.behaviours import load_behaviour

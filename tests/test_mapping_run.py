@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from procs import SCENARIOS, free_port, lunarsim, run_cli_mission
 
-from deploy.session.format import read_samples
 from lander_agent import mapping
 from schemas import codec
 from schemas import messages as m
+from sessions.format import read_samples
 
 pytestmark = pytest.mark.e2e
 

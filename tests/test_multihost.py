@@ -20,7 +20,7 @@ import pytest
 import zenoh
 from procs import REPO, SCENARIOS, stop, wait_for
 
-from deploy.zenoh_config import build_config
+from bus.zenoh_config import build_config
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace

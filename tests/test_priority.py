@@ -1,4 +1,4 @@
-"""CPU priority of the agents against the world (``deploy.priority``); the processes' own classes are checked where
+"""CPU priority of the agents against the world (``bus.priority``); the processes' own classes are checked where
 they start (test_warm_start, test_e2e_run, test_lockstep)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from deploy import priority
+from bus import priority
 
 
 def test_auto_yields_to_a_real_time_world_only() -> None:
@@ -22,7 +22,7 @@ def test_auto_yields_to_a_real_time_world_only() -> None:
 
 LOWERED = """
 import os, threading
-from deploy import priority
+from bus import priority
 priority.lower({choice!r})
 seen = []
 thread = threading.Thread(target=lambda: seen.append((os.sched_getscheduler(0), os.getpriority(os.PRIO_PROCESS, 0))))

@@ -11,7 +11,7 @@ from procs import REPO
 
 sys.path.insert(0, str(REPO / "benchmarks"))  # benchmarks/ is not a package: its scripts import each other so
 
-from scale_observe import ProcessMeter, with_descendants
+from proc_meter import ProcessMeter, with_descendants
 
 PARENT = ("import subprocess, sys, time; child = subprocess.Popen([sys.executable, '-c', 'import time; "
           "time.sleep(60)']); print(child.pid, flush=True); time.sleep(60)")

@@ -21,9 +21,9 @@ import yaml
 import zenoh
 from procs import REPO, SCENARIOS, free_port, lunarsim, module, stop, wait_for, wait_for_output
 
+from bus.zenoh_config import build_config
 from deploy.children import wait_for_port
 from deploy.security import acl, configs
-from deploy.zenoh_config import build_config
 from rover_agent.agent import SUBSCRIBED_TOPICS
 from schemas import codec
 from schemas import keyspace as ks
@@ -413,7 +413,7 @@ def test_a_bridge_alone_publishes_its_own_rovers_sensors_and_telemetry(bridged):
 
 
 def test_a_bridge_reads_only_its_own_agents_commands_the_clock_and_its_agents_token(bridged):
-    from deploy.hardware.bridge import AGENT_TOPICS
+    from hardware.bridge import AGENT_TOPICS
 
     for topic in (*AGENT_TOPICS, ks.COMM_OUT):
         assert "bridge-1" in subscribers(bridged, KEYS.rover(1, topic)), topic

@@ -17,11 +17,11 @@ from google.protobuf.message import Message
 from procs import SCENARIOS, free_port
 
 from deploy import cli
-from deploy.session.format import Sample
-from deploy.session.writer import SessionWriter
 from schemas import codec
 from schemas import messages as m
 from schemas.scenario import load_scenario
+from sessions.format import Sample
+from sessions.writer import SessionWriter
 
 SCENARIO_FILE = SCENARIOS / "crater_observation.yaml"
 STATE_KEY = "lunar/test/world/state"
@@ -155,7 +155,7 @@ def test_export_writes_scene_transforms_and_photos(recording: Path, tmp_path: Pa
 
 
 def test_heading_points_rover_x_along_the_heading():
-    from deploy.session.foxglove import heading_quaternion
+    from sessions.foxglove import heading_quaternion
 
     for heading, (fx, fy) in ((0.0, (0.0, 1.0)), (90.0, (1.0, 0.0)), (180.0, (0.0, -1.0))):
         q = heading_quaternion(heading)
@@ -176,7 +176,7 @@ def test_export_keeps_raw_channels(recording: Path, tmp_path: Path):
     assert [e for _, e, _ in topics[STATE_KEY]] == ["msgpack"] * 3
     assert codec.decode(m.WorldState, topics[STATE_KEY][1][2]) == state(1)
     assert len(topics["lunar/test/rover/1/gyroscope"]) == 3
-    from deploy.session.format import SESSION_METADATA, read_metadata
+    from sessions.format import SESSION_METADATA, read_metadata
 
     assert "scenario" in read_metadata(out)[SESSION_METADATA]
 
@@ -200,7 +200,7 @@ def test_export_of_a_file_that_is_not_mcap_exits_2(tmp_path: Path, capsys):
 def test_plot_writes_a_png_of_the_asked_size(recording: Path, tmp_path: Path):
     from PIL import Image
 
-    from deploy.session.plot import draw_trajectories
+    from sessions.plot import draw_trajectories
 
     out = draw_trajectories(recording, load_scenario(SCENARIO_FILE), tmp_path / "plot" / "paths.png",
                             size_px=(600, 450), terrain_cells=48)
@@ -210,7 +210,7 @@ def test_plot_writes_a_png_of_the_asked_size(recording: Path, tmp_path: Path):
 
 
 def test_plot_takes_samples_too(tmp_path: Path):
-    from deploy.session.plot import rover_paths
+    from sessions.plot import rover_paths
 
     samples = [Sample(STATE_KEY, codec.encode(state(i)), T0 + i, T0 + i) for i in range(3)]
     paths, last = rover_paths(samples)
@@ -224,7 +224,7 @@ def test_plot_takes_samples_too(tmp_path: Path):
 def test_live_view_serves_and_stops(tmp_path: Path):
     import foxglove
 
-    from deploy.session.view_cli import LiveScene
+    from web.view_cli import LiveScene
 
     live = LiveScene(load_scenario(SCENARIO_FILE), terrain_cells=16)
     capture = tmp_path / "live.mcap"

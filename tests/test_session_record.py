@@ -12,7 +12,9 @@ import pytest
 from mcap.reader import make_reader
 from procs import SCENARIOS, free_port, lunarsim, run_cli_mission, stop, wait_for_output
 
-from deploy.session.format import (
+from schemas import codec
+from schemas import messages as m
+from sessions.format import (
     DROPS_METADATA,
     SESSION_METADATA,
     Sample,
@@ -21,11 +23,9 @@ from deploy.session.format import (
     read_metadata,
     read_samples,
 )
-from deploy.session.recorder import RollingBuffer
-from deploy.session.recover import NotARecording, recover
-from deploy.session.writer import SessionWriter, SplittingWriter
-from schemas import codec
-from schemas import messages as m
+from sessions.recorder import RollingBuffer
+from sessions.recover import NotARecording, recover
+from sessions.writer import SessionWriter, SplittingWriter
 
 
 def _clock(tick: int) -> bytes:

@@ -12,14 +12,14 @@ import pytest
 import zenoh
 from procs import SCENARIOS, lunarsim, run_cli_mission, wait_for
 
+from bus.zenoh_config import build_config
 from deploy.cli import main
-from deploy.session import replay_cli
-from deploy.session.format import SESSION_METADATA, Sample, TopicFilter, read_samples
-from deploy.session.replay import CLOCK_GLOB, Player, recorded_world, world_remapper
-from deploy.session.writer import SessionWriter
-from deploy.zenoh_config import build_config
 from schemas import codec
 from schemas import messages as m
+from sessions import replay_cli
+from sessions.format import SESSION_METADATA, Sample, TopicFilter, read_samples
+from sessions.replay import CLOCK_GLOB, Player, recorded_world, world_remapper
+from sessions.writer import SessionWriter
 
 BASE_NS = 1_700_000_000 * 10**9
 
@@ -334,7 +334,7 @@ def _line_seen(proc: subprocess.Popen, text: str) -> bool:
 
 
 def test_prefetch_yields_everything_in_order_passes_errors_on_and_stops_its_reader_when_closed():
-    from deploy.session.replay import prefetch
+    from sessions.replay import prefetch
 
     samples = [Sample(f"lunar/w/k{i}", b"x", i, i) for i in range(1000)]
     assert list(prefetch(iter(samples), size=7)) == samples

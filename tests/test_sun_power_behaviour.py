@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 from procs import SCENARIOS
 
-from deploy.loopback import run_mission
+from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import DefaultBehaviour, Goal, Hold, MoveTo, Rotate, SunIgnoring, View
 from rover_agent.behaviours import load_behaviour

@@ -19,12 +19,12 @@ import yaml
 import zenoh
 from procs import REPO, SCENARIOS, lunarsim, stop, wait_for, wait_for_output
 
-from deploy.session.format import read_samples
-from deploy.zenoh_config import build_config
+from bus.zenoh_config import build_config
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
+from sessions.format import read_samples
 from world_service.twin import STALE_AFTER_S, Pose, TwinRover, TwinWorld, compose
 
 STARTS = [{"x": -510.0, "z": 100.0, "heading_deg": 180.0}, {"x": -500.0, "z": 100.0, "heading_deg": 90.0}]

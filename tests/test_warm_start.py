@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 from procs import REPO, free_port, processes_mentioning, wait_for
 
+from bus.process import EXIT_USAGE
 from deploy.children import Children, wait_for_port
-from deploy.process import EXIT_USAGE
 from rover_agent.app import PRELOAD
 
 

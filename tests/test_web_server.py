@@ -17,14 +17,14 @@ import yaml
 from aiohttp.test_utils import TestClient, TestServer
 from procs import SCENARIOS
 
-from deploy.web import editor, live
-from deploy.web.commands import CommandError, Commands, command_from_request
-from deploy.web.scene import scenario_scene
-from deploy.web.server import Viewer, build_app
 from lander_agent import mapping
 from schemas import codec, radio
 from schemas import messages as m
 from schemas.scenario import load_scenario
+from web import editor, live
+from web.commands import CommandError, Commands, command_from_request
+from web.scene import scenario_scene
+from web.server import Viewer, build_app
 
 SCENARIO = SCENARIOS / "crater_observation.yaml"
 

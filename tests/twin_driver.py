@@ -20,7 +20,7 @@ from collections.abc import Iterator
 
 import zenoh
 
-from deploy.zenoh_config import build_config
+from bus.zenoh_config import build_config
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m

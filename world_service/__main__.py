@@ -1,3 +1,3 @@
-from deploy.process import main_for
+from bus.process import main_for
 
 main_for("world", "world_service.app")

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import zenoh
 
-from deploy import process
-from deploy.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_router, open_session
+from bus import process
+from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_router, open_session
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -42,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    from deploy.bus import Bus
+    from bus.bus import Bus
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario
     from world_service import service

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from deploy.priority import Priority, lower
+from bus.priority import Priority, lower
 from schemas import messages as m
 from schemas.params import RoverParams
 from schemas.scenario import Scenario
@@ -65,7 +65,7 @@ def build_ground(scenario: Scenario) -> camera.HeightField:
 class CameraProcess:
     """One worker process that renders photo jobs; ``submit`` returns a future of the ``m.Photo``.
 
-    ``priority`` (``deploy.priority``): in real time a photo may come a little late, a sensor sample may not. A
+    ``priority`` (``bus.priority``): in real time a photo may come a little late, a sensor sample may not. A
     hundred rovers at a crater keep the camera rendering a third of a core, and at the world's priority it takes
     that from the world and the rover agents just when their samples are due; ``idle``, it renders on what the
     world leaves, sharing that with the agents. In lockstep the clock waits for the render, so it keeps the

@@ -23,9 +23,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from deploy import priority
-from deploy.bus import Bus, Received
-from deploy.process import freeze_start_up_heap
+from bus import priority
+from bus.bus import Bus, Received
+from bus.process import freeze_start_up_heap
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m

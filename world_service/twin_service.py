@@ -6,8 +6,8 @@ The clock loop, liveliness watchdog, final report and lingering are the simulate
 
 from __future__ import annotations
 
-from deploy.bus import Bus
-from deploy.process import UsageError
+from bus.bus import Bus
+from bus.process import UsageError
 from schemas import keyspace as ks
 from world_service.twin import TwinWorld
 

@@ -4,8 +4,8 @@ It holds only what runs on the rover: the rover agent, the hardware driver bridg
 schemas and the Zenoh plumbing they share. No world service, no rendering, no NumPy or trimesh: its
 dependencies are Zenoh, msgpack, pydantic and PyYAML (pyserial with the ``serial`` extra, for the reference
 driver). The modules are the project's own files, staged into a temporary project and built with pip, so
-there is one copy of every line; ``FLIGHT_MODULES`` is the whole list, and a test checks that nothing in
-it imports anything outside it.
+there is one copy of every line; ``FLIGHT_PACKAGES`` is the whole list, and tests check that nothing in it
+imports anything outside it.
 
     python -m deploy.flight.build_wheel -o dist/     # from the checkout
     pip install dist/lunarsim_rover-*.whl            # then: lunarsim-rover --id 3 --connect tcp/...:7447
@@ -25,14 +25,11 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 """The source tree; an installed copy of this module is given the checkout explicitly (``source=``)."""
 DIST_NAME = "lunarsim-rover"
-FLIGHT_PACKAGES = ("schemas", "rover_agent", "deploy.hardware")
-"""Whole packages the rover carries."""
-FLIGHT_MODULES = ("deploy/__init__.py", "deploy/bus.py", "deploy/process.py", "deploy/world_watch.py",
-                  "deploy/zenoh_config.py")
-"""Single modules of ``deploy`` the agent and the bridge import (the rest of ``deploy`` is ground-side)."""
+FLIGHT_PACKAGES = ("schemas", "bus", "rover_agent", "hardware")
+"""The packages the rover carries, whole: the layout keeps ground-side code out of them (``tests/test_layout.py``)."""
 DEPENDENCIES = ("eclipse-zenoh>=1.10,<2", "msgpack>=1.0", "pydantic>=2.6,<3", "pyyaml>=6")
 EXTRAS = {"serial": ("pyserial>=3.5",)}
-SCRIPTS = {"lunarsim-rover": "rover_agent.app:main", "lunarsim-bridge": "deploy.hardware.bridge_app:main"}
+SCRIPTS = {"lunarsim-rover": "rover_agent.app:main", "lunarsim-bridge": "hardware.bridge_app:main"}
 DATA = {"share/lunarsim": ("deploy/zenoh/client.json5",),
         "share/lunarsim/systemd": ("deploy/systemd/lunarsim-rover@.service", "deploy/systemd/lunarsim-bridge@.service")}
 """Installed under the environment's prefix: the client config and the systemd units to copy into place."""
@@ -47,7 +44,7 @@ def project_version(source: Path = REPO) -> str:
 
 def staged_files(source: Path = REPO) -> list[Path]:
     """Every source file of the wheel, relative to the repository."""
-    files = [Path(p) for p in FLIGHT_MODULES]
+    files: list[Path] = []
     for package in FLIGHT_PACKAGES:
         folder = source / package.replace(".", "/")
         files += [p.relative_to(source) for p in sorted(folder.glob("*.py"))]
@@ -59,7 +56,7 @@ def _pyproject(version: str) -> str:
     extras = "\n".join(f"{name} = {json.dumps(list(deps))}" for name, deps in EXTRAS.items())
     scripts = "\n".join(f"{name} = {json.dumps(target)}" for name, target in SCRIPTS.items())
     data = "\n".join(f"{json.dumps(dest)} = {json.dumps(list(sources))}" for dest, sources in DATA.items())
-    packages = json.dumps(sorted({*FLIGHT_PACKAGES, "deploy"}))
+    packages = json.dumps(sorted(FLIGHT_PACKAGES))
     return f"""[build-system]
 requires = ["setuptools>=68", "wheel"]
 build-backend = "setuptools.build_meta"

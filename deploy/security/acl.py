@@ -10,7 +10,7 @@ taken from what the programs do:
   ``SUBSCRIBED_TOPICS``) and the clock; it holds ``alive/rover/<id>`` and may ask the world for a free id;
 - the world publishes the sensors of the simulated rovers (every rover's ``SUBSCRIBED_TOPICS``, the lander's
   radio input), the clock, ``world/state`` and ``world/stats``;
-- a real rover's bridge (``deploy.hardware.bridge``) takes the world's place for that rover only: it alone
+- a real rover's bridge (``hardware.bridge``) takes the world's place for that rover only: it alone
   publishes the rover's sensors and its driver's ``telemetry``, subscribes to the rover's actions and radio
   output (``AGENT_TOPICS``, ``comm_out``) and the clock, and watches its own agent's token. The world keeps
   no right to publish a bridged rover's sensors; it follows the bridged rovers as a twin instead
@@ -79,7 +79,7 @@ def _rover_sensors() -> tuple[str, ...]:
 
 def _bridge_inputs() -> tuple[str, ...]:
     """Topics a bridge takes from its agent (``bridge.input_topics`` with a radio)."""
-    from deploy.hardware.bridge import AGENT_TOPICS
+    from hardware.bridge import AGENT_TOPICS
 
     return (*AGENT_TOPICS, ks.COMM_OUT)
 

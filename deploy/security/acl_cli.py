@@ -20,7 +20,7 @@ import argparse
 import os
 from pathlib import Path
 
-from deploy import process
+from bus import process
 
 DEFAULT_LISTEN = "tls/0.0.0.0:7447"
 DEFAULT_CONNECT = "tls/localhost:7447"

@@ -1,0 +1,154 @@
+"""Zenoh configuration, layered as in the zenoh-python examples, and opening a session with a clear error.
+
+Layers, later wins: defaults (client mode, multicast scouting and shared memory off), a json5 file from ``--config`` or
+``ZENOH_CONFIG``, then ``--connect`` / ``--listen`` endpoints. Only this module and the command line
+read the environment; domain code receives a finished ``zenoh.Config``.
+Kept light (no NumPy, no pydantic): the rover agent imports it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import sys
+import time
+from collections.abc import Sequence
+
+import zenoh
+
+from bus.errors import RouterUnreachable, UsageError
+
+DEFAULT_PORT = 7447
+DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+SHARED_MEMORY = "transport/shared_memory/enabled"
+"""Off by default. Zenoh (1.x) on a machine's loopback copies every message over 3 KB (a photo, a photo relayed
+through the radio, the world's state) into a 16 MiB shared-memory pool, which it makes and mlocks on the first
+such message: 36-50 ms of the sending thread's CPU zeroing pages. In the real-time world that first photo held a
+tick back by as much, past a gyroscope period, and every agent that relays a photo would lock 16 MiB of its own.
+LunarSim's messages are small: a copy costs microseconds (the runs are in the README's Benchmarks). A config file
+may switch it back on."""
+
+
+ONE_SHOT_TIMEOUT_S = 10.0
+"""How long a one-shot tool (and ``lunarsim run --connect``) tries to reach its router before giving up."""
+
+
+def reason(exc: zenoh.ZError) -> str:
+    """A Zenoh error without the Rust source location it carries (``... at /root/.cargo/.../x.rs:447.``)."""
+    return re.split(r"\s+at\s+\S+\.rs:\d+", str(exc))[0].strip()
+
+
+def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False, agent: bool = False) -> None:
+    """Zenoh flags of every process. Agents (``agent=True``: world, lander, rovers, recorder, bridges) wait for
+    their router for as long as it takes, so a deployment may start in any order; one-shot tools give up."""
+    group = parser.add_argument_group("zenoh")
+    group.add_argument("--connect", "-e", action="append", metavar="ENDPOINT",
+                       help=f"router endpoint to connect to (default {DEFAULT_ENDPOINT}); repeatable")
+    if listen:
+        group.add_argument("--listen", "-l", action="append", metavar="ENDPOINT",
+                           help="endpoint to listen on; repeatable")
+    group.add_argument("--config", "-c", metavar="FILE", help="Zenoh json5 config file (else $ZENOH_CONFIG)")
+    group.add_argument("--scouting", action="store_true",
+                       help="switch multicast scouting on (off by default: it fails in most containers)")
+    if agent:
+        group.add_argument("--router-timeout", type=float, default=None, metavar="S",
+                           help="give up after S seconds without a router (default: wait for it, saying so)")
+    else:
+        group.add_argument("--router-timeout", type=float, default=ONE_SHOT_TIMEOUT_S, metavar="S",
+                           help="seconds to keep trying to reach the router before giving up "
+                                f"(default {ONE_SHOT_TIMEOUT_S:g})")
+
+
+def build_config(mode: str = "client", config_file: str | None = None, connect: Sequence[str] | None = None,
+                 listen: Sequence[str] | None = None, environ: dict[str, str] | None = None,
+                 scouting: bool = False) -> zenoh.Config:
+    environ = os.environ if environ is None else environ
+    path = config_file or environ.get("ZENOH_CONFIG")
+    conf = _load(path, "--config" if config_file else "ZENOH_CONFIG") if path else zenoh.Config()
+    if not path:
+        conf.insert_json5("mode", json.dumps(mode))
+        conf.insert_json5("scouting/multicast/enabled", "false")
+        conf.insert_json5(SHARED_MEMORY, "false")
+    if connect:
+        _insert_endpoints(conf, "connect", connect)
+    elif not path and mode == "client":
+        conf.insert_json5("connect/endpoints", json.dumps([DEFAULT_ENDPOINT]))
+    if listen:
+        _insert_endpoints(conf, "listen", listen)
+    if scouting:
+        conf.insert_json5("scouting/multicast/enabled", "true")
+    return conf
+
+
+def _insert_endpoints(conf: zenoh.Config, which: str, endpoints: Sequence[str]) -> None:
+    """Zenoh parses endpoints here: a typo is the user's, said as such rather than as a Json5 error."""
+    try:
+        conf.insert_json5(f"{which}/endpoints", json.dumps(list(endpoints)))
+    except zenoh.ZError:
+        raise UsageError(f"--{which} {' '.join(endpoints)}: not a Zenoh endpoint (the form is "
+                         f"<protocol>/<address>, e.g. {DEFAULT_ENDPOINT})") from None
+
+
+def _load(path: str, origin: str) -> zenoh.Config:
+    if not os.path.isfile(path):
+        raise UsageError(f"Zenoh config file {path!r} (from {origin}) does not exist")
+    try:
+        return zenoh.Config.from_file(path)
+    except zenoh.ZError as exc:
+        raise UsageError(f"Zenoh config file {path!r} (from {origin}) is not valid: {reason(exc)}") from None
+
+
+def config_from_args(args: argparse.Namespace, mode: str = "client") -> zenoh.Config:
+    return build_config(mode, args.config, args.connect, getattr(args, "listen", None),
+                        scouting=getattr(args, "scouting", False))
+
+
+def describe_endpoints(args: argparse.Namespace) -> str:
+    if args.connect:
+        return ", ".join(args.connect)
+    if args.config or os.environ.get("ZENOH_CONFIG"):
+        return f"the endpoints in {args.config or os.environ['ZENOH_CONFIG']}"
+    return DEFAULT_ENDPOINT
+
+
+WAIT_REMINDER_S = 30.0
+
+
+def open_router(conf: zenoh.Config, listen: Sequence[str], config_file: str | None = None) -> zenoh.Session:
+    """A session in router mode, listening: fails at once, naming the endpoints, when it cannot listen (another
+    router on the port), since waiting would not free the port."""
+    where = ", ".join(listen) or f"the endpoints of {config_file}"
+    try:
+        return zenoh.open(conf)
+    except zenoh.ZError as exc:
+        raise UsageError(f"cannot start a router listening on {where}: {reason(exc)} "
+                         "(is another router already using the port?)") from None
+
+
+def open_session(conf: zenoh.Config, where: str, timeout_s: float | None = 10.0,
+                 who: str = "lunarsim") -> zenoh.Session:
+    """Open a session, retrying until ``timeout_s`` (None: for ever); say plainly on stderr that we are waiting,
+    and again every half minute, so a process started before its router is not mistaken for a hung one."""
+    start = time.monotonic()
+    next_notice = start
+    while True:
+        try:
+            session = zenoh.open(conf)
+        except zenoh.ZError as exc:
+            now = time.monotonic()
+            if timeout_s is not None and now - start >= timeout_s:
+                raise RouterUnreachable(
+                    f"{who}: no Zenoh router reachable at {where} after {timeout_s:g} s ({reason(exc)}). "
+                    "Start one with 'lunarsim router' or point --connect at a running one."
+                ) from None
+            if now >= next_notice:
+                waited = f" (waiting {now - start:.0f} s)" if now > start else ""
+                print(f"{who}: waiting for a Zenoh router at {where} ...{waited}", file=sys.stderr, flush=True)
+                next_notice = now + WAIT_REMINDER_S
+            time.sleep(0.5)
+            continue
+        if next_notice > start:
+            print(f"{who}: connected to the Zenoh router at {where}", file=sys.stderr, flush=True)
+        return session

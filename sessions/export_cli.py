@@ -1,0 +1,245 @@
+"""``lunarsim export-foxglove``: a recording as Foxglove channels, to open in the Foxglove app.
+
+Writes ``/scene`` (the static scene once, then the rovers, trails and radio links of every world state),
+``/tf`` (world -> rover_<id>), ``/rover_<id>/photo`` (the PNG photos) and ``/map`` (the lander's traverse
+map as a Grid), all in Foxglove's own protobuf schemas. The scenario comes from the recording's metadata
+(``lunarsim record --scenario``) or ``--scenario``; without one only the moving parts are drawn.
+``--keep-raw`` copies the original msgpack channels too, so one file serves both Foxglove and ``lunarsim`` tools.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import Counter
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from bus import process
+
+if TYPE_CHECKING:
+    from mcap.writer import Writer
+
+    from schemas.scenario import Scenario
+    from sessions.format import Sample
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("input", type=Path, metavar="IN.mcap", help="a LunarSim recording")
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.mcap")
+    parser.add_argument("--scenario", type=Path, metavar="FILE", help="scenario to draw (default: the one "
+                        "embedded in the recording)")
+    parser.add_argument("--keep-raw", action="store_true", help="also copy the original msgpack channels")
+    parser.add_argument("--no-trails", action="store_true", help="do not draw the rovers' recent paths")
+    parser.add_argument("--terrain-cells", type=int, default=128, metavar="N",
+                        help="terrain mesh nodes along the longer side (default 128)")
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    from sessions.format import scenario_for
+
+    check_paths(args.input, args.output)
+    scenario = scenario_for(args.input, args.scenario)
+    if scenario is None:
+        print(f"warning: {args.input} embeds no scenario and none was given (--scenario): "
+              "exporting without terrain and obstacles", file=sys.stderr)
+    from mcap.exceptions import McapError
+
+    try:
+        counts = export_foxglove(args.input, args.output, scenario, keep_raw=args.keep_raw,
+                                 trail_points=0 if args.no_trails else 300, terrain_cells=args.terrain_cells,
+                                 progress=sys.stderr.isatty())
+    except McapError as exc:
+        raise process.UsageError(f"{args.input}: damaged MCAP recording ({exc}); try 'lunarsim recover'") from None
+    print(f"wrote {args.output}: " + ", ".join(f"{n} {what}" for what, n in counts.items()), flush=True)
+    return 0
+
+
+def check_paths(source: Path, target: Path) -> None:
+    """Refuse what cannot work before any output exists, naming the file at fault."""
+    if not source.is_file():
+        raise process.UsageError(f"{source}: no such recording")
+    if target.suffix != ".mcap":
+        raise process.UsageError(f"{target}: the output file must end in .mcap")
+    if target.exists() and target.resolve() == source.resolve():
+        raise process.UsageError(f"{target}: the output would overwrite the input")
+    try:
+        with open(source, "rb") as stream:
+            magic = stream.read(8)
+    except OSError as exc:
+        raise process.UsageError(f"{source}: cannot read: {exc.strerror or exc}") from None
+    if magic != b"\x89MCAP0\r\n":
+        raise process.UsageError(f"{source}: not an MCAP file")
+
+
+class FoxgloveFile:
+    """The output MCAP: Foxglove channels registered on first use with the SDK's own protobuf schemas."""
+
+    def __init__(self, writer: Writer) -> None:
+        self.writer = writer
+        self.channels: dict[str, int] = {}
+        self.counts: Counter[str] = Counter()
+
+    def write(self, topic: str, message, ns: int) -> None:
+        """``message`` is any ``foxglove.messages`` type: ``encode()`` gives the protobuf bytes."""
+        channel = self.channels.get(topic)
+        if channel is None:
+            schema = type(message).get_schema()
+            schema_id = self.writer.register_schema(schema.name, schema.encoding, schema.data)
+            channel = self.channels[topic] = self.writer.register_channel(topic, "protobuf", schema_id)
+        self.writer.add_message(channel, log_time=ns, publish_time=ns, data=message.encode())
+        self.counts[type(message).__name__] += 1
+
+
+def export_foxglove(source: Path, target: Path, scenario: Scenario | None, keep_raw: bool = False,
+                    trail_points: int = 300, terrain_cells: int = 128, progress: bool = False) -> dict[str, int]:
+    """Convert a recording; written to a temporary file first, so a failure leaves no half file behind.
+
+    Returns how many messages of each kind were written (for the summary line and tests).
+    """
+    from mcap.writer import CompressionType, Writer
+
+    from sessions.format import read_samples, time_range
+
+    tmp = target.with_name(target.name + ".part")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        with open(tmp, "wb") as stream:
+            writer = Writer(stream, compression=CompressionType.ZSTD)
+            writer.start(profile="", library="lunarsim export-foxglove")
+            out = FoxgloveFile(writer)
+            raw = _RawCopy(writer, source) if keep_raw else None
+            converter = _Converter(scenario, out, trail_points, terrain_cells)
+            for sample in _with_progress(read_samples(source), _message_count(source), progress):
+                converter.add(sample)
+                if raw is not None:
+                    raw.write(sample)
+            converter.finish(time_range(source)[0])
+            writer.finish()
+        tmp.replace(target)
+    except Exception:
+        tmp.unlink(missing_ok=True)
+        raise
+    counts = dict(out.counts)
+    if raw is not None:
+        counts["raw"] = raw.count
+    return counts
+
+
+class _Converter:
+    """Sample by sample: the static scene before the first message, then states and photos as they come."""
+
+    def __init__(self, scenario: Scenario | None, out: FoxgloveFile, trail_points: int, terrain_cells: int) -> None:
+        from sessions import foxglove as fx
+
+        self.fx, self.out, self.scenario = fx, out, scenario
+        self.grid = _terrain(scenario, terrain_cells) if scenario is not None else None
+        self.dynamic = fx.DynamicScene(scenario, self.grid, trail_points) if scenario is not None else None
+        self.first_ns: int | None = None
+
+    def add(self, sample: Sample) -> None:
+        from schemas.codec import DecodeError
+        from schemas.messages import LanderMap, Photo, WorldState
+        from sessions.format import decode
+
+        fx = self.fx
+        if not (fx.is_state_key(sample.key) or fx.is_photo_key(sample.key) or fx.is_map_key(sample.key)):
+            return
+        self._start(sample.log_time_ns)
+        try:
+            message = decode(sample)
+        except DecodeError as exc:
+            print(f"warning: skipped a malformed sample on {sample.key}: {exc}", file=sys.stderr)
+            return
+        ns = sample.log_time_ns
+        if isinstance(message, WorldState):
+            if self.dynamic is not None:
+                self.out.write(fx.SCENE_TOPIC, self.dynamic.update(message, ns), ns)
+            ground = self.dynamic.ground if self.dynamic is not None else None
+            for transform in fx.transforms(message, ns, ground):
+                self.out.write(fx.TF_TOPIC, transform, ns)
+        elif isinstance(message, Photo):
+            rover = fx.rover_of_key(sample.key)
+            self.out.write(fx.photo_topic(rover), fx.photo_image(message, rover, ns), ns)
+        elif isinstance(message, LanderMap):
+            try:
+                self.out.write(fx.MAP_TOPIC, fx.map_grid(message, ns, fx.map_elevation(self.grid)), ns)
+            except ValueError as exc:
+                print(f"warning: skipped a lander map on {sample.key}: {exc}", file=sys.stderr)
+
+    def _start(self, ns: int) -> None:
+        """The static scene goes first, stamped with the recording's first time, so it is there from the start."""
+        if self.first_ns is None:
+            self.first_ns = ns
+            if self.scenario is not None and self.grid is not None:
+                self.out.write(self.fx.SCENE_TOPIC, self.fx.static_scene(self.scenario, self.grid, ns), ns)
+
+    def finish(self, start_ns: int) -> None:
+        """A recording without states or photos still gets its static scene."""
+        self._start(start_ns)
+
+
+def _terrain(scenario: Scenario, cells: int):
+    """The scenario's terrain on a coarse grid; a mesh that cannot be loaded costs the relief, not the export."""
+    from sessions import foxglove as fx
+
+    try:
+        return fx.sample_terrain(scenario, cells=cells)
+    except (OSError, ValueError, MemoryError) as exc:
+        print(f"warning: terrain not drawn ({exc}); using a flat plane", file=sys.stderr)
+        return fx.sample_terrain(scenario, lambda x, z: x * 0.0, cells=cells)
+
+
+class _RawCopy:
+    """The original channels, schemas and metadata, copied unchanged (``--keep-raw``)."""
+
+    def __init__(self, writer: Writer, source: Path) -> None:
+        from sessions.format import read_metadata
+
+        self.writer = writer
+        self.channels: dict[str, int] = {}
+        self.schemas: dict[str, int] = {}
+        self.count = 0
+        for name, data in read_metadata(source).items():
+            writer.add_metadata(name, data)
+
+    def write(self, sample: Sample) -> None:
+        from sessions.format import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_of_key
+
+        channel = self.channels.get(sample.key)
+        if channel is None:
+            schema_id = 0
+            described = schema_of_key(sample.key)
+            if described is not None:
+                name, data = described
+                if name not in self.schemas:
+                    self.schemas[name] = self.writer.register_schema(name, SCHEMA_ENCODING, data)
+                schema_id = self.schemas[name]
+            channel = self.channels[sample.key] = self.writer.register_channel(sample.key, MESSAGE_ENCODING,
+                                                                               schema_id)
+        self.writer.add_message(channel, log_time=sample.log_time_ns, publish_time=sample.publish_time_ns,
+                                data=sample.payload)
+        self.count += 1
+
+
+def _message_count(source: Path) -> int | None:
+    from mcap.reader import make_reader
+
+    with open(source, "rb") as stream:
+        summary = make_reader(stream).get_summary()
+    return summary.statistics.message_count if summary and summary.statistics else None
+
+
+def _with_progress(samples, total: int | None, show: bool):
+    """Samples, with a rich progress bar on a terminal (long recordings take a while)."""
+    if not show:
+        yield from samples
+        return
+    from rich.progress import Progress
+
+    with Progress(transient=True) as bar:
+        task = bar.add_task("exporting", total=total)
+        for i, sample in enumerate(samples):
+            yield sample
+            if i % 1000 == 0:
+                bar.update(task, completed=i)

@@ -1,0 +1,120 @@
+"""Recording Zenoh traffic: a subscriber that only enqueues, and a writer thread that drains to MCAP.
+
+The Zenoh callback copies the payload and stamps it, nothing more, so the receiving thread never waits on
+disk or compression. The queue is bounded: if the writer ever falls that far behind, samples are dropped
+and counted per key (and written into the file's metadata), rather than memory growing without limit.
+In snapshot mode the writer keeps only a rolling window of the last N seconds and writes it on a trigger.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from collections import Counter, deque
+from collections.abc import Callable
+from pathlib import Path
+
+import zenoh
+
+from bus.bus import zenoh_callback
+from sessions.format import Sample, TopicFilter
+from sessions.writer import SessionWriter
+
+log = logging.getLogger("lunarsim.record")
+QUEUE_SAMPLES = 200_000
+FLUSH_S = 1.0
+"""Seconds between chunk flushes while samples arrive: at most this much of a recording dies with a SIGKILL."""
+
+
+class Recorder:
+    """Subscribes to ``key_expr`` and hands every sample that passes ``keep`` to ``sink`` on its own thread."""
+
+    def __init__(self, session: zenoh.Session, key_expr: str, sink: Callable[[Sample], None],
+                 keep: TopicFilter | None = None, queue_samples: int = QUEUE_SAMPLES,
+                 flush: Callable[[], None] | None = None, flush_s: float = FLUSH_S) -> None:
+        self.keep = keep or TopicFilter()
+        self.sink, self.flush, self.flush_s = sink, flush, flush_s
+        self.drops: Counter[str] = Counter()
+        self.received = 0
+        self._queue: queue.Queue[Sample | None] = queue.Queue(maxsize=queue_samples)
+        self._thread = threading.Thread(target=self._drain, name="recorder-writer", daemon=True)
+        self._thread.start()
+        self._subscriber = session.declare_subscriber(key_expr, zenoh_callback(self._on_sample))
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        now = time.time_ns()
+        key = str(sample.key_expr)
+        if not self.keep(key):
+            return
+        stamp = sample.timestamp
+        published = stamp.get_time_as_ntp64().as_nanos() if stamp is not None else now  # HLC: Unix epoch
+        try:
+            self._queue.put_nowait(Sample(key, sample.payload.to_bytes(), now, published))
+            self.received += 1
+        except queue.Full:
+            self.drops[key] += 1
+
+    def _drain(self) -> None:
+        pending, last_flush = False, time.monotonic()
+        while True:
+            try:
+                sample = self._queue.get(timeout=self.flush_s)
+            except queue.Empty:
+                sample = ...  # quiet for a while: still flush what is pending
+            if sample is None:
+                return
+            if sample is not ...:
+                pending = self._write(sample) or pending
+            if pending and self.flush is not None and time.monotonic() - last_flush >= self.flush_s:
+                self._flush()
+                pending, last_flush = False, time.monotonic()
+
+    def _write(self, sample: Sample) -> bool:
+        try:
+            self.sink(sample)
+            return True
+        except Exception:  # a bad sample must not stop the recording of the good ones
+            log.exception("could not write a sample of %s", sample.key)
+            return False
+
+    def _flush(self) -> None:
+        try:
+            self.flush()
+        except OSError as exc:  # a full disk: keep receiving, the next flush may succeed
+            log.error("could not flush the recording: %s", exc)
+
+    def stop(self) -> None:
+        """Stop receiving, then write everything already received."""
+        self._subscriber.undeclare()
+        self._queue.put(None)
+        self._thread.join()
+
+
+class RollingBuffer:
+    """The last ``seconds`` of samples, written to a new file on ``snapshot()`` (SIGUSR1, ground command)."""
+
+    def __init__(self, seconds: float, base: Path, session: dict[str, str] | None, compression: str) -> None:
+        self.window_ns = int(seconds * 1e9)
+        self.base, self.session, self.compression = base, session, compression
+        self.samples: deque[Sample] = deque()
+        self.snapshots: list[Path] = []
+        self._lock = threading.Lock()
+
+    def __call__(self, sample: Sample) -> None:
+        with self._lock:
+            self.samples.append(sample)
+            while self.samples and sample.log_time_ns - self.samples[0].log_time_ns > self.window_ns:
+                self.samples.popleft()
+
+    def snapshot(self) -> Path:
+        with self._lock:
+            samples = list(self.samples)
+        path = self.base.with_name(f"{self.base.stem}-snapshot-{len(self.snapshots):03d}{self.base.suffix}")
+        writer = SessionWriter(path, self.session, self.compression)
+        for sample in samples:
+            writer.write(sample)
+        writer.close()
+        self.snapshots.append(path)
+        return path

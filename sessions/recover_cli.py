@@ -1,0 +1,29 @@
+"""``lunarsim recover BROKEN.mcap -o FIXED.mcap``: keep everything a killed recorder had written."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from bus import process
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("broken", type=Path, metavar="BROKEN.mcap")
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FIXED.mcap")
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    from sessions.recover import NotARecording, recover
+
+    if not args.broken.is_file():
+        raise process.UsageError(f"{args.broken}: no such file")
+    if args.output.resolve() == args.broken.resolve():
+        raise process.UsageError("write the recovered file somewhere else than the broken one")
+    try:
+        result = recover(args.broken, args.output)
+    except NotARecording as exc:
+        raise process.UsageError(str(exc)) from None
+    tail = f"; the end was cut off ({result.error})" if result.truncated else "; the file was complete"
+    print(f"recovered {result.messages} messages on {result.channels} channels into {args.output}{tail}")
+    return 0

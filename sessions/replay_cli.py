@@ -1,0 +1,274 @@
+"""``lunarsim replay``: publish a recorded session onto Zenoh again, with its original timing.
+
+    lunarsim replay run.mcap                       # as recorded, same world
+    lunarsim replay run.mcap --remap-world review --rate 4 --loop
+    lunarsim replay run.mcap --topics 'lunar/*/rover/1/*' --start-offset 30 --start-paused
+
+The recorded world clock is left out unless ``--clock``: a replay beside a live world must not drive its
+agents. Controls: on a terminal, space pauses/resumes, ``s`` or the right arrow steps one sample, ``q``
+quits; from anywhere, ``pause``/``resume``/``step``/``seek`` ground commands on the target world's keyspace.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import select
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from bus import process
+from bus.zenoh_config import add_zenoh_arguments
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+ESC_RIGHT = b"\x1b[C"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", type=Path, metavar="FILE.mcap", help="a recording made by 'lunarsim record'")
+    parser.add_argument("--rate", type=float, default=1.0, metavar="R", help="playback speed (default 1: as "
+                        "recorded; 2: twice as fast)")
+    parser.add_argument("--loop", action="store_true", help="start again at the end, until stopped")
+    parser.add_argument("--topics", nargs="+", metavar="GLOB", help="replay only keys matching these globs")
+    parser.add_argument("--exclude", nargs="+", metavar="GLOB", help="leave out keys matching these globs")
+    parser.add_argument("--start-offset", type=float, default=0.0, metavar="S",
+                        help="start S seconds into the recording")
+    parser.add_argument("--remap-world", metavar="NAME", help="publish into world NAME instead of the recorded one")
+    parser.add_argument("--clock", action="store_true", help="also replay the recorded world clock (left out by "
+                        "default so a replay beside a live world does not drive its agents)")
+    parser.add_argument("--start-paused", action="store_true", help="wait for resume/step before publishing")
+    parser.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    add_zenoh_arguments(parser)
+
+
+@dataclass(frozen=True)
+class Recording:
+    """What the replay needs to know about a file before playing it."""
+
+    path: Path
+    world: str | None
+    first_ns: int
+    last_ns: int
+
+
+def open_recording(path: Path) -> Recording:
+    """Check the file is a readable, non-empty MCAP recording; every failure is a UsageError naming it."""
+    from sessions.format import read_metadata, read_samples, time_range
+    from sessions.replay import recorded_world
+
+    if not path.exists():
+        raise process.UsageError(f"{path}: no such file")
+    if not path.is_file():
+        raise process.UsageError(f"{path}: not a file")
+    with path.open("rb") as stream:
+        if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+            raise process.UsageError(f"{path}: not an MCAP file (expected a recording made by 'lunarsim record')")
+    try:
+        metadata = read_metadata(path)
+        first_ns, last_ns = time_range(path)
+        first = next(iter(read_samples(path)), None)
+        if first is not None and first_ns == last_ns == 0:  # no summary (a recorder killed mid-run): scan
+            first_ns = first.log_time_ns
+            last_ns = max(s.log_time_ns for s in read_samples(path))
+    except Exception as exc:  # the mcap reader raises several types for damaged files
+        raise process.UsageError(f"{path}: cannot read the recording ({type(exc).__name__}: {exc})") from None
+    if first is None:
+        raise process.UsageError(f"{path}: the recording is empty (no samples)")
+    return Recording(path, recorded_world(metadata, first.key), first_ns, last_ns)
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    from schemas.keyspace import check_world_name
+    from sessions.format import TopicFilter, read_samples
+    from sessions.replay import CLOCK_GLOB, Player, prefetch, world_remapper
+
+    if args.rate <= 0:
+        raise process.UsageError(f"--rate must be positive, got {args.rate:g}")
+    if args.start_offset < 0:
+        raise process.UsageError(f"--start-offset must not be negative, got {args.start_offset:g}")
+    try:
+        target = check_world_name(args.remap_world) if args.remap_world else None
+    except ValueError as exc:
+        raise process.UsageError(f"--remap-world: {exc}") from None
+    recording = open_recording(args.file)
+    keep = TopicFilter(args.topics, [*(args.exclude or []), *([] if args.clock else [CLOCK_GLOB])])
+    if next(iter(read_samples(recording.path, keep)), None) is None:
+        raise process.UsageError(f"{args.file}: no samples left after --topics/--exclude"
+                                 + ("" if args.clock else " (the world clock is left out without --clock)"))
+    if target and recording.world is None:
+        raise process.UsageError(f"{args.file}: cannot tell which world was recorded, so cannot --remap-world")
+    world = target or recording.world or "default"
+    remap = world_remapper(recording.world, target) if target and recording.world else None
+    return _play(args, recording, world, lambda publish: Player(
+        lambda start_ns: prefetch(read_samples(recording.path, keep, start_ns)), publish, rate=args.rate,
+        loop=args.loop, start_offset_s=args.start_offset, paused=args.start_paused, remap=remap,
+        first_ns=recording.first_ns, last_ns=recording.last_ns))
+
+
+def _play(args: argparse.Namespace, recording: Recording, world: str, make_player) -> int:
+    """Open Zenoh, play on a worker thread, and keep the main thread for signals and the progress bar."""
+    from bus.bus import Bus
+    from bus.zenoh_config import config_from_args, describe_endpoints, open_session
+    from schemas.keyspace import Keyspace
+
+    keys = Keyspace(world)
+    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
+                           who="lunarsim replay")
+    with Bus(session, lossless=True) as bus:
+        own = OwnCommands(keys.ground_command)
+        player = make_player(own.wrap(bus.put))
+        commands = session.declare_subscriber(keys.ground_command, _command_handler(player, own))
+        print(f"replaying {recording.path} ({player.duration_s:.1f} s, world {recording.world} -> {world}) "
+              f"at rate {args.rate:g}" + (" - paused" if args.start_paused else ""), flush=True)
+        started = time.monotonic()
+        try:
+            interrupted = _run_with_controls(player, args.quiet)
+        finally:
+            commands.undeclare()
+    print(f"replayed {player.published} samples in {time.monotonic() - started:.1f} s"
+          + (f" ({player.loops} loops)" if player.loops else "") + (" - interrupted" if interrupted else ""),
+          flush=True)
+    return process.EXIT_INTERRUPTED if interrupted else 0
+
+
+def _run_with_controls(player, quiet: bool) -> bool:
+    """Play to the end; True if stopped by Ctrl-C or SIGTERM. A failure of the player is raised here."""
+    failure: list[BaseException] = []
+
+    def play() -> None:
+        try:
+            player.run()
+        except BaseException as exc:  # handed to the main thread, which reports it
+            failure.append(exc)
+
+    worker = threading.Thread(target=play, name="replay-player", daemon=True)
+    interrupted = False
+    with process.stop_on_signals() as stop, keyboard(player), progress(player, quiet) as update:
+        worker.start()
+        while worker.is_alive():
+            if stop.wait(0.1):
+                interrupted = True
+                player.quit()
+                worker.join()
+            update()
+    if failure:
+        raise failure[0]
+    return interrupted
+
+
+class OwnCommands:
+    """Ground commands this replay publishes itself (from the recording) must not control it."""
+
+    def __init__(self, key: str) -> None:
+        self.key = key
+        self.payloads: list[bytes] = []
+        self._lock = threading.Lock()
+
+    def wrap(self, put):
+        def publish(key: str, payload: bytes) -> None:
+            if key == self.key:
+                with self._lock:
+                    self.payloads.append(payload)
+            put(key, payload)
+
+        return publish
+
+    def is_own(self, payload: bytes) -> bool:
+        with self._lock:
+            if payload in self.payloads:
+                self.payloads.remove(payload)
+                return True
+        return False
+
+
+def _command_handler(player, own: OwnCommands):
+    """Zenoh callback: playback ground commands become player controls; others are not ours."""
+    from schemas import codec
+    from schemas import messages as m
+
+    def handle(sample) -> None:
+        payload = sample.payload.to_bytes()
+        if own.is_own(payload):
+            return
+        try:
+            command = codec.decode(m.GroundCommand, payload)
+        except codec.DecodeError as exc:
+            print(f"replay: ignored a malformed ground command: {exc}", file=sys.stderr, flush=True)
+            return
+        if command.command not in m.PLAYBACK_COMMANDS:
+            return
+        if command.command == "seek" and command.seconds is None:
+            print("replay: ignored a seek command without seconds", file=sys.stderr, flush=True)
+            return
+        player.control(command.command, command.seconds or 0.0)
+
+    return handle
+
+
+def keys_to_controls(data: bytes) -> list[str]:
+    """Keyboard bytes to controls: space toggles, ``s`` or the right arrow steps, ``q`` quits."""
+    controls = ["step"] * data.count(ESC_RIGHT)
+    for char in data.replace(ESC_RIGHT, b"").decode(errors="ignore").lower():
+        control = {" ": "toggle", "s": "step", "q": "quit"}.get(char)
+        if control:
+            controls.append(control)
+    return controls
+
+
+@contextlib.contextmanager
+def keyboard(player) -> Iterator[None]:
+    """Read single keys from a terminal on stdin (cbreak mode, restored on exit); nothing otherwise."""
+    if not sys.stdin.isatty():
+        yield
+        return
+    import termios
+    import tty
+
+    fd = sys.stdin.fileno()
+    saved = termios.tcgetattr(fd)
+    done = threading.Event()
+
+    def read() -> None:
+        while not done.is_set():
+            if select.select([fd], [], [], 0.1)[0]:
+                for control in keys_to_controls(os.read(fd, 64)):
+                    player.control(control)
+
+    tty.setcbreak(fd)  # keys arrive one by one; Ctrl-C still raises SIGINT
+    reader = threading.Thread(target=read, name="replay-keyboard", daemon=True)
+    reader.start()
+    try:
+        yield
+    finally:
+        done.set()
+        reader.join(timeout=1)
+        termios.tcsetattr(fd, termios.TCSADRAIN, saved)
+
+
+@contextlib.contextmanager
+def progress(player, quiet: bool) -> Iterator:
+    """A rich progress bar of position / duration on a terminal; yields the function that refreshes it."""
+    from rich.console import Console
+
+    console = Console()
+    if quiet or not console.is_terminal:
+        yield lambda: None
+        return
+    from rich.progress import BarColumn, Progress, TextColumn
+
+    columns = (TextColumn("[bold]{task.fields[state]}"), BarColumn(),
+               TextColumn("{task.completed:.1f} / {task.total:.1f} s"), TextColumn("{task.fields[hint]}"))
+    with Progress(*columns, console=console, transient=False) as bar:
+        hint = "space pause · s step · q quit" if sys.stdin.isatty() else ""
+        task = bar.add_task("replay", total=max(player.duration_s, 1e-9), state="playing", hint=hint)
+
+        def update() -> None:
+            bar.update(task, completed=player.position_s, state="paused" if player.paused else "playing")
+
+        yield update
+        update()

@@ -1,0 +1,108 @@
+"""The layout's import rules, read from the source (every import, also those inside functions): each package
+depends only on the packages below it, no two modules import each other round a circle, and no module outgrows one
+concept. What a newcomer reads in ``docs``/README about the architecture holds because this test does."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+MAY_IMPORT: dict[str, set[str]] = {
+    "schemas": set(),
+    "bus": {"schemas"},
+    "world_service": {"schemas", "bus"},
+    "rover_agent": {"schemas", "bus"},
+    "lander_agent": {"schemas", "bus"},
+    "scenarios": {"schemas"},
+    "harness": {"schemas", "bus", "world_service", "rover_agent", "lander_agent"},
+    "sessions": {"schemas", "bus", "world_service", "lander_agent"},
+    "hardware": {"schemas", "bus"},
+    "web": {"schemas", "bus", "sessions", "world_service", "lander_agent"},
+    "deploy": {"schemas", "bus", "world_service", "rover_agent", "lander_agent", "scenarios", "harness", "sessions",
+               "hardware", "web"},
+}
+"""Each package's allowed imports among LunarSim's own: downwards only (the table of docs/README's layout)."""
+FLIGHT = {"schemas", "bus", "rover_agent", "hardware"}
+"""What the flight wheel ships: the rover agent's closure must stay inside it."""
+MAX_LINES = 400
+
+
+def _modules() -> dict[str, Path]:
+    found = {}
+    for package in MAY_IMPORT:
+        for path in sorted((REPO / package).rglob("*.py")):
+            if "node_modules" in path.parts:
+                continue
+            parts = path.relative_to(REPO).with_suffix("").parts
+            name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+            found[name] = path
+    return found
+
+
+MODULES = _modules()
+
+
+def _imports(name: str, path: Path) -> set[str]:
+    """The LunarSim modules ``name`` imports, at any depth of the file, resolved to module names."""
+    tree = ast.parse(path.read_text(), str(path))
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    targets: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            targets.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                base = ".".join(package.split(".")[: len(package.split(".")) - node.level + 1] + ([base] if base
+                                                                                                    else []))
+            targets.add(base)
+            targets.update(f"{base}.{alias.name}" for alias in node.names)
+    return {t for t in targets if t in MODULES and t != name}
+
+
+GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
+
+
+@pytest.mark.parametrize("package", sorted(MAY_IMPORT))
+def test_each_package_imports_only_the_packages_below_it(package):
+    wrong = sorted(f"{name} imports {target}" for name, targets in GRAPH.items() if name.split(".")[0] == package
+                   for target in targets
+                   if target.split(".")[0] != package and target.split(".")[0] not in MAY_IMPORT[package])
+    assert not wrong, "\n".join(wrong)
+
+
+def test_no_modules_import_each_other_round_a_circle():
+    circles = []
+    done: set[str] = set()
+
+    def visit(node: str, path: list[str], on_path: set[str]) -> None:
+        for target in sorted(GRAPH[node]):
+            if target in on_path:
+                circles.append(" -> ".join([*path[path.index(target):], target]))
+            elif target not in done:
+                visit(target, [*path, target], on_path | {target})
+        done.add(node)
+
+    for name in sorted(GRAPH):
+        if name not in done:
+            visit(name, [name], {name})
+    assert not circles, "\n".join(circles)
+
+
+def test_the_rover_agent_needs_only_what_the_flight_wheel_ships():
+    reached, frontier = set(), ["rover_agent.app"]
+    while frontier:
+        name = frontier.pop()
+        if name not in reached:
+            reached.add(name)
+            frontier += GRAPH[name]
+    outside = sorted(name for name in reached if name.split(".")[0] not in FLIGHT)
+    assert not outside, outside
+
+
+def test_no_module_is_over_400_lines():
+    long = {name: n for name, path in MODULES.items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
+    assert not long, long

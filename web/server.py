@@ -1,0 +1,266 @@
+"""The web server: the page, a WebSocket with the live world, and the REST endpoints of commands and editor.
+
+No Zenoh in here: ``view`` feeds ``Viewer.latest`` from its subscriptions and hands in ``publish``, so
+the HTTP side can be driven by anything that stores samples.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+from pathlib import Path
+
+from aiohttp import WSMsgType, web
+
+from schemas.scenario import Scenario, ScenarioError
+from web import editor, live
+from web.commands import CommandError, Commands, command_from_request
+from web.scene import empty_scene, scenario_scene
+
+STATIC = Path(__file__).parent / "static"
+BUNDLE = STATIC / "bundle.js"
+VIEWER: web.AppKey[Viewer] = web.AppKey("viewer")
+STREAM: web.AppKey[asyncio.Task] = web.AppKey("stream")
+
+
+class Viewer:
+    """State shared by the handlers: latest samples, the scene shown, connected pages, editor and launcher."""
+
+    def __init__(self, world: str, latest: live.Latest, commands: Commands, workspace: editor.Workspace,
+                 launcher: editor.Launcher, scenario: Scenario | None = None) -> None:
+        self.world = world
+        self.latest = latest
+        self.commands = commands
+        self.workspace = workspace
+        self.launcher = launcher
+        self.scene = scenario_scene(scenario) if scenario is not None else empty_scene()
+        self.clients: set[web.WebSocketResponse] = set()
+        self.undecodable = 0
+
+    async def set_scenario(self, scenario: Scenario) -> None:
+        """Show another scenario (one launched from the editor): new scene, old run's state forgotten."""
+        self.scene = await asyncio.to_thread(scenario_scene, scenario)
+        self.latest.forget()
+        await self.broadcast(json.dumps({"type": "scene", "scene": self.scene}))
+
+    async def broadcast(self, text: str) -> None:
+        for ws in list(self.clients):
+            try:
+                await asyncio.wait_for(ws.send_str(text), 5.0)
+            except (ConnectionError, TimeoutError, RuntimeError):
+                self.clients.discard(ws)
+
+    def messages_since(self, seen: dict, seen_photos: dict) -> list[str]:
+        out = []
+        for stream, payload in self.latest.newer(seen).items():
+            message = live.stream_message(stream, payload)
+            if message is None:
+                self.undecodable += 1
+                continue
+            out.append(json.dumps(message))
+        for rover, payload in self.latest.newer_photos(seen_photos).items():
+            if (message := live.photo_message(rover, payload)) is not None:
+                out.append(json.dumps(message))
+        return out
+
+    async def stream(self) -> None:
+        """The latest of each stream to every page, ``STREAM_HZ`` times a second at most."""
+        seen: dict = {}
+        seen_photos: dict = {}
+        while True:
+            await asyncio.sleep(1.0 / live.STREAM_HZ)
+            if not self.clients:
+                continue
+            for text in self.messages_since(seen, seen_photos):
+                await self.broadcast(text)
+
+
+def _error(message: str, status: int = 400) -> web.Response:
+    return web.json_response({"ok": False, "error": message}, status=status)
+
+
+async def _body(request: web.Request) -> dict:
+    """The JSON object a request carries. Only ``application/json`` is read: a page on another site can post
+    that to this server only after the browser has asked it (CORS preflight, which it never allows), so such a
+    page cannot launch runs or send ground commands through a browser on the viewer's machine."""
+    if request.content_type != "application/json":
+        raise web.HTTPUnsupportedMediaType(text=json.dumps({"ok": False, "error": "send the request body as "
+                                                            "application/json"}), content_type="application/json")
+    try:
+        data = await request.json()
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        raise web.HTTPBadRequest(text=json.dumps({"ok": False, "error": "request body is not JSON"}),
+                                 content_type="application/json") from None
+    if not isinstance(data, dict):
+        raise web.HTTPBadRequest(text=json.dumps({"ok": False, "error": "expected a JSON object"}),
+                                 content_type="application/json")
+    return data
+
+
+def _viewer(request: web.Request) -> Viewer:
+    return request.app[VIEWER]
+
+
+async def index(request: web.Request) -> web.StreamResponse:
+    if not BUNDLE.is_file():
+        return web.Response(status=500, text="the web front end was not built: run `npm ci && npm run build` in "
+                            "web/frontend (pip install does it when npm is on PATH)")
+    return web.FileResponse(STATIC / "index.html")
+
+
+async def websocket(request: web.Request) -> web.WebSocketResponse:
+    viewer = _viewer(request)
+    ws = web.WebSocketResponse(heartbeat=20.0)
+    await ws.prepare(request)
+    await ws.send_str(json.dumps({"type": "hello", "world": viewer.world, "stream_hz": live.STREAM_HZ}))
+    await ws.send_str(json.dumps({"type": "scene", "scene": viewer.scene}))
+    for text in viewer.messages_since({}, {}):
+        await ws.send_str(text)
+    viewer.clients.add(ws)
+    try:
+        async for msg in ws:
+            if msg.type == WSMsgType.ERROR:
+                break
+    finally:
+        viewer.clients.discard(ws)
+    return ws
+
+
+async def info(request: web.Request) -> web.Response:
+    viewer = _viewer(request)
+    return web.json_response({"world": viewer.world, "scenario": viewer.scene["name"], "clients": len(viewer.clients),
+                              "launch": viewer.launcher.status(), "undecodable": viewer.undecodable})
+
+
+async def scene(request: web.Request) -> web.Response:
+    return web.json_response(_viewer(request).scene)
+
+
+async def command(request: web.Request) -> web.Response:
+    try:
+        cmd = command_from_request(await _body(request))
+    except CommandError as exc:
+        return _error(str(exc))
+    result = await _viewer(request).commands.send(cmd)
+    return web.json_response({"ok": True, "command": cmd.command, **result})
+
+
+async def validate(request: web.Request) -> web.Response:
+    data = await _body(request)
+    try:
+        scenario = editor.scenario_from_page(data.get("scenario"))
+    except ScenarioError as exc:
+        return _error(str(exc))
+    preview = await asyncio.to_thread(scenario_scene, scenario) if data.get("scene") else None
+    return web.json_response({"ok": True, "scenario": editor.scenario_json(scenario), "scene": preview,
+                              "summary": _summary(scenario)})
+
+
+def _summary(scenario: Scenario) -> str:
+    obstacles = scenario.obstacles
+    return (f"{scenario.name}: {len(scenario.rovers)} rovers, {len(scenario.craters)} craters, "
+            f"{len(scenario.mission)} goals, {len(obstacles.rocks)} rocks, {len(obstacles.walls)} walls, "
+            f"{len(obstacles.rock_fields)} rock fields")
+
+
+async def save(request: web.Request) -> web.Response:
+    data = await _body(request)
+    viewer = _viewer(request)
+    try:
+        scenario = editor.scenario_from_page(data.get("scenario"))
+        path = viewer.workspace.save(str(data.get("name") or scenario.name), scenario)
+    except ScenarioError as exc:
+        return _error(str(exc))
+    return web.json_response({"ok": True, "path": str(path), "name": path.stem})
+
+
+async def listing(request: web.Request) -> web.Response:
+    return web.json_response({"ok": True, "names": _viewer(request).workspace.names()})
+
+
+async def load(request: web.Request) -> web.Response:
+    try:
+        scenario = _viewer(request).workspace.load(request.query.get("name", ""))
+    except ScenarioError as exc:
+        return _error(str(exc), 404)
+    return web.json_response({"ok": True, "scenario": editor.scenario_json(scenario)})
+
+
+async def launch(request: web.Request) -> web.Response:
+    data = await _body(request)
+    viewer = _viewer(request)
+    try:
+        scenario = editor.scenario_from_page(data.get("scenario"))
+        name = str(data.get("name") or scenario.name)
+        path = viewer.workspace.save(name, scenario)
+        out = viewer.launcher.launch(path, path.stem, float(data.get("time_scale") or 1.0))
+    except (ScenarioError, ValueError) as exc:
+        return _error(str(exc))
+    await viewer.set_scenario(scenario)
+    return web.json_response({"ok": True, "path": str(path), "out": str(out)})
+
+
+async def launch_status(request: web.Request) -> web.Response:
+    return web.json_response({"ok": True, **_viewer(request).launcher.status()})
+
+
+async def launch_stop(request: web.Request) -> web.Response:
+    await _body(request)  # only a JSON request: see _body
+    viewer = _viewer(request)
+    await asyncio.to_thread(viewer.launcher.stop)
+    return web.json_response({"ok": True, **viewer.launcher.status()})
+
+
+async def profile_import(request: web.Request) -> web.Response:
+    data = await _body(request)
+    try:
+        scenario = editor.profile_scenario(data.get("profile"), str(data.get("name") or "profile"))
+    except ScenarioError as exc:
+        return _error(str(exc))
+    return web.json_response({"ok": True, "scenario": editor.scenario_json(scenario)})
+
+
+async def profile_export(request: web.Request) -> web.Response:
+    data = await _body(request)
+    try:
+        scenario = editor.scenario_from_page(data.get("scenario"))
+    except ScenarioError as exc:
+        return _error(str(exc))
+    return web.json_response({"ok": True, "profile": editor.profile_of(scenario)})
+
+
+async def _start_stream(app: web.Application) -> None:
+    app[VIEWER].commands.loop = asyncio.get_running_loop()
+    app[STREAM] = asyncio.create_task(app[VIEWER].stream())
+
+
+async def _stop(app: web.Application) -> None:
+    app[STREAM].cancel()
+    with contextlib.suppress(asyncio.CancelledError):
+        await app[STREAM]
+    for ws in list(app[VIEWER].clients):
+        await ws.close()
+
+
+def build_app(viewer: Viewer) -> web.Application:
+    app = web.Application(client_max_size=16 * 1024 * 1024)
+    app[VIEWER] = viewer
+    app.router.add_get("/", index)
+    app.router.add_get("/ws", websocket)
+    app.router.add_get("/api/info", info)
+    app.router.add_get("/api/scene", scene)
+    app.router.add_post("/api/command", command)
+    app.router.add_post("/api/scenario/validate", validate)
+    app.router.add_post("/api/scenario/save", save)
+    app.router.add_get("/api/scenario/list", listing)
+    app.router.add_get("/api/scenario/load", load)
+    app.router.add_post("/api/scenario/launch", launch)
+    app.router.add_get("/api/launch", launch_status)
+    app.router.add_post("/api/launch/stop", launch_stop)
+    app.router.add_post("/api/profile/import", profile_import)
+    app.router.add_post("/api/profile/export", profile_export)
+    app.router.add_static("/static", STATIC)
+    app.on_startup.append(_start_stream)
+    app.on_shutdown.append(_stop)
+    return app
