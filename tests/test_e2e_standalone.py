@@ -67,9 +67,7 @@ def test_run_uses_a_running_router_with_connect(router, tmp_path):
 
 
 def test_scenario_import_export_round_trip_from_the_command_line(tmp_path):
-    profile = REPO.parent / "shared" / "lunarsim-profiles" / "fig28_crater_and_return.json"
-    if not profile.exists():
-        pytest.skip(f"the report's profiles are not beside the repository ({profile})")
+    profile = REPO / "tests" / "data" / "profiles" / "fig28_crater_and_return.json"
     yaml_file, json_file = tmp_path / "s.yaml", tmp_path / "s.json"
     for args in (("import", str(profile), "-o", str(yaml_file), "--name", "cr"),
                  ("export", str(yaml_file), "-o", str(json_file)),
