@@ -22,10 +22,26 @@ def test_the_site_builds_in_strict_mode(tmp_path):
     assert (tmp_path / "site" / "faults" / "index.html").is_file()
 
 
+def _pages(nav: list) -> set[str]:
+    found: set[str] = set()
+    for entry in nav:
+        for value in entry.values():
+            found |= _pages(value) if isinstance(value, list) else {value}
+    return found
+
+
 def test_every_page_is_in_the_navigation():
     nav = yaml.safe_load((REPO / "mkdocs.yml").read_text())["nav"]
-    listed = {page for entry in nav for page in entry.values()}
-    assert listed == {p.name for p in DOCS.glob("*.md")}
+    assert _pages(nav) == {str(p.relative_to(DOCS)) for p in DOCS.rglob("*.md")}
+
+
+def test_the_reference_pages_are_what_the_code_generates():
+    """Keys, messages, scenario fields and command help come from the code: regenerate them with
+    ``python -m deploy.reference docs`` after changing any of those."""
+    from deploy.reference import pages
+
+    stale = [name for name, content in pages().items() if (DOCS / name).read_text() != content]
+    assert not stale, f"regenerate with 'python -m deploy.reference docs': {stale}"
 
 
 def test_the_readme_is_short_and_every_link_into_the_docs_resolves():

@@ -1,0 +1,200 @@
+"""The documentation's reference pages, generated from the code so they cannot drift from it: every key and the
+message it carries (``schemas``), every scenario field with its default and bounds (the pydantic models, also as a
+JSON Schema for editors), and every command's help (the argparse parsers). ``tests/test_docs.py`` fails when the
+checked-in pages differ from what this writes.
+
+    python -m deploy.reference docs      # after changing a message, a scenario field or a flag
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import typing
+from pathlib import Path
+
+from pydantic import BaseModel
+
+HELP_COLUMNS = "100"
+"""argparse wraps help to the terminal: a fixed width keeps the page the same on every machine."""
+
+
+def pages() -> dict[str, str]:
+    """File name (under the docs folder) -> content."""
+    return {"reference/keyspace.md": keyspace_page(), "reference/scenario.md": scenario_page(),
+            "reference/cli.md": cli_page(), "scenario.schema.json": scenario_schema()}
+
+
+# ---- keys and messages ----
+
+
+def keyspace_page() -> str:
+    from rover_agent.agent import SUBSCRIBED_TOPICS
+    from schemas import keyspace as ks
+    from schemas import messages as m
+    from world_service.sim import World
+
+    lines = ["# Keyspace", "", "Every key is `lunar/<world>/...`; rover topics mirror the report's ROS topics "
+             "(`roverX/perception` is `lunar/<world>/rover/X/perception`). Every payload is msgpack "
+             "`[schema_version, {fields}]` of one model; units: metres, seconds of simulated time, degrees "
+             "(heading 0 = +z, 90 = +x).", "", "## Rover keys", "",
+             "| key | payload | from | to |", "|---|---|---|---|"]
+    # keys the two subscription lists do not tell: the world's service and twin subscribe to these
+    elsewhere = {ks.STATUS: ("rover agent", "world, ground, recorder"), ks.ACK: ("rover agent", "world (lockstep)"),
+                 ks.TELEMETRY: ("hardware bridge", "world (twin mode)")}
+    for topic, model in m.TOPIC_MODELS.items():
+        sender = "rover agent" if topic in World.INPUT_TOPICS else "world"
+        receiver = ", ".join(who for who, yes in (("world", topic in World.INPUT_TOPICS),
+                                                  ("rover agent", topic in SUBSCRIBED_TOPICS)) if yes)
+        sender, receiver = elsewhere.get(topic, (sender, receiver))
+        lines.append(f"| `rover/<id>/{topic}` | [`{model.__name__}`](#{model.__name__.lower()}) | {sender} | "
+                     f"{receiver} |")
+    for area, models in (("lander", m.LANDER_TOPIC_MODELS), ("world", m.WORLD_TOPIC_MODELS),
+                         ("ground", m.GROUND_TOPIC_MODELS)):
+        lines += ["", f"## {area.capitalize()} keys", "", "| key | payload |", "|---|---|"]
+        lines += [f"| `{area}/{topic}` | [`{model.__name__}`](#{model.__name__.lower()}) |"
+                  for topic, model in models.items()]
+    lines += ["", "Liveliness tokens: `alive/rover/<id>` and `alive/lander` (each agent's, while it runs).", "",
+              "## Messages", ""]
+    seen: set[str] = set()
+    for model in [*m.TOPIC_MODELS.values(), *m.LANDER_TOPIC_MODELS.values(), *m.WORLD_TOPIC_MODELS.values(),
+                  *m.GROUND_TOPIC_MODELS.values()]:
+        if model.__name__ not in seen:
+            seen.add(model.__name__)
+            lines += _model_section(model, f"### {model.__name__}")
+    return "\n".join(lines) + "\n"
+
+
+# ---- scenario files ----
+
+
+def scenario_page() -> str:
+    from schemas.scenario import Scenario
+
+    lines = ["# Scenario files", "", "A scenario is a YAML file validated by these models; an unknown field, a "
+             "value out of bounds or a nan is refused with the field's path. Editors with a YAML language server "
+             "complete and check scenario files against [`scenario.schema.json`](../scenario.schema.json) "
+             "(add `# yaml-language-server: $schema=<path>/docs/scenario.schema.json` at the top of a file).", ""]
+    done: set[type] = set()
+    queue: list[tuple[str, type[BaseModel]]] = [("(top level)", Scenario)]
+    while queue:
+        path, model = queue.pop(0)
+        if model in done:
+            continue
+        done.add(model)
+        lines += _model_section(model, f"## `{path}`: {model.__name__}")
+        for name, info in model.model_fields.items():
+            inner = _nested_model(info.annotation)
+            if inner is not None:
+                prefix = "" if path == "(top level)" else f"{path}."
+                queue.append((f"{prefix}{name}", inner))
+    return "\n".join(lines) + "\n"
+
+
+def scenario_schema() -> str:
+    from schemas.scenario import Scenario
+
+    return json.dumps(Scenario.model_json_schema(), indent=2, sort_keys=True) + "\n"
+
+
+def _nested_model(annotation: object) -> type[BaseModel] | None:
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in typing.get_args(annotation):
+        found = _nested_model(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _model_section(model: type[BaseModel], title: str) -> list[str]:
+    doc = (model.__doc__ or "").strip().split("\n\n")[0].replace("\n", " ")
+    lines = [title, ""] + ([doc, ""] if doc and not doc.startswith(("!!!", "Usage docs")) else [])
+    lines += ["| field | type | default | bounds | meaning |", "|---|---|---|---|---|"]
+    for name, info in model.model_fields.items():
+        default = "required" if info.is_required() else f"`{_short(info.get_default(call_default_factory=True))}`"
+        lines.append(f"| `{name}` | {_type_name(info.annotation)} | {default} | {_bounds(info.metadata)} | "
+                     f"{(info.description or '').replace('|', '/')} |")
+    return [*lines, ""]
+
+
+def _type_name(annotation: object) -> str:
+    text = getattr(annotation, "__name__", None) if isinstance(annotation, type) else None
+    text = text or str(annotation).replace("typing.", "").replace("schemas.", "")
+    for prefix in ("scenario.", "messages.", "params.", "truth.", "base."):
+        text = text.replace(prefix, "")
+    return f"`{text}`".replace("|", "&#124;")
+
+
+def _bounds(metadata: list) -> str:
+    names = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<", "min_length": "min length", "max_length": "max length"}
+    found = [f"{symbol} {_number(getattr(item, name))}" for item in metadata for name, symbol in names.items()
+             if getattr(item, name, None) is not None]
+    return ", ".join(found)
+
+
+def _number(value: float) -> str:
+    return f"{value:,}" if isinstance(value, int) else f"{value:g}"
+
+
+def _short(value: object) -> str:
+    if isinstance(value, BaseModel):
+        return "{...}"
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+# ---- commands ----
+
+
+def cli_page() -> str:
+    from deploy.cli import COMMANDS, build_parser
+
+    before = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = HELP_COLUMNS
+    try:
+        return _cli_help(build_parser(), COMMANDS)
+    finally:
+        if before is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = before
+
+
+def _cli_help(parser: argparse.ArgumentParser, commands: dict) -> str:
+    lines = ["# Commands", "", "Every `lunarsim` command with its `--help` (generated from the parsers).", "",
+             "```text", parser.format_help().rstrip(), "```", ""]
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name in commands:
+        command = subparsers.choices[name]
+        lines += [f"## lunarsim {name}", "", "```text", command.format_help().rstrip(), "```", ""]
+        nested = [a for a in command._actions if isinstance(a, argparse._SubParsersAction)]
+        for action in nested:
+            for sub_name, sub in action.choices.items():
+                lines += [f"### lunarsim {name} {sub_name}", "", "```text", sub.format_help().rstrip(), "```", ""]
+    return "\n".join(lines)
+
+
+def write(folder: Path) -> list[Path]:
+    written = []
+    for name, content in pages().items():
+        path = folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(content)
+        written.append(path)
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("folder", type=Path, help="the docs folder (docs)")
+    args = parser.parse_args(argv)
+    for path in write(args.folder):
+        print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
