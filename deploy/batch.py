@@ -27,7 +27,7 @@ TABLE_WIDTH = 140
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path)
+    parser.add_argument("scenario", type=Path, help="scenario YAML (see scenarios/)")
     parser.add_argument("--runs", type=int, default=5, metavar="N", help="number of seeded runs (default 5)")
     parser.add_argument("--seed", type=int, default=1, metavar="BASE", help="seed of the first run (default 1)")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, metavar="J", help="runs at a time")
@@ -38,7 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-sim-time", type=float, default=900.0, metavar="S",
                         help="stop each run after S simulated seconds (default 900)")
     parser.add_argument("--time-scale", type=float, default=4.0, metavar="K", help="without --lockstep (default 4)")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
+                        help="folder for the runs (one subfolder each) and batch.json")
 
 
 @dataclass

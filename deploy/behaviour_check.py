@@ -21,7 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("behaviour", help="default, straight, an installed plugin, or package.module:Class")
     parser.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="for the short mission")
     parser.add_argument("--rovers", type=int, default=2, metavar="N", help="rovers in the short mission")
-    parser.add_argument("--max-sim-time", type=float, default=300.0, metavar="S")
+    parser.add_argument("--max-sim-time", type=float, default=300.0, metavar="S",
+                        help="simulated seconds each checking mission may last (default 300)")
 
 
 def scripted_problems(cls, params) -> list[str]:

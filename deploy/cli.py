@@ -44,13 +44,19 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, (module_name, help_text) in COMMANDS.items():
         module = importlib.import_module(module_name)
-        command = sub.add_parser(name, help=help_text, description=module.__doc__)
+        command = sub.add_parser(name, help=help_text, description=plain(module.__doc__),
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(command)
         command.set_defaults(run=_router_first(module.run_from_args) if name == "run" else module.run_from_args)
     return parser
 
 
 Command = Callable[[argparse.Namespace], int]
+
+
+def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentParser:
+    actions = (a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return next(actions).choices[name]
 
 
 def _router_first(run: Command) -> Command:
@@ -69,8 +75,17 @@ def _router_first(run: Command) -> Command:
     return checked
 
 
+def plain(doc: str | None) -> str | None:
+    """A module docstring as a command's description: its paragraphs and example lines kept as written (the raw
+    formatter), its reST literals (double backquotes) shown as plain text."""
+    return doc.replace("``", "") if doc else doc
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # said by the command's own parser, with its usage, not the top-level one
+        _subparser(parser, args.command).error(f"unrecognized arguments: {' '.join(unknown)}")
     process.setup_logging(args.verbose)
     return process.run_guarded(args.run, args)
 

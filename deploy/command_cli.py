@@ -25,9 +25,13 @@ from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_end
 
 EXIT_REFUSED = 1
 EXIT_NO_ANSWER = 4
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("command", choices=["set-target", "stop", "return", "snapshot", "pause", "resume",
-                                            "step", "seek"])
+                                            "step", "seek"],
+                        help="what to do: set-target, stop, return (the lander answers); snapshot, pause, "
+                             "resume, step, seek (sent, not answered)")
     parser.add_argument("--rover", type=int, metavar="N", help="the rover (set-target: every rover if omitted)")
     parser.add_argument("--x", type=float, help="set-target: target x in map coordinates, m")
     parser.add_argument("--z", type=float, help="set-target: target z in map coordinates, m")

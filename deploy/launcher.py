@@ -87,6 +87,8 @@ def run_from_args(args: argparse.Namespace) -> int:
         raise process.UsageError(f"--time-scale must be positive for a live run, got {args.time_scale}")
     params = load_rover_params(args.params) if args.params else None
     scenario = _base_scenario(args).with_overrides(seed=args.seed, rovers=args.rovers, rover_params=params)
+    if not args.connect:
+        _check_port_free(args.port)  # before the run folder is made: a run that cannot start leaves nothing
     out = args.out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
     out.mkdir(parents=True, exist_ok=True)
     scenario_file = out / "scenario.yaml"
@@ -95,6 +97,15 @@ def run_from_args(args: argparse.Namespace) -> int:
     console.print(f"[bold]{scenario.name}[/]: {len(scenario.rovers)} rovers, seed {scenario.seed}, "
                   f"run folder {out}")
     return Mission(args, scenario, scenario_file, out, console).run()
+
+
+def _check_port_free(port: int) -> None:
+    from deploy.children import port_in_use
+
+    if port_in_use("127.0.0.1", port):
+        raise process.UsageError(f"port {port} on 127.0.0.1 is already in use (another run, or another program): "
+                                 f"pass --port to run elsewhere; only if a LunarSim router or world listens there, "
+                                 f"--connect tcp/127.0.0.1:{port} joins it")
 
 
 def _base_scenario(args: argparse.Namespace):
@@ -213,11 +224,9 @@ class Mission:
         """The world is the run's Zenoh router: every agent's sample reaches it, and its samples every agent, in
         one hop instead of two through a router process (a lockstep tick waits about a quarter less for its acks).
         """
-        from deploy.children import port_in_use, wait_for_port
+        from deploy.children import wait_for_port
 
-        if port_in_use("127.0.0.1", self.args.port):
-            raise process.UsageError(f"port {self.args.port} is already in use: pass --port to run elsewhere, or "
-                                     f"--connect tcp/127.0.0.1:{self.args.port} to use the router that is there")
+        _check_port_free(self.args.port)
         world = self.children.start("world", "world_service", *self._world_args(), "--listen", self.endpoint)
         if not wait_for_port("127.0.0.1", self.args.port, START_TIMEOUT_S, world):
             raise RuntimeError(f"the world did not open {self.endpoint}: {self.children.log_tail('world')}")

@@ -14,20 +14,20 @@ from bus import process
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="scenario_command", required=True, metavar="{import,export,check,generate}")
     imp = sub.add_parser("import", help="scenario YAML from a LunarSim scenario-editor profile (JSON)")
-    imp.add_argument("profile", type=Path)
-    imp.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.yaml")
+    imp.add_argument("profile", type=Path, help="the editor profile (JSON)")
+    imp.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.yaml", help="the scenario to write")
     imp.add_argument("--name", help="scenario name (default: the profile's file name)")
-    imp.add_argument("--seed", type=int, default=0)
+    imp.add_argument("--seed", type=int, default=0, help="the scenario's seed (default 0)")
     exp = sub.add_parser("export", help="scenario-editor profile (JSON) from a scenario YAML")
-    exp.add_argument("scenario", type=Path)
-    exp.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.json")
+    exp.add_argument("scenario", type=Path, help="scenario YAML")
+    exp.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.json", help="the profile to write")
     chk = sub.add_parser("check", help="validate a scenario file and summarise it")
-    chk.add_argument("scenario", type=Path)
+    chk.add_argument("scenario", type=Path, help="scenario YAML")
     gen = sub.add_parser("generate", help="a varied, valid mission drawn from a seed (scenarios/generator.py)")
     gen.add_argument("--seed", type=int, required=True, metavar="N", help="the same seed gives the same scenario")
     gen.add_argument("--kind", help="the family: crater, traverse, maze or daisy (default: drawn from the seed "
                      "too); checked by the generator, which lists them")
-    gen.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.yaml")
+    gen.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.yaml", help="the scenario to write")
 
 
 def run_from_args(args: argparse.Namespace) -> int:

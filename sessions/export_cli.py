@@ -26,7 +26,8 @@ if TYPE_CHECKING:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", type=Path, metavar="IN.mcap", help="a LunarSim recording")
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.mcap")
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.mcap",
+                        help="the Foxglove recording to write")
     parser.add_argument("--scenario", type=Path, metavar="FILE", help="scenario to draw (default: the one "
                         "embedded in the recording)")
     parser.add_argument("--keep-raw", action="store_true", help="also copy the original msgpack channels")

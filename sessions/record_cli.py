@@ -20,11 +20,13 @@ from bus.zenoh_config import add_zenoh_arguments
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.mcap")
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.mcap",
+                        help="the session file to write")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--topics", nargs="+", metavar="GLOB", help="record only keys matching these globs")
     parser.add_argument("--exclude", nargs="+", metavar="GLOB", help="leave out keys matching these globs")
-    parser.add_argument("--compression", choices=["zstd", "lz4", "none"], default="zstd")
+    parser.add_argument("--compression", choices=["zstd", "lz4", "none"], default="zstd",
+                        help="how MCAP chunks are compressed (default zstd)")
     parser.add_argument("--split-size", type=_size, metavar="BYTES", help="start a new file after this much "
                         "payload (suffixes k, M, G)")
     parser.add_argument("--split-duration", type=float, metavar="S", help="start a new file every S seconds")

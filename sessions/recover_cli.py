@@ -9,8 +9,10 @@ from bus import process
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("broken", type=Path, metavar="BROKEN.mcap")
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FIXED.mcap")
+    parser.add_argument("broken", type=Path, metavar="BROKEN.mcap",
+                        help="a recording cut short (its recorder was killed, or the disk filled)")
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FIXED.mcap",
+                        help="where to write what could be read of it")
 
 
 def run_from_args(args: argparse.Namespace) -> int:

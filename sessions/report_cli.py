@@ -11,12 +11,12 @@ from bus import process
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("input", type=Path, metavar="FILE.mcap")
+    parser.add_argument("input", type=Path, metavar="FILE.mcap", help="a session recorded by lunarsim run or record")
     parser.add_argument("--json", type=Path, metavar="OUT", help="write the statistics as JSON (report.json's "
                         "fields)")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="trajectory plot (default: FILE.png beside "
                         "the recording)")
-    parser.add_argument("--no-plot", action="store_true")
+    parser.add_argument("--no-plot", action="store_true", help="do not draw the trajectory plot")
     parser.add_argument("--scenario", type=Path, metavar="FILE", help="scenario (default: the one the "
                         "recording embeds)")
     parser.add_argument("--world", help="world to report on (default: the recorded one)")

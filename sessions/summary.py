@@ -20,12 +20,14 @@ def summary_table(report: m.MissionReport) -> Table:
         ("path efficiency of the rovers that reached their goal", "-" if report.reached_path_efficiency is None
          else f"{report.reached_path_efficiency:.3f}"),
         ("total distance covered (m)", f"{report.total_distance_covered_m:.2f}"),
-        ("rovers that reached final goal", f"{report.rovers_reached_final_goal}/{report.rovers_total}"),
+        ("rovers that reached final goal", f"{report.rovers_reached_final_goal}/{report.rovers_total}"
+         + (f" (up to {report.max_rovers_in_daisy_chain} held daisy-chain spots instead)"
+            if report.max_rovers_in_daisy_chain else "")),
         ("rover collisions", str(report.rover_collisions)),
         ("obstacle collisions", str(report.obstacle_collisions)),
         ("rovers stuck", str(report.rovers_stuck)),
         ("mission duration (sim s)", f"{report.mission_duration_s:.1f}"),
-        ("wall time (s)", f"{report.wall_time_s:.1f}"),
+        ("wall time (s)", f"{report.wall_time_s:.1f}" if report.wall_time_s > 0 else "- (from a recording)"),
         ("mission complete", "yes" if report.complete else "no (time limit or interrupted)"),
     ]
     if report.map_corridor_mapped is not None:

@@ -6,6 +6,7 @@ that is not there within their router timeout), so the table costs about as long
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -21,6 +22,8 @@ from bus.zenoh_config import ONE_SHOT_TIMEOUT_S
 SCENARIO = str(SCENARIOS / "crater_observation.yaml")
 NO_ROUTER = f"tcp/127.0.0.1:{free_port()}"
 WAIT_S = 2
+TAKEN = socket.create_server(("127.0.0.1", 0))
+"""A port something else listens on, for the whole module."""
 """``--router-timeout`` for agents, which wait for their router for ever unless told otherwise."""
 
 
@@ -72,7 +75,9 @@ def _cases(d: Path) -> list[Case]:
         Case("a directory as scenario", ("scenario", "check", str(d / "a_folder")), "a_folder: cannot read "
              "scenario: Is a directory"),
         Case("run a directory", (*run("r7"), str(d / "a_folder")), "Is a directory"),
-        Case("unknown flag", (*run("r8"), SCENARIO, "--bogus"), "unrecognized arguments: --bogus"),
+        Case("unknown flag", (*run("r8"), SCENARIO, "--bogus"), "lunarsim run: error: unrecognized arguments: --bogus"),
+        Case("port taken", ("run", "--port", str(TAKEN.getsockname()[1]), "--out", str(d / "runs" / "r18"), SCENARIO),
+             f"port {TAKEN.getsockname()[1]} on 127.0.0.1 is already in use"),
         Case("unknown command", ("fly",), "invalid choice: 'fly'"),
         Case("--rovers 0", (*run("r9"), SCENARIO, "--rovers", "0"), "--rovers must be at least 1, got 0"),
         Case("--rovers -1", (*run("r10"), SCENARIO, "--rovers", "-1"), "--rovers must be at least 1, got -1"),
