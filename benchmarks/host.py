@@ -10,6 +10,7 @@ figures says roughly how much of a change in the benchmark is the machine's.
 from __future__ import annotations
 
 import statistics
+import subprocess
 import time
 from pathlib import Path
 
@@ -49,3 +50,15 @@ def describe() -> dict:
 def line(host: dict) -> str:
     return (f"host: {host['cpu_model']}; reference pure-Python loop {host['reference_loop_ns']:.1f} ns an iteration "
             "(benchmarks/host.py: compare it before comparing figures from two machines)")
+
+
+def code_version() -> dict:
+    """The commit measured, and files changed since it (a benchmark of a working tree says which one)."""
+    repo = Path(__file__).resolve().parents[1]
+
+    def git(*cmd: str) -> str:
+        out = subprocess.run(["git", "-C", str(repo), *cmd], capture_output=True, text=True)
+        return out.stdout.rstrip("\n") if out.returncode == 0 else ""  # porcelain lines start with a space
+
+    changed = [line[3:] for line in git("status", "--porcelain", "--untracked-files=no").splitlines()]
+    return {"commit": git("rev-parse", "--short", "HEAD"), "uncommitted_changes": changed}

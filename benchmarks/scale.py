@@ -44,14 +44,15 @@ import sys
 import tempfile
 import time
 from dataclasses import dataclass
-from functools import partial
 from importlib import metadata
 from pathlib import Path
 
 import host
 import scale_witness
-from control_loop_latency import BenchmarkError, free_port
-from proc_meter import ProcessMeter, cpu_seconds, with_descendants
+from control_loop_latency import BenchmarkError
+from proc_meter import ProcessMeter, cpu_seconds
+from scale_args import parse_args
+from scale_cluster import WORLD, Cluster, Plan, Setting, periods, progress, sampled_ids
 from scale_observe import (
     Observer,
     agent_lag,
@@ -65,180 +66,19 @@ from scale_observe import (
     schedule_lateness,
     sim_rate,
 )
-from scale_report import holds, print_report, slopes, targets
-from world_scale import SCENARIO
+from scale_report import holds, median_run, print_report, refine, slopes, targets
 
 from bus import priority
-from bus.priority import Priority, lower
 from bus.zenoh_config import RouterUnreachable, build_config, open_session
-from deploy.children import Children, wait_for_port
-from rover_agent.app import PRELOAD
 from schemas import keyspace as ks
 from schemas.scenario import Scenario, dump_scenario, load_scenario
-from world_service.sim import CLOCK_HZ, tick_length, ticks_per_period
+from world_service.sim import CLOCK_HZ, ticks_per_period
 
-WORLD = "bench"
-WITNESS = Path(__file__).resolve().parent / "scale_witness.py"
-HOST = "127.0.0.1"
 MIN_SHARED = 50
 """The shared series halves its last count until one holds real time, down to this."""
-REFINE_STEP = 50
-"""Then it narrows the gap between the count that held and the lowest that did not, to this many rovers."""
 STARTED_TIMEOUT_S = 60.0
 """After the last token: the world needs a clock period or two to see them all and start."""
-QUICK = {"counts": [5, 10], "seconds": 5.0, "warmup": 2.0, "shared_counts": [20], "per_process": 10,
-         "lockstep_counts": [5], "lockstep_sim_time": 10.0, "lockstep_repeats": 1}
-FULL = {"counts": [10, 50, 100], "seconds": 30.0, "warmup": 5.0, "shared_counts": [1000, 750, 500],
-        "per_process": 250, "lockstep_counts": [5, 20, 100], "lockstep_sim_time": 60.0, "lockstep_repeats": 3}
-
-_t0 = time.monotonic()
-
-
-def progress(text: str) -> None:
-    print(f"[{time.monotonic() - _t0:6.0f} s] {text}", file=sys.stderr, flush=True)
-
-
-@dataclass(frozen=True)
-class Plan:
-    """One measurement: how many rovers, how many agents share a process, real time or lockstep."""
-
-    rovers: int
-    per_process: int = 1
-    lockstep: bool = False
-
-    @property
-    def processes(self) -> int:
-        return -(-self.rovers // self.per_process)
-
-    def rover_groups(self) -> list[list[str]]:
-        """Command-line id arguments of each rover process."""
-        if self.per_process == 1:
-            return [["--id", str(i)] for i in range(1, self.rovers + 1)]
-        starts = range(1, self.rovers + 1, self.per_process)
-        return [["--ids", f"{a}-{min(a + self.per_process - 1, self.rovers)}"] for a in starts]
-
-    def describe(self) -> str:
-        share = "one process each" if self.per_process == 1 else f"{self.per_process} per process"
-        return f"{self.rovers} rovers in {self.processes} processes ({share}), {self.mode}"
-
-    @property
-    def mode(self) -> str:
-        return "lockstep" if self.lockstep else "real time"
-
-
-class Cluster:
-    """The router, world, lander and rover processes of one measurement; ``stop`` ends every one of them."""
-
-    def __init__(self, logs: Path, plan: Plan, scenario_file: Path, scenario: Scenario,
-                 router_process: bool = False, agents: Priority = "equal") -> None:
-        self.children = Children(logs, preload=PRELOAD)
-        self.plan, self.scenario_file, self.scenario = plan, scenario_file, scenario
-        self.agents = agents
-        """The agents' CPU priority (``bus.priority``), as ``lunarsim run`` would give them."""
-        self.router_process = router_process
-        self.port = free_port()
-        self.endpoint = f"tcp/{HOST}:{self.port}"
-        self.common = ["--world", WORLD, "--connect", self.endpoint]
-
-    def start_router(self, world_args: list[str]) -> None:
-        """The router everyone connects to: the world itself, or a router process (see ``--routing``)."""
-        if self.router_process:
-            hub = self.children.start("router", "deploy.router", "--listen", self.endpoint)
-        else:
-            hub = self.children.start("world", "world_service", str(self.scenario_file), "--world", WORLD,
-                                      "--listen", self.endpoint, *world_args)
-        if not wait_for_port(HOST, self.port, 30.0, hub):
-            name = "router" if self.router_process else "world"
-            raise BenchmarkError(f"the {name} did not open {self.endpoint}" + self.tail(name))
-
-    def start_world_and_lander(self, world_args: list[str]) -> None:
-        if self.router_process:
-            self.children.start("world", "world_service", str(self.scenario_file), *self.common, *world_args)
-        self.children.start("lander", "lander_agent", str(self.scenario_file), *self.common, priority=self.agents)
-
-    def start_rovers(self) -> None:
-        for ids in self.plan.rover_groups():
-            self.children.start(f"rover{ids[1]}", "rover_agent", *ids, "--params", str(self.scenario_file),
-                                "--behaviour", self.scenario.behaviour, *self.common, warm=True, priority=self.agents)
-
-    def start_witness(self, out: Path, sampled: list[int]) -> None:
-        """The second observer (scale_witness.py), stopped with the others; it writes ``out`` when stopped. It runs
-        at the agents' priority, so what it receives, and when, is what a rover agent's Zenoh thread sees."""
-        log = open(self.children.log_dir / "witness.log", "wb")  # noqa: SIM115 - the child's for its lifetime
-        self.children.procs["witness"] = subprocess.Popen(
-            [sys.executable, str(WITNESS), self.endpoint, WORLD, str(out), *map(str, sampled)],
-            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, preexec_fn=partial(lower, self.agents))
-        log.close()
-        deadline = time.monotonic() + 30.0
-        while "witness ready" not in self.children.log_tail("witness", 1):
-            if self.children.procs["witness"].poll() is not None or time.monotonic() > deadline:
-                raise BenchmarkError("the witness did not start" + self.tail("witness"))
-            time.sleep(0.05)
-
-    def groups(self) -> dict[str, list[int]]:
-        procs = self.children.procs
-        roles = {"router": ["router"], "world": ["world"], "lander": ["lander"],
-                 "rovers": [n for n in procs if n.startswith("rover")], "witness": ["witness"]}
-        groups = {role: [procs[n].pid for n in names if n in procs] for role, names in roles.items()}
-        groups["world"] = [p for pid in groups["world"] for p in with_descendants(pid)]
-        return groups
-
-    def check(self) -> None:
-        dead = self.children.dead()
-        if dead:
-            name = next(iter(dead))
-            raise BenchmarkError(f"{len(dead)} process(es) exited during the measurement: "
-                                 f"{dict(list(dead.items())[:5])}" + self.tail(name))
-
-    def tail(self, name: str) -> str:
-        return f"\n--- last lines of {name}'s log:\n{self.children.log_tail(name, 10) or '(empty)'}"
-
-    def stop(self) -> None:
-        hub = "router" if self.router_process else "world"
-        self.children.stop([n for n in self.children.procs if n != hub], grace_s=10.0)
-        self.children.stop([hub])
-
-
 # ---- one measurement ----
-
-
-@dataclass
-class Setting:
-    """What every measurement shares, from the command line."""
-
-    scenario: Path
-    seconds: float
-    warmup: float
-    sample: int
-    startup_timeout: float
-    lockstep_sim_time: float
-    lockstep_timeout: float
-    work: Path
-    witness: bool
-    lockstep_sample: int = 0
-    routing: str = "auto"
-    agent_priority: str = "auto"
-
-    def router_process(self, plan: Plan) -> bool:
-        """Whether ``plan`` runs behind a router process rather than the world routing (see ``--routing``)."""
-        if self.routing == "auto":
-            return plan.per_process > 1 and not plan.lockstep
-        return self.routing == "process"
-
-
-def sampled_ids(rovers: int, k: int) -> list[int]:
-    """``k`` rover ids spread evenly over 1..rovers, first and last included."""
-    k = min(k, rovers)
-    return [1] if k == 1 else sorted({round(1 + i * (rovers - 1) / (k - 1)) for i in range(k)})
-
-
-def periods(scenario: Scenario) -> tuple[float, dict[str, int]]:
-    """The world's tick and each sensor's period in ticks, from the scenario's rover parameters."""
-    p = scenario.rover_params
-    dt = tick_length(p)
-    return dt, {ks.PERCEPTION: ticks_per_period(p.perception.publish_frequency, dt),
-                ks.GYROSCOPE: ticks_per_period(p.perception.gyroscope_frequency, dt),
-                ks.NAVIGATION_STATUS: ticks_per_period(p.navigation.publish_frequency, dt)}
 
 
 def measure(plan: Plan, s: Setting) -> dict:
@@ -435,22 +275,10 @@ def supports_ids() -> bool:
     return "--ids" in out.stdout
 
 
-def code_version() -> dict:
-    """The commit measured, and files changed since it (a benchmark of a working tree says which one)."""
-    repo = Path(__file__).resolve().parents[1]
-
-    def git(*cmd: str) -> str:
-        out = subprocess.run(["git", "-C", str(repo), *cmd], capture_output=True, text=True)
-        return out.stdout.rstrip("\n") if out.returncode == 0 else ""  # porcelain lines start with a space
-
-    changed = [line[3:] for line in git("status", "--porcelain", "--untracked-files=no").splitlines()]
-    return {"commit": git("rev-parse", "--short", "HEAD"), "uncommitted_changes": changed}
-
-
 def run(args: argparse.Namespace) -> int:
     doc = {"benchmark": "scale", "cpus": os.cpu_count(), "python": platform.python_version(),
            "zenoh": metadata.version("eclipse-zenoh"), "platform": platform.platform(), "host": host.describe(),
-           "code": code_version(), "scenario": str(args.scenario),
+           "code": host.code_version(), "scenario": str(args.scenario),
            "settings": {k: v for k, v in vars(args).items() if k != "json"},
            "load_at_start": os.getloadavg(), "rows": [], "notes": []}
     work = Path(tempfile.mkdtemp(prefix="lunarsim-scale-", dir=args.logs))
@@ -502,16 +330,6 @@ def lockstep_series(args: argparse.Namespace, s: Setting) -> list[dict]:
     return [median_run(done) for done in runs]
 
 
-def median_run(rows: list[dict]) -> dict:
-    """The run of median real-time factor (the lower middle of an even number), with every run's factor in run
-    order (None for one that failed) under ``repeats``; the first failure if every run failed."""
-    ok = sorted((r for r in rows if "error" not in r), key=lambda r: r["real_time_factor"])
-    if not ok:
-        return rows[0]
-    return {**ok[(len(ok) - 1) // 2], "repeats": [r.get("real_time_factor") for r in rows]}
-
-
-
 def attempt(plan: Plan, s: Setting) -> dict:
     """One measurement; one that cannot finish (rovers not connected in time, a process died) is a row saying why,
     and the series goes on: a count that does not start does not hold real time either."""
@@ -545,87 +363,6 @@ def step_down(args: argparse.Namespace, s: Setting, rows: list[dict], tried: lis
         if not counts and n // 2 >= MIN_SHARED:
             counts.append(n // 2)
     return None
-
-
-def refine(holding: int, failed: int | None, held) -> int:
-    """The highest count that holds, between ``holding`` (holds) and ``failed`` (does not), to REFINE_STEP."""
-    while failed is not None and failed - holding > REFINE_STEP:
-        middle = round((holding + failed) / 2 / REFINE_STEP) * REFINE_STEP
-        if middle in (holding, failed):
-            break
-        if held(middle):
-            holding = middle
-        else:
-            failed = middle
-    return holding
-
-
-# ---- command line ----
-
-
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="a smoke check: small counts, short windows "
-                        f"({', '.join(f'{k} {v}' for k, v in QUICK.items())})")
-    parser.add_argument("--counts", type=int, nargs="+", metavar="N",
-                        help=f"real time, one process per rover (default {FULL['counts']})")
-    parser.add_argument("--seconds", type=float, metavar="S", help="measuring window in real time "
-                        f"(default {FULL['seconds']:g})")
-    parser.add_argument("--warmup", type=float, metavar="S", help="running clock before the window "
-                        f"(default {FULL['warmup']:g})")
-    parser.add_argument("--shared-counts", type=int, nargs="+", metavar="N", help="real time, rovers sharing "
-                        f"processes, largest first until one holds (default {FULL['shared_counts']})")
-    parser.add_argument("--per-process", type=int, metavar="K", help="agents per process in the shared series "
-                        f"(default {FULL['per_process']})")
-    parser.add_argument("--lockstep-counts", type=int, nargs="+", metavar="N",
-                        help=f"lockstep, one process per rover (default {FULL['lockstep_counts']})")
-    parser.add_argument("--lockstep-sim-time", type=float, metavar="S", help="cap of each lockstep mission in "
-                        f"simulated seconds (default {FULL['lockstep_sim_time']:g})")
-    parser.add_argument("--lockstep-repeats", type=int, metavar="R", help="runs of each lockstep measurement, "
-                        f"interleaved; the median is reported (default {FULL['lockstep_repeats']}, "
-                        f"--quick {QUICK['lockstep_repeats']})")
-    parser.add_argument("--lockstep-timeout", type=float, default=900.0, metavar="S",
-                        help="wall seconds a lockstep mission may take (default 900)")
-    parser.add_argument("--skip-lockstep", action="store_true")
-    parser.add_argument("--skip-1000", action="store_true", help="leave out the shared-process series")
-    parser.add_argument("--no-witness", action="store_true", help="no second observer process (it tells a "
-                        "sample lost before the router's per-subscriber queues from one lost on the way to the "
-                        "benchmark)")
-    parser.add_argument("--sample", type=int, default=10, metavar="K", help="rovers whose sensors are followed "
-                        "(spread over the ids; default 10)")
-    parser.add_argument("--lockstep-sample", type=int, default=0, metavar="K",
-                        help="rovers whose sensors are followed in lockstep (default 0: the speed-up is the run's "
-                             "own; following sensors makes the router copy them to this process and a witness, "
-                             "which on two cores slowed a 5-rover mission from 10.1 to 7.1 times real time)")
-    parser.add_argument("--startup-timeout", type=float, default=180.0, metavar="S",
-                        help="seconds for every rover to connect (default 180)")
-    parser.add_argument("--routing", choices=("auto", "world", "process"), default="auto",
-                        help="who routes: the world (as lunarsim run), a router process, or auto (default): the "
-                             "world, but a router process for the shared-process real-time series")
-    parser.add_argument("--agent-priority", choices=priority.CHOICES, default="auto",
-                        help="as lunarsim run's (the witness runs at it too): " + priority.HELP)
-    parser.add_argument("--scenario", type=Path, default=SCENARIO, help="default: crater_observation.yaml")
-    parser.add_argument("--logs", type=Path, metavar="DIR", help="keep the processes' logs under DIR")
-    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE as JSON")
-    args = parser.parse_args(argv)
-    for key, value in (QUICK if args.quick else FULL).items():
-        if getattr(args, key) is None:
-            setattr(args, key, value)
-    check_args(parser, args)
-    return args
-
-
-def check_args(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    counts = [*args.counts, *args.shared_counts, *args.lockstep_counts]
-    if min(counts) < 1 or min(args.per_process, args.sample, args.lockstep_repeats) < 1 or args.lockstep_sample < 0:
-        parser.error("rover counts, --per-process, --sample and --lockstep-repeats must be 1 or more, "
-                     "--lockstep-sample 0 or more")
-    if args.seconds <= 0 or args.warmup < 0 or args.lockstep_sim_time <= 0:
-        parser.error("--seconds and --lockstep-sim-time must be more than 0, --warmup 0 or more")
-    if not args.scenario.is_file():
-        parser.error(f"--scenario {args.scenario}: no such file")
-    if args.logs is not None:
-        args.logs.mkdir(parents=True, exist_ok=True)
 
 
 def _interrupt(signum: int, frame: object) -> None:

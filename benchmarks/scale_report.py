@@ -24,6 +24,9 @@ STARTUP_TARGET_S = 20.0
 SATURATED = 0.9
 """Share of the machine's cores above which a run's CPU figures are capped by the machine, not by its needs."""
 
+REFINE_STEP = 50
+"""Then it narrows the gap between the count that held and the lowest that did not, to this many rovers."""
+
 
 def print_report(doc: dict) -> None:
     rows = doc["rows"]
@@ -301,3 +304,25 @@ def _startup_target(rt: dict | None) -> dict:
 
 if __name__ == "__main__":
     print_report(json.loads(Path(sys.argv[1]).read_text()))
+
+
+def median_run(rows: list[dict]) -> dict:
+    """The run of median real-time factor (the lower middle of an even number), with every run's factor in run
+    order (None for one that failed) under ``repeats``; the first failure if every run failed."""
+    ok = sorted((r for r in rows if "error" not in r), key=lambda r: r["real_time_factor"])
+    if not ok:
+        return rows[0]
+    return {**ok[(len(ok) - 1) // 2], "repeats": [r.get("real_time_factor") for r in rows]}
+
+
+def refine(holding: int, failed: int | None, held) -> int:
+    """The highest count that holds, between ``holding`` (holds) and ``failed`` (does not), to REFINE_STEP."""
+    while failed is not None and failed - holding > REFINE_STEP:
+        middle = round((holding + failed) / 2 / REFINE_STEP) * REFINE_STEP
+        if middle in (holding, failed):
+            break
+        if held(middle):
+            holding = middle
+        else:
+            failed = middle
+    return holding

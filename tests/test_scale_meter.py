@@ -89,7 +89,7 @@ def test_a_child_that_ends_and_is_waited_for_within_its_group_counts_for_what_it
 
 
 def test_a_repeated_measurement_reports_its_median_run_and_every_factor() -> None:
-    from scale import median_run
+    from scale_report import median_run
 
     runs = [{"real_time_factor": 18.0, "n": 1}, {"error": "world died"}, {"real_time_factor": 21.0, "n": 3},
             {"real_time_factor": 16.0, "n": 4}]
