@@ -41,7 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="lunarsim", description="Distributed lunar rover middleware and "
                                      "digital twin over Zenoh.")
     parser.add_argument("--verbose", "-v", action="store_true", help="log progress at INFO level")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="subcommand", required=True, metavar="COMMAND")
     for name, (module_name, help_text) in COMMANDS.items():
         module = importlib.import_module(module_name)
         command = sub.add_parser(name, help=help_text, description=plain(module.__doc__),
@@ -85,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
     if unknown:  # said by the command's own parser, with its usage, not the top-level one
-        _subparser(parser, args.command).error(f"unrecognized arguments: {' '.join(unknown)}")
+        _subparser(parser, args.subcommand).error(f"unrecognized arguments: {' '.join(unknown)}")
     process.setup_logging(args.verbose)
     return process.run_guarded(args.run, args)
 

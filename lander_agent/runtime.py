@@ -156,7 +156,7 @@ class Lander:
             if key == self.keys.lander(ks.COMM_PARTNERS):
                 self.partners = codec.decode(m.CommPartners, payload).ids
             return []
-        except codec.DecodeError as exc:
+        except (codec.DecodeError, ValueError) as exc:  # ValueError: a valid sample no plan can follow
             self.rejected += 1
             log.warning("lander: rejected sample on %s: %s", key, exc)
             return []

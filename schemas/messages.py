@@ -14,6 +14,7 @@ from pydantic import Field, model_validator
 
 from schemas import keyspace as ks
 from schemas.base import HIT_KINDS, DirectionKind, GoalKind, HitKind, Message, RoverState
+from schemas.scenario_limits import Coordinate
 from schemas.truth import MissionReport, RoverTruth, WorldCounters, WorldState, WorldStats
 
 __all__ = ["HIT_KINDS", "DirectionKind", "GoalKind", "HitKind", "Message", "MissionReport", "RoverState",
@@ -264,8 +265,8 @@ class GroundCommand(Message):
     request_id: str = ""
     command: Literal["set_target", "stop", "return", "snapshot", "pause", "resume", "step", "seek"]
     rover_id: int | None = Field(None, description="None: every rover (set_target only)")
-    x: float | None = None
-    z: float | None = None
+    x: Coordinate | None = Field(None, description="set_target: the target in map coordinates, m")
+    z: Coordinate | None = None
     kind: GoalKind = "waypoint"
     seconds: float | None = Field(None, ge=0, description="seek: seconds from the start of the recording")
 

@@ -74,7 +74,10 @@ class RoverMissions:
             return Goal(x=self.scenario.lander.x, z=self.scenario.lander.z, kind="waypoint")
         if command.x is None or command.z is None:
             raise CommandRefused("set_target needs the target's x and z")
-        goal = Goal(x=command.x, z=command.z, kind=command.kind)
+        try:
+            goal = Goal(x=command.x, z=command.z, kind=command.kind)
+        except ValueError as exc:  # pydantic's ValidationError: a target no scenario could hold
+            raise CommandRefused(f"({command.x}, {command.z}) cannot be a goal: {exc}") from None
         if goal.kind == "crater" and self.scenario.crater_of(goal) is None:
             raise CommandRefused(f"({command.x}, {command.z}) lies in no known crater: send it as a waypoint")
         return goal

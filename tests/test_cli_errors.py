@@ -22,9 +22,9 @@ from bus.zenoh_config import ONE_SHOT_TIMEOUT_S
 SCENARIO = str(SCENARIOS / "crater_observation.yaml")
 NO_ROUTER = f"tcp/127.0.0.1:{free_port()}"
 WAIT_S = 2
+"""``--router-timeout`` for agents, which wait for their router for ever unless told otherwise."""
 TAKEN = socket.create_server(("127.0.0.1", 0))
 """A port something else listens on, for the whole module."""
-"""``--router-timeout`` for agents, which wait for their router for ever unless told otherwise."""
 
 
 @dataclass(frozen=True)
@@ -79,6 +79,11 @@ def _cases(d: Path) -> list[Case]:
         Case("port taken", ("run", "--port", str(TAKEN.getsockname()[1]), "--out", str(d / "runs" / "r18"), SCENARIO),
              f"port {TAKEN.getsockname()[1]} on 127.0.0.1 is already in use"),
         Case("unknown command", ("fly",), "invalid choice: 'fly'"),
+        Case("unknown flag after a command's own 'command' argument", ("command", "stop", "--rover", "3", "--bogus"),
+             "lunarsim command: error: unrecognized arguments: --bogus"),
+        Case("seek before the start", ("command", "seek", "--seconds", "-1"), "--seconds: Input should be greater"),
+        Case("a target beyond any scenario", ("command", "set-target", "--x", "1e12", "--z", "0"),
+             "--x: Input should be less than or equal to 10000000"),
         Case("--rovers 0", (*run("r9"), SCENARIO, "--rovers", "0"), "--rovers must be at least 1, got 0"),
         Case("--rovers -1", (*run("r10"), SCENARIO, "--rovers", "-1"), "--rovers must be at least 1, got -1"),
         Case("--rovers 1001", (*run("r11"), SCENARIO, "--rovers", "1001"), "--rovers must be at most 1000"),

@@ -141,7 +141,8 @@ def test_port_in_use_is_reported_plainly(tmp_path):
                         "--out", str(tmp_path / "o"))
         _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 2
-    assert f"port {port} is already in use" in stderr
+    assert f"port {port} on 127.0.0.1 is already in use" in stderr
+    assert not (tmp_path / "o").exists(), "a run that cannot start leaves no run folder"
 
 
 def test_no_router_is_said_plainly_within_seconds():

@@ -121,3 +121,19 @@ def test_a_repeated_command_is_answered_again_but_carried_out_once():
     for _ in range(2):
         with pytest.raises(CommandRefused, match="no rover 9"):
             plan.on_command(refused)
+
+
+def test_a_target_beyond_any_scenario_is_dropped_as_malformed_and_the_lander_carries_on():
+    """A ground client outside the checks of ``lunarsim command`` sends a target 10^12 m away: the lander counts it
+    as a rejected sample (it cannot be a GroundCommand) and answers the next command as ever."""
+    import msgpack
+
+    from schemas import codec
+
+    lander = Lander(MissionPlan(load_scenario(SCENARIOS / "crater_observation.yaml")), ks.Keyspace("far"))
+    far = msgpack.packb([1, {"command": "set_target", "x": 1e12, "z": 0.0, "request_id": "a"}])
+    assert lander.handle(lander.keys.ground_command, far) == [] and lander.rejected == 1
+    stop = m.GroundCommand(request_id="b", command="stop", rover_id=1)
+    (key, result), *_ = [o for o in lander.handle(lander.keys.ground_command, codec.encode(stop))
+                         if isinstance(o[1], m.CommandResult)]
+    assert key == lander.keys.ground_command_result and result.accepted and result.request_id == "b"

@@ -122,7 +122,8 @@ def test_command_requests_are_checked_like_the_command_line():
                          ({"command": "set-target", "x": 1}, "set-target needs x and z"),
                          ({"command": "return"}, "return needs a rover"),
                          ({"command": "stop", "rover_id": "two"}, "rover_id must be a number"),
-                         ({"command": "set-target", "x": 1, "z": 2, "kind": "crate"}, "kind")]:
+                         ({"command": "set-target", "x": 1, "z": 2, "kind": "crate"}, "kind"),
+                         ({"command": "set-target", "x": 1e12, "z": 2}, "x: Input should be less than")]:
         with pytest.raises(CommandError, match=message):
             command_from_request(bad)
 

@@ -11,8 +11,6 @@ import asyncio
 import contextlib
 from collections.abc import Callable
 
-from pydantic import ValidationError
-
 from bus import process
 from bus.ground_commands import RESEND_S, build_command
 from schemas import codec
@@ -47,10 +45,8 @@ def command_from_request(data: object) -> m.GroundCommand:
         return build_command(name, _number(data, "rover_id", int), _number(data, "x", float),
                              _number(data, "z", float), str(data.get("kind") or "waypoint"))
     except process.UsageError as exc:
-        raise CommandError(str(exc).replace("--x and --z", "x and z").replace("--rover N", "a rover")) from None
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        raise CommandError(f"{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
+        text = str(exc).replace("--x and --z", "x and z").replace("--rover N", "a rover")
+        raise CommandError(text.removeprefix("--")) from None
 
 
 class Commands:
