@@ -172,7 +172,7 @@ class RoverAgent(NavigationFeedback):
 
     def _on_mission_direction(self, msg: m.MissionDirection) -> list[Out]:
         if self.contact.seeking:  # back in contact: wait for (or take up) the lander's word again
-            self.behaviour.state = "waiting" if self.finished_goal or self.goal is None else self.behaviour.state
+            self.behaviour.state = "waiting"
         self.contact.heard(self.now)
         rad = math.radians(msg.bearing_deg)
         goal = Goal(msg.goal_index, msg.goals_total, msg.kind, msg.distance_m * math.sin(rad),
@@ -209,7 +209,9 @@ class RoverAgent(NavigationFeedback):
         return []
 
     def _stop(self) -> list[Out]:
-        """Stop where it is until a new goal comes (need N6): cancel a move, decide nothing more."""
+        """Stop where it is until a new goal comes (need N6): cancel a move, decide nothing more. The stop is the
+        lander's word too: a search for contact ends with it."""
+        self.contact.heard(self.now)
         self.finished_goal = (self.goal.index if self.goal else -1, "stopped")
         self.behaviour.state = "stopped"
         out: list[Out] = []
@@ -290,7 +292,7 @@ class RoverAgent(NavigationFeedback):
             self._save()
         waiting = (self.goal is None or self.finished_goal is not None) and (
             self.state == "waiting" or self.contact.seeking)
-        was = self.contact.seeking
+        was = self.contact.goal is not None
         goal = self.contact.target(self.now, waiting and self.pose is not None)
         if goal is not None and not was:
             self.behaviour.start_goal(goal)
@@ -328,8 +330,8 @@ class RoverAgent(NavigationFeedback):
 
     def _finish(self, outcome: str) -> list[Out]:
         if self.contact.seeking:  # at the lander's estimated spot, or stuck on the way: wait there for its word
-            self.contact.arrive()
-            self.behaviour.state = "stuck" if outcome == "stuck" else "waiting"
+            self.contact.arrive(self.now, blocked=outcome == "stuck")
+            self.behaviour.state = "waiting"
             return [self._status()]
         goal = self.goal
         self.finished_goal = (goal.index, outcome)

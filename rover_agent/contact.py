@@ -41,32 +41,35 @@ class ContactSearch:
     heard_at: float = 0.0
     """When the lander's word last came (a mission direction; 0 is the clock's start)."""
     seeking: bool = False
-    arrived: bool = False
-    """At the lander's estimated spot (or stuck on the way) with still no word: the search waits there."""
+    arrived: float | None = None
+    """When the search got to the lander's estimated spot, or could get no further, with still no word: it waits
+    there, and sets off again after another ``CONTACT_WAIT_S`` (a jam clears, an estimate was off)."""
+    blocked: bool = False
     said_blind: bool = False
 
     @property
     def goal(self) -> Goal | None:
         """What the rover walks to while it searches (None: its own mission goal, if any)."""
-        return LANDER_GOAL if self.seeking and not self.arrived else None
+        return LANDER_GOAL if self.seeking and self.arrived is None else None
 
     @property
     def detail(self) -> str:
         """For the rover's status while it searches."""
-        if self.arrived:
-            return "no word from the lander: waiting at its estimated position"
-        return "no word from the lander: heading for it to regain radio contact"
+        if self.arrived is None:
+            return "no word from the lander: heading for it to regain radio contact"
+        if self.blocked:
+            return "no word from the lander: blocked on the way to it; trying again"
+        return "no word from the lander: waiting at its estimated position"
 
     def heard(self, now: float) -> None:
         if self.seeking:
             log.info("rover %d: the lander's word has come again; search over", self.rover_id)
-        self.heard_at, self.seeking, self.arrived = now, False, False
+        self.heard_at, self.seeking, self.arrived = now, False, None
 
-    def arrive(self) -> None:
-        if not self.arrived:
-            log.warning("rover %d: at the lander's estimated position with no word from it; waiting there",
-                        self.rover_id)
-        self.arrived = True
+    def arrive(self, now: float, blocked: bool = False) -> None:
+        log.warning("rover %d: %s with no word from the lander; waiting there", self.rover_id,
+                    "blocked on the way to the lander" if blocked else "at the lander's estimated position")
+        self.arrived, self.blocked = now, blocked
 
     def silent(self, now: float) -> bool:
         return now - self.heard_at >= CONTACT_WAIT_S
@@ -87,8 +90,12 @@ class ContactSearch:
 
     def target(self, now: float, waiting: bool) -> Goal | None:
         """The lander as a goal while a rover that waits for its word has heard nothing for ``CONTACT_WAIT_S``."""
-        if not (waiting and self.silent(now)) or self.arrived:
+        if not (waiting and self.silent(now)):
             return None
+        if self.arrived is not None:
+            if now - self.arrived < CONTACT_WAIT_S:
+                return None
+            self.arrived = None  # set off again
         if not self.seeking:
             self.seeking = True
             log.warning("rover %d: no word from the lander for %.0f s; heading for it to regain radio contact",

@@ -14,7 +14,7 @@ from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import Rotate
 from rover_agent.contact import CONTACT_WAIT_S
 from scenarios.generator import generate
-from schemas import codec
+from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.params import RoverParams
@@ -116,3 +116,36 @@ def test_rovers_out_of_every_radio_reach_at_the_start_reach_their_goals():
             assert not final[rid].stalled
         assert world.report().rovers_stuck == 0, made.scenario.name
         assert math.isfinite(world.report().mission_duration_s)
+
+
+def test_a_stop_from_the_lander_ends_the_search_and_the_rover_stays_stopped():
+    """A rover looking for contact between goals is stopped (need N6). The stop comes by radio, so it is the lander's
+    word: the search ends, and the direction of the goal it finished, sent again, must not set it off."""
+    agent = _running(RoverAgent(1, KEYS, PARAMS))
+    _feed(agent, m.Calibration(x=0.0, z=70.0, heading_deg=0.0))
+    done = m.MissionDirection(goal_index=0, goals_total=2, kind="waypoint", bearing_deg=0.0, distance_m=76.0)
+    _feed(agent, done)
+    agent._finish("reached")
+    _silent_until_it_moves(agent)
+    agent.handle(ks.COMM_IN, codec.encode(m.InboundComm(sender=ks.LANDER_ID,
+                                                        payload=radio.pack(radio.StopCommand()))))
+    assert agent.state == "stopped" and not agent.contact.seeking
+    agent.in_flight = None  # the cancel has come back
+    for t in range(60, 60 + 3 * int(CONTACT_WAIT_S)):
+        if t % 5 == 0:
+            _feed(agent, done)
+        assert _moves(_sense(agent, float(t))) == []
+    assert agent.state == "stopped"
+
+
+def test_a_search_that_got_nowhere_sets_off_again_after_another_wait():
+    agent = _running(RoverAgent(1, KEYS, PARAMS, dispatch=DISPATCH))
+    started, _ = _silent_until_it_moves(agent)
+    agent.in_flight = None
+    agent._finish("stuck")  # blocked on the way: it waits, and says so
+    assert agent.state == "waiting" and "blocked" in agent._status()[1].detail
+    t = started + 1
+    while not _moves(_sense(agent, t)):
+        t += 1
+        assert t < started + 3 * CONTACT_WAIT_S, "it never set off again"
+    assert t - started >= CONTACT_WAIT_S
