@@ -80,6 +80,8 @@ class MissionReport(Message):
     rover_collisions: int
     obstacle_collisions: int
     rovers_stuck: int
+    rovers_holding_relay_spots: int = Field(0, description="rovers on a daisy-chain spot at the end: the lander sent "
+                                            "them there instead of to the final goal, so they count as not reached")
     rovers_stalled: int = Field(0, description="of rovers_stuck: those the world counted stuck because they made "
                                 "no progress, while their agents did not say so")
     mission_duration_s: float

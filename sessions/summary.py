@@ -21,8 +21,8 @@ def summary_table(report: m.MissionReport) -> Table:
          else f"{report.reached_path_efficiency:.3f}"),
         ("total distance covered (m)", f"{report.total_distance_covered_m:.2f}"),
         ("rovers that reached final goal", f"{report.rovers_reached_final_goal}/{report.rovers_total}"
-         + (f" (up to {report.max_rovers_in_daisy_chain} held daisy-chain spots instead)"
-            if report.max_rovers_in_daisy_chain else "")),
+         + (f" ({report.rovers_holding_relay_spots} held daisy-chain spots instead)"
+            if report.rovers_holding_relay_spots else "")),
         ("rover collisions", str(report.rover_collisions)),
         ("obstacle collisions", str(report.obstacle_collisions)),
         ("rovers stuck", str(report.rovers_stuck)),

@@ -63,5 +63,7 @@ def test_a_report_from_a_recording_does_not_claim_a_wall_time_of_zero():
 
 
 def test_the_reached_count_says_when_rovers_held_daisy_chain_spots():
-    assert "held daisy-chain spots" in _rows(_report(max_rovers_in_daisy_chain=4))["rovers that reached final goal"]
+    assert _rows(_report(rovers_holding_relay_spots=4))["rovers that reached final goal"] == (
+        "4/8 (4 held daisy-chain spots instead)")
+    assert _rows(_report(max_rovers_in_daisy_chain=4))["rovers that reached final goal"] == "4/8"  # forwarding only
     assert _rows(_report())["rovers that reached final goal"] == "4/8"

@@ -51,10 +51,11 @@ def test_a_stalled_rover_counts_as_stuck_whatever_its_state_name():
 
 
 def test_a_rover_that_relayed_is_left_out_of_the_reached_efficiency():
-    """A relay held a chain spot instead of walking its goals: its ideal path is not the one it was sent on."""
+    """A relay held a chain spot instead of walking its goals: its ideal path is not the one it was sent on. A rover
+    that only forwarded others' traffic on its way (the radio graph's relays) is not one."""
     stats = MissionStats(SCENARIO, RoverMissions(SCENARIO))
     relay, walker = _truth(1, 0.0, 110.0, 20.0, "done"), _truth(2, 0.0, 110.0, 125.0, "done")
-    stats.observe(m.WorldState(stamp=50.0, rovers=[relay, walker], relays=[1]))
+    stats.observe(m.WorldState(stamp=50.0, rovers=[relay.model_copy(update={"state": "relay"}), walker], relays=[2]))
     stats.observe(m.WorldState(stamp=100.0, rovers=[relay, walker], completed_at=100.0))
     report = stats.report()
     assert report.rovers_reached_final_goal == 2

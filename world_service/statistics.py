@@ -109,6 +109,7 @@ def build_report(
     stalled: int = 0,
     counters: WorldCounters | None = None,
     reached_efficiencies: Sequence[float] = (),
+    relay_rovers: int = 0,
 ) -> MissionReport:
     total = float(sum(distances))
     average = total / len(distances) if distances else 0.0
@@ -128,6 +129,7 @@ def build_report(
         obstacle_collisions=obstacle_collisions,
         rovers_stuck=stuck,
         rovers_stalled=stalled,
+        rovers_holding_relay_spots=relay_rovers,
         mission_duration_s=round(duration_s, 4),
         complete=complete,
         rejected_messages=rejected_messages,
@@ -190,7 +192,7 @@ class MissionStats:
     links: LinkStats = field(default_factory=LinkStats)
     last: WorldState | None = None
     relayed: set[int] = field(default_factory=set)
-    """Rovers that have held a daisy-chain spot: sent there instead of along their goals."""
+    """Rovers that have held a daisy-chain spot (state ``relay``): sent there instead of along their goals."""
 
     def command(self, command: GroundCommand) -> None:
         """Follow the ground's changes to the mission, so each rover is judged at its real final goal."""
@@ -202,7 +204,7 @@ class MissionStats:
         elapsed = state.stamp - self.last.stamp if self.last is not None else 0.0
         reach = lander_component(state)
         self.links.update({r.id: r.id in reach for r in state.rovers if r.alive}, len(state.relays), elapsed)
-        self.relayed.update(state.relays)
+        self.relayed.update(r.id for r in state.rovers if r.state == "relay")
         self.last = state
 
     def reached(self, state: WorldState) -> list[int]:
@@ -260,6 +262,7 @@ class MissionStats:
             distances=[r.distance_covered_m for r in state.rovers],
             reached=len(reached),
             reached_efficiencies=self.path_efficiencies(state, reached),
+            relay_rovers=sum(r.state == "relay" for r in state.rovers),
             stuck=sum(r.state == "stuck" or r.stalled for r in state.rovers),
             stalled=sum(r.stalled and r.state != "stuck" for r in state.rovers),
             rover_collisions=c.rover_collisions,
