@@ -169,11 +169,9 @@ def aggregate(reports: list[dict]) -> dict:
 
 
 def _reached_efficiency(reports: list[dict]) -> float | None:
-    """The rovers that reached their goal, over every run: each run's mean weighted by how many did."""
-    weighted = [(r["reached_path_efficiency"], r["rovers_reached_final_goal"]) for r in reports
-                if r.get("reached_path_efficiency") is not None]
-    count = sum(n for _, n in weighted)
-    return round(sum(e * n for e, n in weighted) / count, 4) if count else None
+    """The mean of the runs' own figures (each already a mean over its rovers that reached); None if none had one."""
+    values = [r["reached_path_efficiency"] for r in reports if r.get("reached_path_efficiency") is not None]
+    return round(sum(values) / len(values), 4) if values else None
 
 
 def table_2(name: str, reports: list[dict], agg: dict):

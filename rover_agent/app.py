@@ -7,9 +7,13 @@ import logging
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bus import process
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+
+if TYPE_CHECKING:
+    from schemas import messages as m
 
 PRELOAD = ("rover_agent.app", "bus.bus", "rover_agent.identity", "rover_agent.runtime", "rover_agent.agent",
            "rover_agent.behaviours", "schemas.keyspace", "schemas.scenario")
@@ -72,20 +76,24 @@ def run_from_args(args: argparse.Namespace) -> int:
             print(f"rover {granted}: id handed out by the world service", file=sys.stderr, flush=True)
             rover_ids = [granted]
         logging.getLogger("lunarsim.rover").info("%s connected", who)
+        dispatch = _dispatch(args.params, rover_ids)
         agents = [RoverAgent(rid, keys, params, behaviour_class(rid, params), state_file=_state_file(args, rid),
-                             dispatch=_dispatch(args.params, rid)) for rid in rover_ids]
+                             dispatch=dispatch.get(rid)) for rid in rover_ids]
         runtime.run(agents, bus, stop)
     return 0
 
 
-def _dispatch(params: Path | None, rover_id: int):
-    """The planned dispatch pose when ``--params`` is a mission (scenario) file: the fallback for a rover that
-    never hears the lander's calibration (``rover_agent.contact``)."""
-    from schemas.mission import calibration
-    from schemas.scenario import load_mission_file
+def _dispatch(params: Path | None, rover_ids: list[int]) -> dict[int, m.Calibration]:
+    """The planned dispatch poses when ``--params`` is a mission (scenario) file, read once for every agent of the
+    process: the fallback for a rover that never hears the lander's calibration (``rover_agent.contact``)."""
+    from schemas.mission import dispatch_pose
+    from schemas.scenario import load_dispatch_plan
 
-    scenario = load_mission_file(params)
-    return calibration(scenario, rover_id) if scenario is not None and 1 <= rover_id <= len(scenario.rovers) else None
+    plan = load_dispatch_plan(params)
+    if plan is None:
+        return {}
+    lander, spawns = plan
+    return {rid: dispatch_pose(lander, spawns[rid - 1]) for rid in rover_ids if 1 <= rid <= len(spawns)}
 
 
 def _state_file(args: argparse.Namespace, rover_id: int) -> Path | None:

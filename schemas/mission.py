@@ -7,14 +7,18 @@ which goal is each rover's final one. One implementation, so the two never disag
 from __future__ import annotations
 
 from schemas.messages import Calibration, GroundCommand
-from schemas.scenario import Goal, Scenario
+from schemas.scenario import Goal, LanderSpec, RoverSpawn, Scenario
 
 
 def calibration(scenario: Scenario, rover_id: int) -> Calibration:
-    """Where the lander sets rover ``rover_id`` down, relative to itself: what it tells the rover (dispatch), and
-    what the rover's own mission file says when that word never comes (``rover_agent.contact``)."""
-    spawn = scenario.rovers[rover_id - 1]
-    return Calibration(x=spawn.x - scenario.lander.x, z=spawn.z - scenario.lander.z, heading_deg=spawn.heading_deg)
+    """Where the lander sets rover ``rover_id`` down, relative to itself: what it tells the rover (dispatch)."""
+    return dispatch_pose(scenario.lander, scenario.rovers[rover_id - 1])
+
+
+def dispatch_pose(lander: LanderSpec, spawn: RoverSpawn) -> Calibration:
+    """A spawn relative to the lander: the lander's calibration, and what a rover's own mission file says when that
+    word never comes (``rover_agent.contact``)."""
+    return Calibration(x=spawn.x - lander.x, z=spawn.z - lander.z, heading_deg=spawn.heading_deg)
 
 
 class CommandRefused(ValueError):

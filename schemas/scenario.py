@@ -303,19 +303,26 @@ def dump_scenario(scenario: Scenario) -> str:
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
 
 
-def load_mission_file(path: str | Path | None) -> Scenario | None:
-    """The scenario in ``path`` when it is one (a rover's ``--params`` may be a bare parameter file instead)."""
+def load_dispatch_plan(path: str | Path | None) -> tuple[LanderSpec, list[RoverSpawn]] | None:
+    """The lander and the rovers' spawns of a mission file, read once and nothing else of it; None unless ``path``
+    is a scenario (a rover's ``--params`` may be a bare parameter file instead)."""
     if path is None:
         return None
     data = read_yaml(Path(path), "rover parameters")
-    return load_scenario(path) if isinstance(data, dict) and "mission" in data else None
+    if not isinstance(data, dict) or "mission" not in data:
+        return None
+    try:
+        return LanderSpec.model_validate(data.get("lander")), [RoverSpawn.model_validate(r)
+                                                              for r in data.get("rovers") or []]
+    except ValidationError as exc:
+        raise ScenarioError(format_error(str(path), exc)) from None
 
 
 def load_rover_params(path: str | Path | None) -> RoverParams:
     """Rover parameters from a YAML file: either a bare parameter mapping or a scenario's ``rover_params``.
 
     A rover agent reads these (its own specification) and, from a scenario, only its planned dispatch pose
-    (``load_mission_file``, ``schemas.mission.calibration``), never the rest: the world is for it to sense.
+    (``load_dispatch_plan``, ``schemas.mission.dispatch_pose``), never the rest: the world is for it to sense.
     """
     if path is None:
         return RoverParams()

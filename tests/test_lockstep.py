@@ -26,8 +26,9 @@ from schemas.lockstep import lockstep_answer
 from schemas.scenario import load_scenario
 from world_service import camera
 from world_service.lockstep import AckPlan
+from world_service.photographer import Photographer
 from world_service.photos import CameraProcess, build_ground
-from world_service.service import Photographer
+from world_service.service import Agents, _note_ack
 from world_service.sim import World
 from world_service.terrain_views import DenseView, UncachedView
 
@@ -74,6 +75,21 @@ def test_the_agent_of_a_key_is_the_lander_or_the_rover_it_names():
     assert plan.agent_of(KEYS.rover(7, ks.ACK)) == 7
     with pytest.raises(ValueError):
         plan.agent_of(KEYS.clock)
+
+
+def test_an_ack_counts_only_from_the_lander_s_key_or_a_rover_the_scenario_has():
+    """``rover/0/ack`` is no lander: a forged ack there must not let a tick go on without it; it is counted."""
+    from bus.bus import Received
+
+    world = World(load_scenario(SCENARIOS / "crater_observation.yaml"), KEYS)
+    agents = Agents(KEYS, plan=AckPlan(KEYS, DT), waiting={ks.LANDER_ID, 1})
+    ack = codec.encode(m.Ack(tick=world.tick))
+    for key in (KEYS.rover(0, ks.ACK), KEYS.rover(99, ks.ACK)):
+        _note_ack(world, agents, Received(key, ack))
+    assert agents.waiting == {ks.LANDER_ID, 1} and world.rejected[ks.ACK] == 2
+    _note_ack(world, agents, Received(KEYS.lander(ks.ACK), ack))
+    _note_ack(world, agents, Received(KEYS.rover(1, ks.ACK), ack))
+    assert agents.waiting == set()
 
 
 def test_agents_that_left_are_not_waited_for():

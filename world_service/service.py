@@ -126,21 +126,28 @@ def _publish(bus: Bus, agents: Agents, key: str, message: m.Message) -> None:
 
 
 def _note_ack(world: World, agents: Agents, item: Received) -> None:
-    """Acks matter only in lockstep (agents send none in real time), but a malformed one is counted and logged
-    as any other rejected input, whatever the clock."""
+    """Acks matter only in lockstep (agents send none in real time), but a malformed one, or one naming a rover
+    the scenario does not have, is counted and logged as any other rejected input, whatever the clock."""
     try:
         ack = codec.decode(m.Ack, item.payload)
-        if agents.plan is None:
-            return
-        agent = agents.plan.agent_of(item.key)
-        if agent != ks.LANDER_ID and agent not in world.bodies:
-            raise ValueError(f"no rover {agent} in this scenario")
+        agent = _acking_agent(world, item.key)
     except (codec.DecodeError, ValueError) as exc:
         world.count_rejected(item.key, exc)
         return
-    if ack.tick == world.tick:
+    if agents.plan is not None and ack.tick == world.tick:
         agents.waiting.discard(agent)
         agents.plan.acked(agent, ack.tick, ack.wake)
+
+
+def _acking_agent(world: World, key: str) -> int:
+    """The agent an ack's key names: the lander by its own key, a rover by an id the scenario has (``rover/0``
+    is no lander)."""
+    if key == world.keys.lander(ks.ACK):
+        return ks.LANDER_ID
+    rover_id, _ = world.keys.parse_rover_key(key)
+    if rover_id not in world.bodies:
+        raise ValueError(f"no rover {rover_id} in this scenario")
+    return rover_id
 
 
 def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event,
