@@ -17,12 +17,11 @@ return) and for each rover's role (formation, in_crater, out_of_range):
 
 Path: ``harness.loopback.run_mission``, the world, lander and rover agents wired in one process through their pure
 handlers, every message still through the codec, the world waiting on each tick for exactly the agents it would
-wait for in lockstep (``AckPlan``); an agent publishing on a tick nobody waits for is an error there. No test
-compares it with ``lunarsim run --lockstep`` (tests/test_loopback_mission.py runs its missions, test_e2e_run.py
-the lockstep ones), so we compared by hand, report.json field by field: crater_observation (shipped noise) and
-generated seeds 4 (rough, dense rock field, walls, high noise) and 5 (a maze, a rover out of range, stalled) were
-equal in every field but ``wall_time_s`` and the map scores, which only the launcher adds. It needs no router,
-ports or processes: seed 5 took 5.9 s of wall against 21.6 s, crater_observation 1.5 s against 4.9 s.
+wait for in lockstep (``AckPlan``); an agent publishing on a tick nobody waits for is an error there. It gives
+the same report.json as ``lunarsim run --lockstep`` but for ``wall_time_s`` and the map scores, which only the
+launcher adds (tests/test_loopback_equals_processes.py: the shipped crater mission and a generated one with a
+rover out of range). It needs no router, ports or processes: a generated maze took 5.9 s of wall against 21.6 s,
+crater_observation 1.5 s against 4.9 s.
 
 Each mission stops at a simulated-time cap (``sim_cap``: from the longest rover's ideal path) so a rover that
 never finishes cannot hang the suite; the world's watchdog counts a rover stuck after 300 s without progress.

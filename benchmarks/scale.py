@@ -370,7 +370,7 @@ def _interrupt(signum: int, frame: object) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
+    args = parse_args(argv, __doc__.split("\n\n")[0])
     signal.signal(signal.SIGTERM, _interrupt)  # a terminated benchmark stops its processes as on Ctrl-C
     try:
         return run(args)

@@ -15,8 +15,8 @@ FULL = {"counts": [10, 50, 100], "seconds": 30.0, "warmup": 5.0, "shared_counts"
         "per_process": 250, "lockstep_counts": [5, 20, 100], "lockstep_sim_time": 60.0, "lockstep_repeats": 3}
 
 
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def parse_args(argv: list[str] | None = None, description: str = "") -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--quick", action="store_true", help="a smoke check: small counts, short windows "
                         f"({', '.join(f'{k} {v}' for k, v in QUICK.items())})")
     parser.add_argument("--counts", type=int, nargs="+", metavar="N",

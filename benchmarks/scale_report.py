@@ -302,10 +302,6 @@ def _startup_target(rt: dict | None) -> dict:
     return {"target": name, "measured": f"{rt['startup_s']:.1f} s{detail}", "pass": rt["startup_s"] <= STARTUP_TARGET_S}
 
 
-if __name__ == "__main__":
-    print_report(json.loads(Path(sys.argv[1]).read_text()))
-
-
 def median_run(rows: list[dict]) -> dict:
     """The run of median real-time factor (the lower middle of an even number), with every run's factor in run
     order (None for one that failed) under ``repeats``; the first failure if every run failed."""
@@ -326,3 +322,7 @@ def refine(holding: int, failed: int | None, held) -> int:
         else:
             failed = middle
     return holding
+
+
+if __name__ == "__main__":
+    print_report(json.loads(Path(sys.argv[1]).read_text()))

@@ -1,7 +1,7 @@
-"""The documentation's reference pages, generated from the code so they cannot drift from it: every key and the
-message it carries (``schemas``), every scenario field with its default and bounds (the pydantic models, also as a
-JSON Schema for editors), and every command's help (the argparse parsers). ``tests/test_docs.py`` fails when the
-checked-in pages differ from what this writes.
+"""The documentation's generated pages, so they cannot drift from what they describe: the home page from the
+README, and references from the code: every key and the message it carries (``schemas``), every scenario field
+with its default and bounds (the pydantic models, also as a JSON Schema for editors), and every command's help
+(the argparse parsers). ``tests/test_docs.py`` fails when the checked-in pages differ from what this writes.
 
     python -m deploy.reference docs      # after changing a message, a scenario field or a flag
 """
@@ -21,10 +21,16 @@ HELP_COLUMNS = "100"
 """argparse wraps help to the terminal: a fixed width keeps the page the same on every machine."""
 
 
-def pages() -> dict[str, str]:
-    """File name (under the docs folder) -> content."""
-    return {"reference/keyspace.md": keyspace_page(), "reference/scenario.md": scenario_page(),
-            "reference/cli.md": cli_page(), "scenario.schema.json": scenario_schema()}
+def pages(docs: Path) -> dict[str, str]:
+    """File name (under the ``docs`` folder, beside the README) -> content."""
+    return {"index.md": index_page(docs.parent / "README.md"), "reference/keyspace.md": keyspace_page(),
+            "reference/scenario.md": scenario_page(), "reference/cli.md": cli_page(),
+            "scenario.schema.json": scenario_schema()}
+
+
+def index_page(readme: Path) -> str:
+    """The site's home page is the README, its links into ``docs/`` made relative: one text, not two to keep."""
+    return readme.read_text().replace("](docs/", "](")
 
 
 # ---- keys and messages ----
@@ -59,11 +65,15 @@ def keyspace_page() -> str:
     lines += ["", "Liveliness tokens: `alive/rover/<id>` and `alive/lander` (each agent's, while it runs).", "",
               "## Messages", ""]
     seen: set[str] = set()
-    for model in [*m.TOPIC_MODELS.values(), *m.LANDER_TOPIC_MODELS.values(), *m.WORLD_TOPIC_MODELS.values(),
-                  *m.GROUND_TOPIC_MODELS.values()]:
+    queue = [*m.TOPIC_MODELS.values(), *m.LANDER_TOPIC_MODELS.values(), *m.WORLD_TOPIC_MODELS.values(),
+             *m.GROUND_TOPIC_MODELS.values()]
+    while queue:  # payloads, then the models nested in them (a state's rovers, the statistics' report)
+        model = queue.pop(0)
         if model.__name__ not in seen:
             seen.add(model.__name__)
             lines += _model_section(model, f"### {model.__name__}")
+            queue += [inner for info in model.model_fields.values()
+                      if (inner := _nested_model(info.annotation)) is not None]
     return "\n".join(lines) + "\n"
 
 
@@ -179,7 +189,7 @@ def _cli_help(parser: argparse.ArgumentParser, commands: dict) -> str:
 
 def write(folder: Path) -> list[Path]:
     written = []
-    for name, content in pages().items():
+    for name, content in pages(folder).items():
         path = folder / name
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(content)

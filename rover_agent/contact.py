@@ -7,8 +7,9 @@ range hears nothing, and before this waited there for ever in silence.
 
 After ``CONTACT_WAIT_S`` of silence it goes looking for contact instead:
 - with no calibration, it takes its planned dispatch pose from its mission file (``dispatch``: where the lander
-  was to set it down, the same figures the calibration carries; a flight computer is loaded with its mission
-  before launch). Without one it cannot know where it is, and says so;
+  was to set it down, the same figures the calibration carries), when its ``--params`` is the mission's scenario
+  (``lunarsim run`` passes it; a flight computer given one is loaded with its mission before launch). Without
+  one it cannot know where it is, and says so;
 - it walks towards the lander (the origin of its frame), where the radio reaches it if anywhere, avoiding
   obstacles as towards any waypoint, and stops there. On the way it usually meets the lander's range or another
   rover's first, and the first mission direction that arrives ends the search.

@@ -165,7 +165,8 @@ def _in_crater_start(rng: random.Random, layout: Layout, centre: Point, spread: 
                      terrain: str) -> list[Point]:
     """A crater beside the formation with ``count`` rovers in its bowl, shallow enough to climb out of: the bowl
     wall is 2 depth / radius steep at the crest, kept to 0.36 (20 degrees, under max_slope_deg's 25), to 0.3 when
-    rough, where the undulation adds at most 0.25 (where all its waves happen to align)."""
+    rough. The undulation can add up to 0.25 where all its waves happen to align: such a spot is too steep, rare,
+    and the rover walks round it."""
     for attempt in range(ATTEMPTS):
         radius = rng.uniform(12.0, 22.0)
         depth = rng.uniform(0.1, 0.15 if terrain == "rough" else 0.18) * radius

@@ -40,7 +40,7 @@ def test_the_reference_pages_are_what_the_code_generates():
     ``python -m deploy.reference docs`` after changing any of those."""
     from deploy.reference import pages
 
-    stale = [name for name, content in pages().items() if (DOCS / name).read_text() != content]
+    stale = [name for name, content in pages(DOCS).items() if (DOCS / name).read_text() != content]
     assert not stale, f"regenerate with 'python -m deploy.reference docs': {stale}"
 
 

@@ -85,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     """Export a scenario's terrain as GLB (a mesh path in the scenario is read relative to the file)."""
     from schemas.scenario import load_scenario
 
-    parser = argparse.ArgumentParser(prog="python -m world_service.terrain_mesh", description=main.__doc__)
+    parser = argparse.ArgumentParser(prog="python -m world_service.terrain_export", description=main.__doc__)
     parser.add_argument("scenario", type=Path)
     parser.add_argument("output", type=Path)
     parser.add_argument("--step", type=int, default=None, help="keep every N-th grid node (default: fit 1M vertices)")
