@@ -83,12 +83,13 @@ def _rovers(world: World, made: GeneratedScenario) -> list[dict]:
     """Per-rover figures from the world's last published state (the one its report was computed from)."""
     scenario, state, missions = made.scenario, world.mission_stats.last, world.missions
     links = world.mission_stats.links
+    reached_ids = set(world.mission_stats.reached(state))  # the report's own judgement, rover by rover
     out = []
     for r in state.rovers:
         final = missions.final_index(r.id)
         goal = missions.goal(r.id, final)
         spawn = scenario.rovers[r.id - 1]
-        reached = r.state == "done" and r.goal_index == final and stats.at_goal(scenario, goal, r.x, r.z)
+        reached = r.id in reached_ids
         ideal = stats.relative_path_length(scenario, (spawn.x, spawn.z))
         role = "in_crater" if r.id in made.in_crater else "out_of_range" if r.id in made.out_of_range else "formation"
         disconnected = links.disconnected_by_rover.get(r.id, 0.0)

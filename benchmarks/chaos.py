@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -29,6 +28,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import zenoh
+from control_loop_latency import free_port
 from host import describe, line
 
 from bus.zenoh_config import build_config
@@ -66,12 +66,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 # ---- processes ----
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _router(port: int, log: Path) -> subprocess.Popen:
@@ -142,7 +136,7 @@ class States:
 
 
 def reconnect(out: Path, args: argparse.Namespace) -> dict:
-    port = _free_port()
+    port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     keys = Keyspace("chaos")
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -172,7 +166,7 @@ def reconnect(out: Path, args: argparse.Namespace) -> dict:
 
 
 def loss(out: Path, scenario: Path, share: float) -> dict:
-    run = _run(out, scenario, "--lockstep", "--fault-loss", str(share), "--port", str(_free_port()), "--no-record")
+    run = _run(out, scenario, "--lockstep", "--fault-loss", str(share), "--port", str(free_port()), "--no-record")
     report = _finish(run, out)
     return {"loss": share, "reached": report["rovers_reached_final_goal"], "total": report["rovers_total"],
             "stalled": report["rovers_stalled"], "sim_s": report["mission_duration_s"],
@@ -180,7 +174,7 @@ def loss(out: Path, scenario: Path, share: float) -> dict:
 
 
 def recovery(out: Path, args: argparse.Namespace) -> dict:
-    port = _free_port()
+    port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     keys = Keyspace("chaos-rec")
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -29,7 +29,7 @@ import zenoh
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
 
-from bus.zenoh_config import build_config
+from bus.zenoh_config import build_config, open_session
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -88,18 +88,6 @@ class Observer:
         return (inside[-1][1] - inside[0][1]) / (inside[-1][0] - inside[0][0])
 
 
-def connect(endpoint: str, timeout: float = 60.0) -> zenoh.Session:
-    """The run's world routes on ``endpoint`` once it has started: try until it does."""
-    deadline = time.monotonic() + timeout
-    while True:
-        try:
-            return zenoh.open(build_config(connect=[endpoint]))
-        except zenoh.ZError:
-            if time.monotonic() > deadline:
-                raise
-            time.sleep(0.2)
-
-
 def rss_mib(pid: int) -> float:
     """0 once the process has gone (the mission ended, or the world died: the outcome says which)."""
     try:
@@ -147,7 +135,7 @@ def main() -> int:
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     observer = Observer(keys, flooded=2)
     try:
-        with connect(endpoint) as session:
+        with open_session(build_config(connect=[endpoint]), endpoint, 60.0, who="flood benchmark") as session:
             subs = [session.declare_subscriber(keys.clock, observer.on_sample)]
             for topic in (ks.MOVE_ACTION, ks.ROTATE_ACTION, *REPLY_TOPICS):
                 subs.append(session.declare_subscriber(keys.rovers(topic), observer.on_sample))
