@@ -257,7 +257,9 @@ class DefaultBehaviour(BaseBehaviour):
         if self._photo_due:
             self._photo_due = False
             self._photos_taken += 1
-            return TakePhoto(f"goal{goal.index}_{(self._photos_taken - 1) * step:05.1f}deg")
+            # The label names the photo's file at the lander and its caption on the page: a person reads it, so
+            # goals count from 1 there as in the terminal (goal_index, the wire's, stays 0-based beside it).
+            return TakePhoto(f"goal{goal.index + 1}_{(self._photos_taken - 1) * step:05.1f}deg")
         self._photo_due = True
         return Rotate(step)
 

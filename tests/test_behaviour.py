@@ -554,7 +554,7 @@ def test_on_the_rim_a_photo_every_30_degrees_once_round_then_done():
     photos = [d for d in decisions if isinstance(d, TakePhoto)]
     assert len(photos) == 12 and decisions[0] == photos[0]
     assert [d for d in decisions if isinstance(d, Rotate)] == [Rotate(30.0)] * 11
-    assert len({p.label for p in photos}) == 12 and photos[1].label == "goal0_030.0deg"
+    assert len({p.label for p in photos}) == 12 and photos[1].label == "goal1_030.0deg"
     assert b.decide(view) == Finish("reached")
 
 

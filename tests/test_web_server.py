@@ -20,11 +20,11 @@ from procs import SCENARIOS
 from lander_agent import mapping
 from schemas import codec, radio
 from schemas import messages as m
-from schemas.scenario import load_scenario
+from schemas.scenario import Scenario, load_scenario
 from web import editor, live
 from web.commands import CommandError, Commands, command_from_request
 from web.scene import scenario_scene
-from web.server import Viewer, build_app
+from web.server import BUNDLE, Viewer, build_app
 
 SCENARIO = SCENARIOS / "crater_observation.yaml"
 
@@ -33,10 +33,14 @@ def _unsent(command: m.GroundCommand) -> None:
     raise AssertionError(f"no command should reach Zenoh in these tests, got {command}")
 
 
+def _viewer(tmp_path: Path, scenario: Scenario | None = None) -> Viewer:
+    return Viewer("test", live.Latest(), Commands(_unsent), editor.Workspace(tmp_path / "ws"),
+                  editor.Launcher(tmp_path / "runs", "tcp/127.0.0.1:1", "test"), scenario)
+
+
 def _call(tmp_path: Path, requests: list[tuple[str, str, dict | None]]) -> list[tuple[int, dict]]:
     """Serve a viewer (no Zenoh) on a real loopback port and make the requests in order."""
-    viewer = Viewer("test", live.Latest(), Commands(_unsent), editor.Workspace(tmp_path / "ws"),
-                    editor.Launcher(tmp_path / "runs", "tcp/127.0.0.1:1", "test"))
+    viewer = _viewer(tmp_path)
 
     async def go() -> list[tuple[int, dict]]:
         async with TestClient(TestServer(build_app(viewer))) as client:
@@ -200,8 +204,7 @@ def test_the_scene_carries_the_sun_and_battery_capacity_of_a_sunlit_scenario():
 
 def test_a_post_that_is_not_json_is_refused_before_it_does_anything(tmp_path: Path):
     """A cross-site form can send text/plain without the browser asking the server first: it must do nothing."""
-    viewer = Viewer("test", live.Latest(), Commands(_unsent), editor.Workspace(tmp_path / "ws"),
-                    editor.Launcher(tmp_path / "runs", "tcp/127.0.0.1:1", "test"))
+    viewer = _viewer(tmp_path)
 
     async def go() -> list[tuple[int, dict]]:
         async with TestClient(TestServer(build_app(viewer))) as client:
@@ -216,3 +219,62 @@ def test_a_post_that_is_not_json_is_refused_before_it_does_anything(tmp_path: Pa
         assert status == 415 and "application/json" in body["error"]
     assert not (tmp_path / "ws").exists() or not any((tmp_path / "ws").iterdir())
     assert not (tmp_path / "runs").exists()
+
+
+def _get(viewer: Viewer, paths: list[str]) -> list[tuple[int, str, str]]:
+    """GET each path from a served viewer: (status, content type, body text)."""
+    async def go() -> list[tuple[int, str, str]]:
+        async with TestClient(TestServer(build_app(viewer))) as client:
+            out = []
+            for path in paths:
+                res = await client.get(path)
+                out.append((res.status, res.content_type, await res.text()))
+            return out
+
+    return asyncio.run(go())
+
+
+@pytest.mark.skipif(not BUNDLE.is_file(), reason="the front end is not built (npm run build in web/frontend)")
+def test_each_tab_has_its_own_url_and_the_favicon_is_served(tmp_path: Path):
+    """/live and /editor serve the page (it opens the tab its path names), so a tab survives a reload."""
+    (root, live_tab, editor_tab, icon, missing) = _get(_viewer(tmp_path), ["/", "/live", "/editor", "/favicon.ico",
+                                                                          "/editors"])
+    for status, kind, body in (root, live_tab, editor_tab):
+        assert status == 200 and kind == "text/html" and "/static/bundle.js" in body
+        assert 'rel="icon"' in body
+    assert icon[0] == 200 and icon[1] == "image/svg+xml" and icon[2].startswith("<svg")
+    assert missing[0] == 404
+
+
+def test_the_editor_is_given_the_scenario_the_view_shows(tmp_path: Path):
+    """``lunarsim view --scenario FILE``: the editor opens FILE's scenario; without one, nothing (a blank)."""
+    scenario = load_scenario(SCENARIO)
+    ((status, _, body),) = _get(_viewer(tmp_path, scenario), ["/api/scenario/current"])
+    given = json.loads(body)["scenario"]
+    assert status == 200 and given["name"] == "crater_observation" and len(given["rovers"]) == 5
+    assert given["mission"][0]["x"] == scenario.mission[0].x
+    ((_, _, body),) = _get(_viewer(tmp_path), ["/api/scenario/current"])
+    assert json.loads(body) == {"ok": True, "scenario": None}
+
+
+def test_the_scene_names_the_spawns_the_camera_frames_at_the_start():
+    scene = scenario_scene(load_scenario(SCENARIO), cells=24)
+    assert scene["spawns"][0] == {"x": -510.0, "z": 100.0} and len(scene["spawns"]) == 5
+
+
+def test_hello_says_how_old_the_last_world_state_is(tmp_path: Path):
+    """A page that joins after the world stopped learns it from the state's age, without waiting for a silence."""
+    viewer = _viewer(tmp_path)
+
+    async def hello() -> dict:
+        async with TestClient(TestServer(build_app(viewer))) as client, client.ws_connect("/ws") as ws:
+            return json.loads((await ws.receive()).data)
+
+    assert asyncio.run(hello())["state_age_s"] is None
+    state = m.WorldState(stamp=1.0, rovers=[])
+    viewer.latest.put("state", codec.encode(state))
+    viewer.latest.arrived["state"] -= 30.0  # as if the world went quiet half a minute ago
+    age = asyncio.run(hello())["state_age_s"]
+    assert 30.0 <= age < 40.0
+    viewer.latest.forget()  # a new run: the old state's age no longer says anything
+    assert asyncio.run(hello())["state_age_s"] is None

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import base64
 import threading
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,11 +31,19 @@ class Latest:
     versions: dict[str, int] = field(default_factory=dict)
     photos: dict[int, bytes] = field(default_factory=dict)
     photo_versions: dict[int, int] = field(default_factory=dict)
+    arrived: dict[str, float] = field(default_factory=dict)
 
     def put(self, stream: str, payload: bytes) -> None:
         with self.lock:
             self.payloads[stream] = payload
             self.versions[stream] = self.versions.get(stream, 0) + 1
+            self.arrived[stream] = time.monotonic()
+
+    def age(self, stream: str) -> float | None:
+        """Seconds since the stream's newest payload arrived; None if none did (or a new run forgot it)."""
+        with self.lock:
+            at = self.arrived.get(stream) if stream in self.payloads else None
+        return None if at is None else round(time.monotonic() - at, 3)
 
     def put_photo(self, rover_id: int, payload: bytes) -> None:
         with self.lock:

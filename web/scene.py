@@ -43,6 +43,7 @@ def scenario_scene(scenario: Scenario, cells: int = TERRAIN_CELLS) -> dict:
         "lander": {"x": scenario.lander.x, "z": scenario.lander.z, "r": scenario.lander.radius_m,
                    "h": ground(scenario.lander.x, scenario.lander.z)},
         "goals": [{"x": g.x, "z": g.z, "kind": g.kind, "h": ground(g.x, g.z)} for g in scenario.mission],
+        "spawns": [{"x": r.x, "z": r.z} for r in scenario.rovers],  # where the page's camera looks at the start
         **sun_and_power(scenario),
     }
 
@@ -62,4 +63,4 @@ def sun_and_power(scenario: Scenario) -> dict:
 def empty_scene() -> dict:
     """No scenario known yet (``lunarsim view`` without ``--scenario``): the page sizes a flat ground to the rovers."""
     return {"name": "", "terrain": None, "craters": [], "rocks": [], "walls": [], "lander": None, "goals": [],
-            "sun": None, "power": None}
+            "spawns": [], "sun": None, "power": None}

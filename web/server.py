@@ -20,6 +20,8 @@ from web.scene import empty_scene, scenario_scene
 
 STATIC = Path(__file__).parent / "static"
 BUNDLE = STATIC / "bundle.js"
+PAGE_TABS = ("live", "editor")
+"""The page's tabs; each has its own URL (``/live``, ``/editor``), so a tab can be linked to and survives a reload."""
 VIEWER: web.AppKey[Viewer] = web.AppKey("viewer")
 STREAM: web.AppKey[asyncio.Task] = web.AppKey("stream")
 
@@ -34,6 +36,7 @@ class Viewer:
         self.commands = commands
         self.workspace = workspace
         self.launcher = launcher
+        self.scenario = scenario
         self.scene = scenario_scene(scenario) if scenario is not None else empty_scene()
         self.clients: set[web.WebSocketResponse] = set()
         self.undecodable = 0
@@ -41,6 +44,7 @@ class Viewer:
     async def set_scenario(self, scenario: Scenario) -> None:
         """Show another scenario (one launched from the editor): new scene, old run's state forgotten."""
         self.scene = await asyncio.to_thread(scenario_scene, scenario)
+        self.scenario = scenario
         self.latest.forget()
         await self.broadcast(json.dumps({"type": "scene", "scene": self.scene}))
 
@@ -113,7 +117,9 @@ async def websocket(request: web.Request) -> web.WebSocketResponse:
     viewer = _viewer(request)
     ws = web.WebSocketResponse(heartbeat=20.0)
     await ws.prepare(request)
-    await ws.send_str(json.dumps({"type": "hello", "world": viewer.world, "stream_hz": live.STREAM_HZ}))
+    # The state's age lets a page that joins after the world stopped say so at once, not after a silence.
+    await ws.send_str(json.dumps({"type": "hello", "world": viewer.world, "stream_hz": live.STREAM_HZ,
+                                  "state_age_s": viewer.latest.age("state")}))
     await ws.send_str(json.dumps({"type": "scene", "scene": viewer.scene}))
     for text in viewer.messages_since({}, {}):
         await ws.send_str(text)
@@ -133,8 +139,19 @@ async def info(request: web.Request) -> web.Response:
                               "launch": viewer.launcher.status(), "undecodable": viewer.undecodable})
 
 
+async def favicon(request: web.Request) -> web.FileResponse:
+    """Browsers ask for ``/favicon.ico`` whatever the page says; an SVG answers (every current browser draws it)."""
+    return web.FileResponse(STATIC / "favicon.svg", headers={"Content-Type": "image/svg+xml"})
+
+
 async def scene(request: web.Request) -> web.Response:
     return web.json_response(_viewer(request).scene)
+
+
+async def current(request: web.Request) -> web.Response:
+    """The scenario the live view shows (``--scenario``, or the last launched): the editor opens it, not a blank."""
+    scenario = _viewer(request).scenario
+    return web.json_response({"ok": True, "scenario": None if scenario is None else editor.scenario_json(scenario)})
 
 
 async def command(request: web.Request) -> web.Response:
@@ -247,6 +264,9 @@ def build_app(viewer: Viewer) -> web.Application:
     app = web.Application(client_max_size=16 * 1024 * 1024)
     app[VIEWER] = viewer
     app.router.add_get("/", index)
+    for tab in PAGE_TABS:
+        app.router.add_get(f"/{tab}", index)
+    app.router.add_get("/favicon.ico", favicon)
     app.router.add_get("/ws", websocket)
     app.router.add_get("/api/info", info)
     app.router.add_get("/api/scene", scene)
@@ -255,6 +275,7 @@ def build_app(viewer: Viewer) -> web.Application:
     app.router.add_post("/api/scenario/save", save)
     app.router.add_get("/api/scenario/list", listing)
     app.router.add_get("/api/scenario/load", load)
+    app.router.add_get("/api/scenario/current", current)
     app.router.add_post("/api/scenario/launch", launch)
     app.router.add_get("/api/launch", launch_status)
     app.router.add_post("/api/launch/stop", launch_stop)

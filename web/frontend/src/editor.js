@@ -2,7 +2,12 @@
 // (polylines) and rock fields are placed and dragged; lists to edit them by number; validate, save, load, launch,
 // and profile import/export.
 // The scenario is held in the model's own JSON shape and every check is the server's (the CLI's pydantic models).
+// It opens on the scenario the live view shows (`lunarsim view --scenario`, or the last launched), else a blank one.
+// Items are numbered from 1, as the terminal numbers goals and rovers.
 import { get, post } from "./api.js";
+import { fillLists } from "./editorlists.js";
+import { exportProfile, importProfile } from "./profiles.js";
+import { drawMap } from "./editormap.js";
 
 const $ = (id) => document.getElementById(id);
 const PICK_PX = 12;
@@ -51,8 +56,18 @@ export class Editor {
       toScreen: (x, z) => this.toScreen(x, z),
     };
     this.load(blank());
+    this.touched = false; // a blank until the live view's scenario arrives, or the user starts on it
     this.bind();
     this.refreshFiles();
+    this.opened = this.openCurrent();
+  }
+
+  // The live view's scenario, unless the user started editing before it arrived.
+  async openCurrent() {
+    const r = await get("/api/scenario/current");
+    if (!r.ok || !r.scenario || this.touched) return;
+    this.load(r.scenario);
+    this.status(`opened ${r.scenario.name}, the scenario the live view shows`, true);
   }
 
   bind() {
@@ -70,14 +85,15 @@ export class Editor {
     $("ed-load").addEventListener("click", () => this.loadFile($("ed-files").value));
     $("ed-launch").addEventListener("click", () => this.launch());
     $("ed-stop").addEventListener("click", async () => { const r = await post("/api/launch/stop", {}); this.status(`launched run: ${r.running ? "running" : "stopped"}`, true); });
-    $("ed-export").addEventListener("click", () => this.exportProfile());
-    $("ed-import").addEventListener("change", (ev) => this.importProfile(ev.target.files[0]));
+    $("ed-export").addEventListener("click", () => exportProfile(this));
+    $("ed-import").addEventListener("change", (ev) => importProfile(this, ev.target.files[0]));
     new ResizeObserver(() => this.draw()).observe($("map-wrap"));
   }
 
   show() { this.draw(); }
 
   load(sc) {
+    this.touched = true;
     this.sc = structuredClone(sc);
     this.sc.obstacles = this.sc.obstacles || { rocks: [], walls: [], rock_fields: [] };
     for (const key of ["rocks", "walls", "rock_fields"]) this.sc.obstacles[key] = this.sc.obstacles[key] || [];
@@ -158,26 +174,6 @@ export class Editor {
       this.state.launched = r;
       document.getElementById("tab-live").click();
     }
-  }
-
-  async exportProfile() {
-    const r = await this.call("/api/profile/export");
-    if (!r || !r.ok) return;
-    const a = document.createElement("a");
-    a.href = URL.createObjectURL(new Blob([JSON.stringify(r.profile, null, 1)], { type: "application/json" }));
-    a.download = `${$("ed-name").value || "scenario"}.json`;
-    document.body.appendChild(a);
-    a.click();
-    a.remove();
-    this.status(`exported profile ${a.download} (profiles carry no obstacles, terrain or parameters)`, true);
-  }
-
-  async importProfile(file) {
-    if (!file) return;
-    let profile;
-    try { profile = JSON.parse(await file.text()); } catch (err) { this.status(`${file.name}: not JSON: ${err.message}`, false); return; }
-    const r = await post("/api/profile/import", { profile, name: file.name.replace(/\.json$/, "") });
-    if (r.ok) { this.load(r.scenario); this.status(`imported profile ${file.name}`, true); } else this.status(r.error, false);
   }
 
   async requestPreview() {
@@ -289,6 +285,7 @@ export class Editor {
   }
 
   down(ev) {
+    this.touched = true;
     const rect = this.canvas.getBoundingClientRect();
     const px = ev.clientX - rect.left, py = ev.clientY - rect.top;
     const [x, z] = this.toWorld(px, py);
@@ -347,7 +344,7 @@ export class Editor {
     if (wall.points.length < 2) { this.status("a wall needs at least two points: click them, then double-click or Enter", false); this.draw(); return; }
     this.sc.obstacles.walls.push(wall);
     this.select(["wall", wall]);
-    this.status(`wall ${this.sc.obstacles.walls.length - 1}: ${wall.points.length} points`, true);
+    this.status(`wall ${this.sc.obstacles.walls.length}: ${wall.points.length} points`, true);
     this.lists();
   }
 
@@ -382,148 +379,9 @@ export class Editor {
     this.draw();
   }
 
-  draw() {
-    const c = this.canvas, ctx = this.ctx;
-    if (!c.clientWidth) return;
-    if (c.width !== c.clientWidth || c.height !== c.clientHeight) { c.width = c.clientWidth; c.height = c.clientHeight; }
-    ctx.fillStyle = "#202020";
-    ctx.fillRect(0, 0, c.width, c.height);
-    this.drawTerrain();
-    const { scale } = this.transform();
-    const dot = (x, z, r, color, label) => {
-      const [sx, sy] = this.toScreen(x, z);
-      ctx.fillStyle = color;
-      ctx.beginPath(); ctx.arc(sx, sy, r, 0, Math.PI * 2); ctx.fill();
-      if (label) { ctx.fillStyle = "#eee"; ctx.fillText(label, sx + r + 2, sy - r); }
-    };
-    ctx.font = "11px sans-serif";
-    for (const [i, cr] of this.sc.craters.entries()) {
-      const [sx, sy] = this.toScreen(cr.x, cr.z);
-      ctx.strokeStyle = "#e69933"; ctx.lineWidth = 2;
-      ctx.beginPath(); ctx.arc(sx, sy, cr.radius_m * scale, 0, Math.PI * 2); ctx.stroke();
-      dot(cr.x, cr.z, 4, "#e69933", `crater ${i}`);
-    }
-    for (const r of this.scatteredRocks()) dot(r.x, r.z, Math.max(1.5, r.r * scale), "#6e655b");
-    for (const r of this.sc.obstacles.rocks) dot(r.x, r.z, Math.max(2, r.radius_m * scale), "#8c8073");
-    for (const [i, f] of this.sc.obstacles.rock_fields.entries()) {
-      const [sx, sy] = this.toScreen(f.x, f.z);
-      ctx.strokeStyle = this.isSelected(f) ? "#ffffff" : "#6b4f2e"; ctx.lineWidth = 1.5; ctx.setLineDash([6, 4]);
-      ctx.beginPath(); ctx.arc(sx, sy, f.radius_m * scale, 0, Math.PI * 2); ctx.stroke(); ctx.setLineDash([]);
-      dot(f.x, f.z, 4, "#6b4f2e", `rock field ${i} (${f.count})`);
-    }
-    this.sc.obstacles.walls.forEach((w, i) => this.drawWall(w, scale, this.isSelected(w) ? "#ffffff" : "#d9534f", `wall ${i}`));
-    if (this.drawing) this.drawWall(this.drawing, scale, "#ff9f9a", "new wall");
-    ctx.strokeStyle = "#33ff66"; ctx.lineWidth = 1; ctx.setLineDash([4, 4]);
-    ctx.beginPath();
-    this.sc.mission.forEach((g, i) => { const [sx, sy] = this.toScreen(g.x, g.z); if (i) ctx.lineTo(sx, sy); else ctx.moveTo(sx, sy); });
-    ctx.stroke(); ctx.setLineDash([]);
-    this.sc.mission.forEach((g, i) => dot(g.x, g.z, 5, g.kind === "crater" ? "#33ff66" : "#33ccff", `goal ${i}`));
-    this.sc.rovers.forEach((r, i) => dot(r.x, r.z, 4, "#3399ff", `${i + 1}`));
-    dot(this.sc.lander.x, this.sc.lander.z, 7, "#f2d94d", "lander");
-  }
+  draw() { drawMap(this); }
 
   isSelected(item) { return this.selected !== null && this.selected[1] === item; }
 
-  drawWall(w, scale, color, label) {
-    const ctx = this.ctx;
-    const pts = w.points.map(([x, z]) => this.toScreen(x, z));
-    ctx.strokeStyle = color; ctx.lineCap = "round"; ctx.lineJoin = "round";
-    ctx.lineWidth = Math.max(2, (w.thickness_m || 0) * scale);
-    ctx.beginPath();
-    pts.forEach(([sx, sy], i) => (i ? ctx.lineTo(sx, sy) : ctx.moveTo(sx, sy)));
-    ctx.stroke();
-    ctx.fillStyle = color;
-    for (const [sx, sy] of pts) { ctx.beginPath(); ctx.arc(sx, sy, 3.5, 0, Math.PI * 2); ctx.fill(); }
-    if (pts.length) { ctx.fillStyle = "#eee"; ctx.fillText(label, pts[0][0] + 6, pts[0][1] - 6); }
-  }
-
-  // The rocks the server scattered for the rock fields (the preview lists the placed rocks first).
-  scatteredRocks() {
-    const rocks = (this.preview && this.preview.rocks) || [];
-    return this.sc.obstacles.rock_fields.length ? rocks.slice(this.previewPlaced ?? rocks.length) : [];
-  }
-
-  drawTerrain() {
-    const t = this.preview && this.preview.terrain;
-    if (!t) return;
-    if (this.terrainFor !== t) {
-      const img = document.createElement("canvas");
-      img.width = t.nx; img.height = t.nz;
-      const g = img.getContext("2d"), data = g.createImageData(t.nx, t.nz);
-      const lo = Math.min(...t.heights), hi = Math.max(...t.heights);
-      for (let j = 0; j < t.nz; j++) {
-        for (let i = 0; i < t.nx; i++) {
-          const s = 60 + (hi > lo ? (140 * (t.heights[j * t.nx + i] - lo)) / (hi - lo) : 60);
-          const k = ((t.nz - 1 - j) * t.nx + i) * 4;
-          data.data.set([s, s, s, 255], k);
-        }
-      }
-      g.putImageData(data, 0, 0);
-      this.terrainImage = img;
-      this.terrainFor = t;
-    }
-    const [ax, ay] = this.toScreen(t.x0, t.z1), [bx, by] = this.toScreen(t.x1, t.z0);
-    this.ctx.imageSmoothingEnabled = true;
-    this.ctx.drawImage(this.terrainImage, ax, ay, bx - ax, by - ay);
-  }
-
-  // ---- lists ----
-
-  lists() {
-    const sc = this.sc;
-    // A field the model defaults (left out of the scenario) shows empty with "default"; emptying a field restores it.
-    const num = (obj, key, label) => {
-      const input = document.createElement("input");
-      input.type = "number"; input.step = "any"; input.value = obj[key] ?? ""; input.placeholder = "default";
-      input.title = label; input.dataset.field = key;
-      input.addEventListener("change", () => {
-        if (input.value === "" && label !== "x" && label !== "z") delete obj[key]; else obj[key] = Number(input.value);
-        this.draw();
-        if (obj.count !== undefined) this.requestPreview();
-      });
-      return input;
-    };
-    const button = (text, fn) => { const b = document.createElement("button"); b.textContent = text; b.addEventListener("click", fn); return b; };
-    const row = (parent, label, ...els) => {
-      const div = document.createElement("div"); div.className = "item";
-      div.append(label, ...els); parent.appendChild(div);
-    };
-    const fill = (id, list, render) => { const el = $(id); el.innerHTML = ""; list.forEach((item, i) => render(el, item, i)); };
-    fill("ed-lander", [sc.lander], (el, l) => row(el, "x, z", num(l, "x", "x"), num(l, "z", "z")));
-    fill("ed-rovers", sc.rovers, (el, r, i) => row(el, `rover ${i + 1}`, num(r, "x", "x"), num(r, "z", "z"), num(r, "heading_deg", "heading"),
-      button("×", () => { sc.rovers.splice(i, 1); this.lists(); })));
-    fill("ed-craters", sc.craters, (el, c, i) => row(el, `crater ${i}`, num(c, "x", "x"), num(c, "z", "z"), num(c, "radius_m", "radius m"),
-      button("×", () => { sc.craters.splice(i, 1); this.lists(); })));
-    fill("ed-goals", sc.mission, (el, g, i) => {
-      const kind = document.createElement("select");
-      kind.innerHTML = "<option>crater</option><option>waypoint</option>";
-      kind.value = g.kind;
-      kind.addEventListener("change", () => { g.kind = kind.value; this.draw(); });
-      const swap = (j) => { if (j < 0 || j >= sc.mission.length) return; [sc.mission[i], sc.mission[j]] = [sc.mission[j], sc.mission[i]]; this.lists(); };
-      row(el, `goal ${i}`, num(g, "x", "x"), num(g, "z", "z"), kind, button("↑", () => swap(i - 1)), button("↓", () => swap(i + 1)),
-        button("×", () => { sc.mission.splice(i, 1); this.lists(); }));
-    });
-    fill("ed-rocks", sc.obstacles.rocks, (el, r, i) => row(el, `rock ${i}`, num(r, "x", "x"), num(r, "z", "z"), num(r, "radius_m", "radius m"),
-      button("×", () => { sc.obstacles.rocks.splice(i, 1); this.lists(); })));
-    const drop = (list, i) => button("×", () => { this.remove([list === sc.obstacles.walls ? "wall" : "rockfield", list[i]]); this.lists(); this.requestPreview(); });
-    fill("ed-walls", sc.obstacles.walls, (el, w, i) => {
-      const points = document.createElement("input");
-      points.className = "points"; points.dataset.field = "points"; points.title = "points: x z; x z; ...";
-      points.value = w.points.map(([x, z]) => `${x} ${z}`).join("; ");
-      points.addEventListener("change", () => {
-        const parsed = points.value.split(";").map((p) => p.trim().split(/[\s,]+/).map(Number)).filter((p) => p.length === 2 && p.every(Number.isFinite));
-        if (parsed.length < 2) { this.status(`wall ${i}: give at least two points as "x z; x z"`, false); return; }
-        w.points = parsed;
-        this.lists();
-      });
-      row(el, `wall ${i}`, num(w, "thickness_m", "thickness m"), num(w, "height_m", "height m"), points, drop(sc.obstacles.walls, i));
-      if (this.isSelected(w)) el.lastChild.classList.add("selected");
-    });
-    fill("ed-fields", sc.obstacles.rock_fields, (el, f, i) => {
-      row(el, `field ${i}`, num(f, "x", "x"), num(f, "z", "z"), num(f, "radius_m", "radius m"), num(f, "count", "rocks"),
-        num(f, "min_radius_m", "smallest rock radius m"), num(f, "max_radius_m", "largest rock radius m"), drop(sc.obstacles.rock_fields, i));
-      if (this.isSelected(f)) el.lastChild.classList.add("selected");
-    });
-    this.draw();
-  }
+  lists() { fillLists(this); }
 }

@@ -5,10 +5,15 @@
 import * as THREE from "three";
 import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
 import { Ground } from "./ground.js";
+import { ViewOverlay } from "./overlay.js";
 import { MapOverlay } from "./traversemap.js";
 
 const ROVER = { length: 1.4, width: 1.0, height: 0.6, scale: 2.0 };
 const TRAIL_POINTS = 300;
+// The start's view: from the south, a little east, this far above the horizon, with the mission filling the picture.
+const VIEW_FROM = new THREE.Vector3(0.15, 0.75, 0.6).normalize();
+const FRAME_MARGIN = { share: 0.12, min_m: 12 };
+const MIN_VIEW_DISTANCE_M = 30;
 const DEFAULT_SUN = new THREE.Vector3(-0.5, 0.7, 0.4).normalize();
 const STATE_COLORS = {
   waiting: 0x999999, migration: 0x3399ff, avoiding: 0xffcc1a, climbing: 0xe6801a, observing: 0x4ce64c,
@@ -37,11 +42,13 @@ export class LiveView {
     const scale = Number(new URLSearchParams(location.search).get("scale"));
     page.renderScale = scale > 0 && scale <= 1 ? scale : 1;
     this.renderer.setPixelRatio(page.renderScale);
+    this.renderer.domElement.className = "gl"; // the picture; the overlay's canvas keeps its own size
     container.appendChild(this.renderer.domElement);
     this.scene = new THREE.Scene();
     this.scene.background = new THREE.Color(0x05070c);
     this.camera = new THREE.PerspectiveCamera(50, 1, 0.5, 20000);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
+    this.controls.addEventListener("start", () => { this.userMoved = true; });
     this.scene.add(new THREE.AmbientLight(0xffffff, 0.55));
     this.sun = new THREE.DirectionalLight(0xffffff, 1.6);
     this.sun.position.set(...DEFAULT_SUN.clone().multiplyScalar(500).toArray());
@@ -50,6 +57,7 @@ export class LiveView {
     this.statics = new THREE.Group();
     this.scene.add(this.statics);
     this.makeDynamic(128);
+    this.overlay = new ViewOverlay(container, () => this.frame(this.page.scene));
     this.renderer.domElement.addEventListener("click", (ev) => this.click(ev));
     new ResizeObserver(() => this.resize()).observe(container);
     this.resize();
@@ -83,6 +91,8 @@ export class LiveView {
     this.renderer.setSize(w, h, false);
     this.camera.aspect = w / h;
     this.camera.updateProjectionMatrix();
+    // Framed while hidden (a page opened on another tab) or resized since: frame again, unless the user moved.
+    if (this.framed && !this.userMoved) this.frame(this.page.scene);
   }
 
   setScene(scene) {
@@ -115,17 +125,32 @@ export class LiveView {
     this.frame(scene);
   }
 
+  // Look at the lander, the rovers and the goals (what the mission is about), not the whole terrain: from the
+  // terrain's size the rovers were specks. Without a scenario, at the rovers once their first state comes.
   frame(scene) {
-    // Look at the lander and goals from the south-east, high enough to see the whole mission.
-    const t = scene.terrain;
-    const cx = t ? (t.x0 + t.x1) / 2 : 0, cz = t ? (t.z0 + t.z1) / 2 : 0;
-    const size = t ? Math.max(t.x1 - t.x0, t.z1 - t.z0) : 200;
-    const h = this.ground.at(cx, cz);
+    const box = missionBox(scene, [...this.curr.values()]);
+    this.needsFrame = !box;
+    if (!box || !this.renderer) return;
+    this.framed = box;
+    this.userMoved = false;
+    const cx = (box.x0 + box.x1) / 2, cz = (box.z0 + box.z1) / 2, h = this.ground.at(cx, cz);
+    const vfov = (this.camera.fov * Math.PI) / 180, hfov = 2 * Math.atan(Math.tan(vfov / 2) * this.camera.aspect);
+    const elevation = Math.asin(VIEW_FROM.y);
+    // The ground's depth is foreshortened by the view's elevation; 1.2 leaves room for perspective at the near edge.
+    const distance = 1.2 * Math.max(MIN_VIEW_DISTANCE_M, (box.x1 - box.x0) / 2 / Math.tan(hfov / 2),
+      ((box.z1 - box.z0) / 2) * Math.sin(elevation) / Math.tan(vfov / 2));
     this.controls.target.set(cx, h, -cz);
-    this.camera.position.set(cx + size * 0.15, h + size * 0.75, -cz + size * 0.6);
-    this.camera.far = size * 10;
+    this.camera.position.copy(this.controls.target).addScaledVector(VIEW_FROM, distance);
+    const t = scene && scene.terrain;
+    this.camera.far = Math.max(distance * 10, t ? 10 * Math.max(t.x1 - t.x0, t.z1 - t.z0) : 0);
     this.camera.updateProjectionMatrix();
     this.controls.update();
+  }
+
+  // Where a ground point is on the canvas, in CSS pixels from its top left (the browser tests read it).
+  screenOf(x, z) {
+    const p = new THREE.Vector3(x, this.ground.at(x, z), -z).project(this.camera);
+    return [((p.x + 1) / 2) * this.container.clientWidth, ((1 - p.y) / 2) * this.container.clientHeight];
   }
 
   setState(state) {
@@ -144,6 +169,7 @@ export class LiveView {
     }
     this.stateAt = now;
     this.state = state;
+    if (this.needsFrame && state.rovers.length) this.frame(this.page.scene);
     if (!this.renderer) return;
     if (state.rovers.length > this.rovers.instanceMatrix.count) this.makeDynamic(state.rovers.length * 2);
     this.updateTrails();
@@ -211,6 +237,7 @@ export class LiveView {
     this.rovers.instanceMatrix.needsUpdate = true;
     if (this.rovers.instanceColor) this.rovers.instanceColor.needsUpdate = true;
     this.controls.update();
+    this.overlay.update(this.camera, this.controls.target, this.container.clientHeight);
     this.renderer.render(this.scene, this.camera);
   }
 
@@ -224,6 +251,24 @@ export class LiveView {
     const hit = ray.intersectObjects(this.statics.children, false)[0];
     if (hit) this.onPick(hit.point.x, -hit.point.z);
   }
+}
+
+// The ground rectangle holding the lander, the rovers (their spawns, else where they are), the goals and the
+// craters they are in, with a margin; null when there is nothing to look at yet.
+function missionBox(scene, rovers) {
+  const xs = [], zs = [];
+  const add = (x, z, r = 0) => { xs.push(x - r, x + r); zs.push(z - r, z + r); };
+  if (scene && scene.lander) add(scene.lander.x, scene.lander.z, scene.lander.r);
+  const spawns = scene && scene.spawns && scene.spawns.length ? scene.spawns : rovers;
+  for (const r of spawns) add(r.x, r.z);
+  for (const g of (scene && scene.goals) || []) {
+    add(g.x, g.z);
+    for (const c of scene.craters) if (Math.hypot(c.x - g.x, c.z - g.z) <= c.r) add(c.x, c.z, c.r);
+  }
+  if (!xs.length) return null;
+  const x0 = Math.min(...xs), x1 = Math.max(...xs), z0 = Math.min(...zs), z1 = Math.max(...zs);
+  const m = Math.max(FRAME_MARGIN.min_m, FRAME_MARGIN.share * Math.max(x1 - x0, z1 - z0));
+  return { x0: x0 - m, x1: x1 + m, z0: z0 - m, z1: z1 + m };
 }
 
 function setPoints(lines, pts) {

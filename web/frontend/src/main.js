@@ -1,7 +1,9 @@
-// Entry point: the WebSocket feed, tabs, and the three parts (3D view, panels, editor).
+// Entry point: the WebSocket feed, the tabs (each with its own URL: /live, /editor), and the parts of the page
+// (3D view, panels, editor, the run's status in the header).
 import { LiveView } from "./live3d.js";
 import { Panels } from "./panels.js";
 import { Editor } from "./editor.js";
+import { RunStatus } from "./status.js";
 import { inflate, pageColours } from "./traversemap.js";
 
 // Page state, also read by the browser tests and the FPS benchmark.
@@ -14,22 +16,35 @@ const $ = (id) => document.getElementById(id);
 const view = (lunarsim.view = new LiveView($("view3d"), lunarsim));
 const panels = new Panels(lunarsim);
 const editor = new Editor(lunarsim);
+const run = new RunStatus(lunarsim);
 view.onPick = (x, z) => panels.setTarget(x, z);
 
-for (const tab of document.querySelectorAll(".tab")) {
-  tab.addEventListener("click", () => {
-    for (const t of document.querySelectorAll(".tab")) t.classList.toggle("active", t === tab);
-    for (const p of document.querySelectorAll(".pane")) p.classList.toggle("active", p.id === tab.dataset.tab);
-    if (tab.dataset.tab === "editor") editor.show(); else view.resize();
-  });
+const TABS = { live: "LunarSim: live view", editor: "LunarSim: scenario editor" };
+
+function tabOfPath() {
+  const name = location.pathname.replace(/^\/+|\/+$/g, "");
+  return name in TABS ? name : "live";
 }
+
+function showTab(name, push) {
+  for (const t of document.querySelectorAll(".tab")) t.classList.toggle("active", t.dataset.tab === name);
+  for (const p of document.querySelectorAll(".pane")) p.classList.toggle("active", p.id === name);
+  document.title = TABS[name];
+  lunarsim.tab = name;
+  if (push && location.pathname !== `/${name}`) history.pushState({ tab: name }, "", `/${name}${location.search}`);
+  if (name === "editor") editor.show(); else view.resize();
+}
+
+for (const tab of document.querySelectorAll(".tab")) tab.addEventListener("click", () => showTab(tab.dataset.tab, true));
+window.addEventListener("popstate", () => showTab(tabOfPath(), false));
+showTab(tabOfPath(), false);
 
 function handle(msg) {
   switch (msg.type) {
-    case "hello": lunarsim.world = msg.world; $("world").textContent = `world ${msg.world}`; break;
-    case "scene": lunarsim.scene = msg.scene; lunarsim.map = null; view.setScene(msg.scene); panels.setScene(msg.scene); break;
-    case "state": lunarsim.state = msg; lunarsim.states += 1; view.setState(msg); panels.setState(msg); break;
-    case "stats": lunarsim.stats = msg; panels.setStats(msg); break;
+    case "hello": lunarsim.world = msg.world; $("world").textContent = `world ${msg.world}`; run.hello(msg); break;
+    case "scene": lunarsim.scene = msg.scene; lunarsim.map = null; view.setScene(msg.scene); panels.setScene(msg.scene); run.scene(); break;
+    case "state": lunarsim.state = msg; lunarsim.states += 1; view.setState(msg); panels.setState(msg); run.state(msg); break;
+    case "stats": lunarsim.stats = msg; panels.setStats(msg); run.stats(msg); break;
     case "lander": lunarsim.lander = msg; panels.setLander(msg); break;
     case "photo": lunarsim.photos[msg.rover] = msg; panels.setPhoto(msg); break;
     case "map": showMap(msg); break;
@@ -50,12 +65,11 @@ $("map-show").addEventListener("change", () => view.showMap($("map-show").checke
 
 function connect() {
   const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
-  ws.onopen = () => { lunarsim.connected = true; $("conn").textContent = "connected"; $("conn").className = "ok"; };
+  ws.onopen = () => { lunarsim.connected = true; run.connected(true); };
   ws.onmessage = (ev) => handle(JSON.parse(ev.data));
   ws.onclose = () => {
     lunarsim.connected = false;
-    $("conn").textContent = "disconnected, retrying…";
-    $("conn").className = "bad";
+    run.connected(false);
     setTimeout(connect, 1000);
   };
 }

@@ -1,45 +1,43 @@
 // Statistics (report 10.6.3: the simulation's and each rover's), the ground station, and photos.
 import { post } from "./api.js";
+import { formatStat, goalNumber } from "./format.js";
 
 const $ = (id) => document.getElementById(id);
-// Report 3.4.7 and the fitness list of 6.3.3, in their order, as the world's MissionReport names them.
+// Report 3.4.7 and the fitness list of 6.3.3, in their order, as the world's MissionReport names them, each with
+// its kind (format.js: how many decimals a reader needs).
 const SIM_FIELDS = [
-  ["relative_path_length_m", "relative path length (m)"],
-  ["average_distance_covered_m", "average distance covered (m)"],
-  ["average_path_efficiency", "average path efficiency"],
-  ["rovers_reached_final_goal", "rovers that reached the final goal"],
-  ["rover_collisions", "rover collisions"],
-  ["obstacle_collisions", "obstacle collisions"],
-  ["rovers_stuck", "rovers stuck"],
-  ["mission_duration_s", "mission duration (s)"],
-  ["total_distance_covered_m", "total distance covered (m)"],
-  ["lander_connection_losses", "lander connection losses"],
-  ["disconnected_time_s", "time without a route to the lander (rover-s)"],
-  ["worst_rover_connected_fraction", "least connected rover's share"],
-  ["max_rovers_in_daisy_chain", "most rovers in the daisy chain"],
-  ["rejected_messages", "rejected messages"],
-  ["radio_dropped", "radio dropped"],
-  ["radio_lost", "radio lost"],
-  ["complete", "complete"],
+  ["relative_path_length_m", "relative path length (m)", "m"],
+  ["average_distance_covered_m", "average distance covered (m)", "m"],
+  ["average_path_efficiency", "average path efficiency", "ratio"],
+  ["rovers_reached_final_goal", "rovers that reached the final goal", "count"],
+  ["rover_collisions", "rover collisions", "count"],
+  ["obstacle_collisions", "obstacle collisions", "count"],
+  ["rovers_stuck", "rovers stuck", "count"],
+  ["mission_duration_s", "mission duration (s)", "s"],
+  ["total_distance_covered_m", "total distance covered (m)", "m"],
+  ["lander_connection_losses", "lander connection losses", "count"],
+  ["disconnected_time_s", "time without a route to the lander (rover-s)", "s"],
+  ["worst_rover_connected_fraction", "least connected rover's share", "share"],
+  ["max_rovers_in_daisy_chain", "most rovers in the daisy chain", "count"],
+  ["rejected_messages", "rejected messages", "count"],
+  ["radio_dropped", "radio dropped", "count"],
+  ["radio_lost", "radio lost", "count"],
+  ["complete", "complete", "bool"],
 ];
 // Shown only when the run has them: the lander's map (issue 8) and the power model (a scenario with a sun).
 const OPTIONAL_FIELDS = [
-  ["map_corridor_mapped", "share of the A-B corridor mapped"],
-  ["map_obstacles_found", "share of the corridor's obstacles mapped"],
-  ["map_obstacle_precision", "share of mapped obstacles that are real"],
-  ["power_budget_efficiency", "power budget efficiency"],
-  ["energy_used_wh", "energy used (Wh)"],
-  ["power_shutdowns", "power shutdowns (battery empty)"],
-  ["cold_shutdowns", "cold shutdowns (too cold to run)"],
+  ["map_corridor_mapped", "share of the A-B corridor mapped", "share"],
+  ["map_obstacles_found", "share of the corridor's obstacles mapped", "share"],
+  ["map_obstacle_precision", "share of mapped obstacles that are real", "share"],
+  ["power_budget_efficiency", "power budget efficiency", "ratio"],
+  ["energy_used_wh", "energy used (Wh)", "Wh"],
+  ["power_shutdowns", "power shutdowns (battery empty)", "count"],
+  ["cold_shutdowns", "cold shutdowns (too cold to run)", "count"],
 ];
 const BASE_COLUMNS = "<th>id</th><th>state</th><th>goal</th><th>to goal m</th><th>covered m</th>";
 const POWER_COLUMNS = "<th title=\"battery charge\">Wh</th><th title=\"battery charge, % of capacity\">%</th>" +
   "<th title=\"temperature\">°C</th><th title=\"panel in sunlight\">light</th><th title=\"off: battery empty or too cold\">on</th>";
 const TABLE_PERIOD_MS = 400;
-
-function fmt(v) {
-  return typeof v === "number" && !Number.isInteger(v) ? v.toFixed(3) : String(v);
-}
 
 export class Panels {
   constructor(page) {
@@ -72,7 +70,7 @@ export class Panels {
     }
     const rows = state.rovers.map((r) =>
       `<tr data-id="${r.id}" class="${String(r.id) === this.selected ? "sel" : ""}"><td>${r.id}</td>` +
-      `<td>${r.alive ? r.state : "lost"}</td><td>${r.goal}</td><td>${r.to_goal.toFixed(1)}</td><td>${r.covered.toFixed(1)}</td>` +
+      `<td>${r.alive ? r.state : "lost"}</td><td data-field="goal">${goalNumber(r.goal)}</td><td>${r.to_goal.toFixed(1)}</td><td>${r.covered.toFixed(1)}</td>` +
       (power ? this.powerCells(r) : "") + "</tr>");
     $("rovers").querySelector("tbody").innerHTML = rows.join("");
     const select = $("cmd-rover");
@@ -109,8 +107,10 @@ export class Panels {
   setStats(stats) {
     const r = stats.report;
     const fields = SIM_FIELDS.concat(OPTIONAL_FIELDS.filter(([k]) => r[k] !== null && r[k] !== undefined));
-    $("simstats").innerHTML = fields.map(([k, label]) => `<tr><td>${label}</td><td data-field="${k}">${fmt(r[k])}</td></tr>`).join("")
-      + `<tr><td>rovers</td><td>${r.rovers_total}</td></tr>`;
+    $("simstats").innerHTML = fields.map(([k, label, kind]) =>
+      `<tr><td>${label}</td><td data-field="${k}">${formatStat(kind, r[k])}</td></tr>`).join("")
+      + `<tr><td>rovers</td><td data-field="rovers_total">${r.rovers_total}</td></tr>`;
+    $("stats-when").textContent = `${stats.final ? "final, " : ""}at t = ${formatStat("s", stats.stamp)} s`;
   }
 
   setLander(l) {
