@@ -19,7 +19,7 @@ def test_the_site_builds_in_strict_mode(tmp_path):
                           cwd=REPO, capture_output=True, text=True, timeout=120,
                           env={**os.environ, "NO_MKDOCS_2_WARNING": "1"})
     assert done.returncode == 0, done.stdout + done.stderr
-    assert (tmp_path / "site" / "faults" / "index.html").is_file()
+    assert (tmp_path / "site" / "getting-started" / "index.html").is_file()
 
 
 def _pages(nav: list) -> set[str]:
