@@ -6,6 +6,10 @@ its output, and the others go on. Beside Table 2's columns the table shows the r
 share of the mission connected to the lander, the most rovers relaying at once, and the photos the lander
 archived (``photos_at_lander``, counted from the run's ``lander_archive/index.jsonl``): the daisy chain's
 figures.
+
+Runs made elsewhere (the Kubernetes Indexed Job, one run per pod) get the same batch.json and table from
+``lunarsim collect-batch`` (``deploy.batch_collect``), which shares this module's folder names, report reading and
+summary.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from pathlib import Path
 
 from bus import process
 
+BATCH_FILE = "batch.json"
 TABLE_WIDTH = 140
 """Columns of the printed table when the output is not a terminal (a log, CI): wide enough for every figure."""
 
@@ -52,29 +57,52 @@ class Run:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    from rich.console import Console
-
     from schemas.scenario import load_rover_params, load_scenario
 
     if args.runs < 1 or args.jobs < 1:
         raise process.UsageError("--runs and --jobs must be at least 1")
     params = load_rover_params(args.params) if args.params else None
     scenario = load_scenario(args.scenario).with_overrides(rovers=args.rovers, rover_params=params)
-    console = Console(width=None if sys.stdout.isatty() else TABLE_WIDTH)
+    console = table_console()
     if args.out.exists() and any(args.out.glob("run-*")):
         raise process.UsageError(f"{args.out} already holds a batch (run-* folders): choose another --out, so "
                                  "no run overwrites another's report")
     args.out.mkdir(parents=True, exist_ok=True)
-    runs = [Run(i, args.seed + i, args.out / f"run-{i + 1:03d}-seed{args.seed + i}") for i in range(args.runs)]
+    runs = [Run(i, args.seed + i, args.out / run_folder(i + 1, args.seed + i)) for i in range(args.runs)]
     console.print(f"{scenario.name}: {args.runs} runs, {len(scenario.rovers)} rovers, {args.jobs} at a time"
                   + (", lockstep" if args.lockstep else ""))
     reports, failed = _run_all(runs, args, console)
-    summary = {"scenario": scenario.name, "rovers": len(scenario.rovers), "lockstep": args.lockstep,
-               "runs": reports, "failed": failed, "aggregate": aggregate(reports)}
-    (args.out / "batch.json").write_text(json.dumps(summary, indent=2) + "\n")
-    console.print(table_2(scenario.name, reports, summary["aggregate"]))
-    console.print(f"written {args.out / 'batch.json'}" + (f"; {len(failed)} run(s) failed" if failed else ""))
+    summary = summarise(scenario.name, len(scenario.rovers), args.lockstep, reports, failed)
+    write_summary(args.out / BATCH_FILE, summary, console)
+    console.print(f"written {args.out / BATCH_FILE}" + (f"; {len(failed)} run(s) failed" if failed else ""))
     return 1 if failed and not reports else 0
+
+
+def run_folder(run: int, seed: int) -> str:
+    """A run's folder, named by run number (Job index + 1) and seed: ``lunarsim batch`` and the Kubernetes Job
+    (deploy/k8s/batch/job.yaml) write the same names, so ``lunarsim collect-batch`` reads either."""
+    return f"run-{run:03d}-seed{seed}"
+
+
+def table_console():
+    """A console for the table: the terminal's width, or one wide enough for every column in a log (a pod's)."""
+    from rich.console import Console
+
+    return Console(width=None if sys.stdout.isatty() else TABLE_WIDTH)
+
+
+def summarise(scenario: str, rovers: int, lockstep: bool | None, reports: list[dict], failed: list[dict],
+              **extra) -> dict:
+    """What batch.json holds, whoever ran the runs: one function, so a cluster's batch.json and a machine's have
+    the same fields and the same figures for the same reports."""
+    reports = sorted(reports, key=lambda r: (r["seed"], r["run"]))
+    return {"scenario": scenario, "rovers": rovers, "lockstep": lockstep, "runs": reports, "failed": failed,
+            **extra, "aggregate": aggregate(reports)}
+
+
+def write_summary(path: Path, summary: dict, console) -> None:
+    path.write_text(json.dumps(summary, indent=2) + "\n")
+    console.print(table_2(summary["scenario"] or path.parent.name, summary["runs"], summary["aggregate"]))
 
 
 def _run_all(runs: list[Run], args: argparse.Namespace, console) -> tuple[list[dict], list[dict]]:
@@ -94,7 +122,6 @@ def _run_all(runs: list[Run], args: argparse.Namespace, console) -> tuple[list[d
                 f"{report['rovers_reached_final_goal']}/{report['rovers_total']} reached, "
                 f"{report['rover_collisions'] + report['obstacle_collisions']} collisions, "
                 f"{report['rovers_stuck']} stuck" if "error" not in report else f"failed: {report['error']}"))
-    reports.sort(key=lambda r: r["seed"])
     return reports, failed
 
 
@@ -117,11 +144,24 @@ def _start(run: Run, args: argparse.Namespace) -> subprocess.Popen:
 
 def _collect(run: Run) -> dict:
     try:
-        report = json.loads((run.out / "report.json").read_text())
+        return read_run(run.out, run.index + 1)
     except (OSError, ValueError):
         tail = (run.out / "run.log").read_text(errors="replace").strip().splitlines()[-3:]
-        return {"seed": run.seed, "error": f"exit {run.proc.returncode}: " + " | ".join(tail)}
-    return {**report, "run": run.index + 1, "photos_at_lander": _photos_archived(run.out)}
+        return {"run": run.index + 1, "seed": run.seed, "error": f"exit {run.proc.returncode}: " + " | ".join(tail)}
+
+
+def read_run(folder: Path, run: int) -> dict:
+    """A run's report.json as batch.json lists it. Raises OSError when there is none (the run did not finish) and
+    ValueError when it is not a mission report (cut short, edited, another program's), so that no half-read report
+    reaches the aggregate."""
+    from schemas.truth import MissionReport
+
+    report = json.loads((folder / "report.json").read_text())
+    if not isinstance(report, dict):
+        raise ValueError(f"a JSON {type(report).__name__}, not a mission report")
+    known = {k: v for k, v in report.items() if k in MissionReport.model_fields}
+    MissionReport.model_validate(known)  # fields a newer version added are kept, not refused
+    return {**report, "run": run, "photos_at_lander": _photos_archived(folder)}
 
 
 def _photos_archived(out: Path) -> int:

@@ -16,6 +16,8 @@ from bus import process
 COMMANDS = {
     "run": ("deploy.launcher", "run a whole mission locally: router, world, lander and rovers"),
     "batch": ("deploy.batch", "N seeded runs in parallel, summarised as the report's Table 2"),
+    "collect-batch": ("deploy.batch_collect", "one batch.json and Table 2 from runs written elsewhere (the "
+                      "Kubernetes batch Job's)"),
     "router": ("deploy.router", "run a Zenoh router"),
     "world": ("world_service.app", "run the world service (simulated terrain, sensors, radio, clock)"),
     "lander": ("lander_agent.app", "run the lander agent"),
