@@ -23,7 +23,7 @@ The agents run at the CPU priority ``lunarsim run`` gives them (``--agent-priori
 in real time below the world's. The benchmark's own observer keeps the default priority; the witness process
 runs at the agents', so its delivery figures are those a rover agent's Zenoh thread sees.
 
-Then it fits cost against rover count (the slope) and checks the targets of issue 9.
+Then it fits cost against rover count (the slope) and checks the scale targets.
 
     python benchmarks/scale.py --quick                      # a smoke check, under a minute
     python benchmarks/scale.py [--counts 10 50 100] [--seconds 30] [--shared-counts 1000 750 500]

@@ -224,7 +224,7 @@ def print_slopes(entries: list[dict]) -> None:
                   "what a starved machine spent, so the line bends there)")
 
 
-# ---- targets (issue 9) ----
+# ---- targets ----
 
 
 def _row(rows: list[dict], mode: str, rovers: int, per_process: int = 1) -> dict | None:

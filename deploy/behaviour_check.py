@@ -46,7 +46,7 @@ def scripted_problems(cls, params) -> list[str]:
         for _ in range(2):
             behaviour = cls(1, params)
             behaviour.start_goal(goal)
-            view = b.View(0.0, Pose(0.0, 0.0, 0.0), goal, hits, 0.0, *power)  # power sensors: issue 8
+            view = b.View(0.0, Pose(0.0, 0.0, 0.0), goal, hits, 0.0, *power)  # power sensors
             runs.append(behaviour.decide(view))
         decision = runs[0]
         if runs[0] != runs[1]:

@@ -99,7 +99,7 @@ class DefaultBehaviour(BaseBehaviour):
 
     name = "default"
     uses_sunlight: ClassVar[bool] = True
-    """With power sensors (a world with a sun): keep out of shadow when low and charge in sunlight (issue 8)."""
+    """With power sensors (a world with a sun): keep out of shadow when low and charge in sunlight."""
 
     # ---- events from the runtime ----
 

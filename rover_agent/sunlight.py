@@ -1,4 +1,4 @@
-"""Staying in the sun when the charge runs low (issue 8; report appendix E 3.1: "Rovers should stay as much
+"""Staying in the sun when the charge runs low (report appendix E 3.1: "Rovers should stay as much
 within sunlight as possible ... to recharge").
 
 The rover knows only its own sensors: its battery's charge, whether its panel is lit, and its dead-reckoned

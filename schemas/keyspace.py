@@ -46,7 +46,7 @@ MAP: Final = "map"
 BATTERY: Final = "battery"
 TEMPERATURE: Final = "temperature"
 SUN: Final = "sun"
-"""Power sensors (issue 8): charge, temperature and whether the panel is lit; published only when the scenario
+"""Power sensors: charge, temperature and whether the panel is lit; published only when the scenario
 has a sun."""
 ROVER_IDS: Final = "rover_ids"
 """The world's queryable that hands a rover agent started with ``--id auto`` a free rover id."""

@@ -105,7 +105,7 @@ class Gyroscope(Message):
     pitch_deg: float = Field(description="positive nose up")
 
 
-# ---- power (issue 8: report 7.1.2, needs N9 and N10) ----
+# ---- power (report 7.1.2, needs N9 and N10) ----
 
 
 class Battery(Message):

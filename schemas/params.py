@@ -138,7 +138,7 @@ class MappingParams(Params):
 
 
 class PowerParams(Params):
-    """Battery and solar panel (issue 8; needs N10). Used only when the scenario has a ``sun`` block.
+    """Battery and solar panel (the report's need N10). Used only when the scenario has a ``sun`` block.
 
     The report gives no electrical figures for the Lunar Zebro; it gives its size (about 30 cm long, 10.7.1) and
     a top speed of about 1 cm/s. Every default below is therefore a documented assumption for a rover of that
@@ -181,7 +181,7 @@ class PowerParams(Params):
 
 
 class ThermalParams(Params):
-    """Rover temperature (issue 8; need N9): it tends towards the sunlit or the shadowed surface temperature.
+    """Rover temperature (the report's need N9): it tends towards the sunlit or the shadowed surface temperature.
 
     The report gives the surface extremes, 127 C in full sun and -173 C in darkness (4.1.2); those are the
     defaults the rover tends to. How fast it does, and its operating limit, are assumptions.

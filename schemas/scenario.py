@@ -150,7 +150,7 @@ class Formation(Spec):
 
 
 class SunSpec(Spec):
-    """Where the sun stands (issue 8). Without this block there is no power model at all.
+    """Where the sun stands. Without this block there is no power model at all.
 
     Either fixed (``azimuth_deg`` and ``elevation_deg``) or from the site: ``latitude_deg`` and the time of the
     lunar day, the sun then moving with simulation time over a synodic day of 29.53 Earth days. Map axes:

@@ -85,7 +85,8 @@ class MissionReport(Message):
     rovers_stalled: int = Field(0, description="of rovers_stuck: those the world counted stuck because they made "
                                 "no progress, while their agents did not say so")
     mission_duration_s: float
-    wall_time_s: float = 0.0
+    wall_time_s: float | None = Field(None, description="wall-clock seconds of the run by the launcher's stopwatch; "
+                                      "null in a report rebuilt from a recording, which has no wall clock")
     complete: bool = False
     rejected_messages: int = 0
     agent_rejected_messages: int = Field(0, description="samples the agents and the lander rejected")

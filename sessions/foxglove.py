@@ -181,7 +181,7 @@ def _craters(scenario: Scenario, grid: TerrainGrid, ns: int) -> fm.SceneEntity:
         crest = float(grid.height_at(c.x, c.z + c.radius_m)) + 0.1
         lines.append(_line(_ring(c.x, c.z, c.radius_m, crest), (0.9, 0.6, 0.2), 2.0,
                            fm.LinePrimitiveLineType.LineLoop))
-        texts.append(_text(c.x, c.z, crest + 2.0, f"crater {i}"))
+        texts.append(_text(c.x, c.z, crest + 2.0, f"crater {i + 1}"))
     return _entity("craters", ns, lines=lines, texts=texts)
 
 
@@ -222,7 +222,7 @@ def _goals(scenario: Scenario, grid: TerrainGrid, ns: int) -> fm.SceneEntity:
     for i, goal in enumerate(scenario.mission):
         base = float(grid.height_at(goal.x, goal.z))
         cylinders.append(_cylinder(goal.x, goal.z, base, 0.6, 6.0, (0.2, 1.0, 0.4), 0.8))
-        texts.append(_text(goal.x, goal.z, base + 7.0, f"goal {i} ({goal.kind})"))
+        texts.append(_text(goal.x, goal.z, base + 7.0, f"goal {i + 1} ({goal.kind})"))
     return _entity("goals", ns, cylinders=cylinders, texts=texts)
 
 

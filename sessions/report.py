@@ -35,7 +35,7 @@ def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: st
                 continue  # the world ignored it too
     if stats.last is None:
         raise NothingToReport(f"no {keys.state} samples: nothing to compute statistics from")
-    report = stats.report()  # wall_time_s stays 0: the launcher's stopwatch is not in the world's data
+    report = stats.report()  # wall_time_s stays None: the launcher's stopwatch is not in the world's data
     return report if last_map is None else _with_map_figures(report, scenario, last_map)
 
 

@@ -27,7 +27,7 @@ def summary_table(report: m.MissionReport) -> Table:
         ("obstacle collisions", str(report.obstacle_collisions)),
         ("rovers stuck", str(report.rovers_stuck)),
         ("mission duration (sim s)", f"{report.mission_duration_s:.1f}"),
-        ("wall time (s)", f"{report.wall_time_s:.1f}" if report.wall_time_s > 0 else "- (from a recording)"),
+        ("wall time (s)", f"{report.wall_time_s:.1f}" if report.wall_time_s is not None else "- (from a recording)"),
         ("mission complete", "yes" if report.complete else "no (time limit or interrupted)"),
     ]
     if report.map_corridor_mapped is not None:
@@ -35,7 +35,7 @@ def summary_table(report: m.MissionReport) -> Table:
         rows.append(("traverse map: corridor mapped / obstacles found / precision",
                      " / ".join("-" if v is None else f"{v:.0%}" for v in (report.map_corridor_mapped, found,
                                                                           precision))))
-    if report.power_budget_efficiency is not None:  # the scenario has a sun (issue 8)
+    if report.power_budget_efficiency is not None:  # the scenario has a sun
         rows += [("power budget efficiency", f"{report.power_budget_efficiency:.3f}"),
                  ("energy drawn (Wh)", f"{report.energy_used_wh:.4f}"),
                  ("battery / cold shutdowns", f"{report.power_shutdowns} / {report.cold_shutdowns}")]

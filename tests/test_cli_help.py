@@ -58,7 +58,7 @@ def _rows(report: m.MissionReport) -> dict[str, str]:
 
 
 def test_a_report_from_a_recording_does_not_claim_a_wall_time_of_zero():
-    assert _rows(_report(wall_time_s=0.0))["wall time (s)"] == "- (from a recording)"
+    assert _rows(_report(wall_time_s=None))["wall time (s)"] == "- (from a recording)"
     assert _rows(_report(wall_time_s=12.5))["wall time (s)"] == "12.5"
 
 

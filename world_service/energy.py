@@ -1,4 +1,4 @@
-"""Sunlight, power and heat for every rover, stepped with the world (issue 8): the glue of ``sun``,
+"""Sunlight, power and heat for every rover, stepped with the world: the glue of ``sun``,
 ``shadows``, ``power`` and ``thermal``, and the three sensors it publishes.
 
 The world holds one ``Energy`` only when the scenario has a ``sun`` block; without it nothing here runs and

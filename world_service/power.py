@@ -1,4 +1,4 @@
-"""Rover batteries (issue 8; need N10): drain by what each rover does, solar charge in sunlight only.
+"""Rover batteries (the report's need N10): drain by what each rover does, solar charge in sunlight only.
 
 Model, per rover and per tick of ``dt`` seconds, all rovers as arrays:
 

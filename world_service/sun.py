@@ -1,4 +1,4 @@
-"""Where the sun stands over the site, as simulation time goes on (issue 8).
+"""Where the sun stands over the site, as simulation time goes on.
 
 A scenario's ``sun`` block fixes it (azimuth and elevation) or gives the site's latitude and the local time
 of the lunar day; the sun then follows the Moon's rotation relative to the sun, one synodic day

@@ -1,4 +1,4 @@
-"""Rover temperatures (issue 8; need N9): warm in sunlight, cool in shadow, off when too cold.
+"""Rover temperatures (the report's need N9): warm in sunlight, cool in shadow, off when too cold.
 
 Newton's law per rover: the temperature tends to ``sun_c`` while the rover is lit and to ``shadow_c`` while it
 is not, with time constant ``heat_time_constant_s`` or ``cool_time_constant_s``. Each tick applies the exact

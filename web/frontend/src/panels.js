@@ -24,7 +24,7 @@ const SIM_FIELDS = [
   ["radio_lost", "radio lost", "count"],
   ["complete", "complete", "bool"],
 ];
-// Shown only when the run has them: the lander's map (issue 8) and the power model (a scenario with a sun).
+// Shown only when the run has them: the lander's map and the power model (a scenario with a sun).
 const OPTIONAL_FIELDS = [
   ["map_corridor_mapped", "share of the A-B corridor mapped", "share"],
   ["map_obstacles_found", "share of the corridor's obstacles mapped", "share"],
