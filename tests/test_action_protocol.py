@@ -264,3 +264,15 @@ def test_mission_completes_when_every_action_end_is_lost_the_first_time():
 
     report = run_mission(scenario, 400.0, drop=first_end).report()
     assert seen and report.complete and report.rovers_reached_final_goal == 5, report
+
+
+def test_one_camera_takes_one_photo_at_a_time_so_a_flood_of_photo_actions_queues_no_renders():
+    world = _world()
+    assert _send(world, ks.PHOTO_ACTION, m.PhotoAction(label="a", action_id=1)) == []
+    refused = _of(_send(world, ks.PHOTO_ACTION, m.PhotoAction(label="b", action_id=2)), ks.ACTION_REJECTED)
+    assert [(r.reason, r.action_id) for r in refused] == [("action_in_progress", 2)]
+    assert len(world.photo_jobs) == 1
+    while world.sim_time < world.params.camera.capture_time_s:
+        world.step()
+    assert _send(world, ks.PHOTO_ACTION, m.PhotoAction(label="c", action_id=3)) == []
+    assert len(world.photo_jobs) == 2

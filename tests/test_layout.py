@@ -19,11 +19,12 @@ MAY_IMPORT: dict[str, set[str]] = {
     "lander_agent": {"schemas", "bus"},
     "scenarios": {"schemas"},
     "harness": {"schemas", "bus", "world_service", "rover_agent", "lander_agent"},
+    "rover_env": {"schemas", "bus", "world_service", "rover_agent", "lander_agent", "harness"},
     "sessions": {"schemas", "bus", "world_service", "lander_agent"},
     "hardware": {"schemas", "bus"},
     "web": {"schemas", "bus", "sessions", "world_service", "lander_agent"},
-    "deploy": {"schemas", "bus", "world_service", "rover_agent", "lander_agent", "scenarios", "harness", "sessions",
-               "hardware", "web"},
+    "deploy": {"schemas", "bus", "world_service", "rover_agent", "lander_agent", "scenarios", "harness", "rover_env",
+               "sessions", "hardware", "web"},
 }
 """Each package's allowed imports among LunarSim's own: downwards only (the table of docs/README's layout)."""
 MAX_LINES = 400

@@ -123,11 +123,17 @@ class ActionInputs:
         body = self.bodies[rid]
         if reason := self._power_problem(rid):
             return self._refuse(rid, "photo", msg.action_id, *reason)
+        capture_ticks = max(1, round(self.params.camera.capture_time_s / self.dt))
+        last = self.actions.started.get(rid)
+        if last is not None and last.kind == "photo" and self.tick < last.started_tick + capture_ticks:
+            # one camera, one photo at a time: a flood of photo actions must not queue renders without end
+            return self._refuse(rid, "photo", msg.action_id, "action_in_progress",
+                                "the camera is still taking the last photo")
         self.actions.start(rid, msg.action_id, "photo", self.tick)
         if self.energy is not None:
             self.energy.spend(rid, self.params.power.photo_j)
         others = [b for b in self.bodies.values() if b.id != rid]
-        due = self.tick + max(1, round(self.params.camera.capture_time_s / self.dt))
+        due = self.tick + capture_ticks
         self.photo_jobs.append(PhotoJob(rid, self.sim_time, msg.label, due, body.x, body.z, body.heading,
                                         np.array([b.x for b in others]), np.array([b.z for b in others])))
         return []
