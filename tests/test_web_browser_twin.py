@@ -200,14 +200,20 @@ def test_the_header_says_when_the_world_goes_silent_or_the_run_ends(router, tmp_
                 worst_rover_connected_fraction=0.97345, complete=True)
             _publish(session, keys.stats, m.WorldStats(stamp=64.321, report=report, final=True))
             wait_for(lambda: page_value(page, "lunarsim.run.status") == "ended", 10, "the run's end on the page")
-        assert page.inner_text("#conn") == "run ended" and "connected" not in page.inner_text("header")
-        assert "1/1 rovers reached their final goal; mission complete" in page.inner_text("#runinfo")
-        assert "final, at t = 64.3 s" in page.inner_text("#stats-when")
-        cell = lambda field: page.inner_text(f"#simstats td[data-field={field}]")  # noqa: E731
-        assert (cell("relative_path_length_m"), cell("average_distance_covered_m")) == ("123.5", "98.8")
-        assert (cell("average_path_efficiency"), cell("worst_rover_connected_fraction")) == ("0.88", "97.3%")
-        assert (cell("rovers_reached_final_goal"), cell("rover_collisions"), cell("complete")) == ("1", "0", "yes")
-        assert cell("mission_duration_s") == "64.3"
+            assert page.inner_text("#conn") == "run ended" and "connected" not in page.inner_text("header")
+            assert "1/1 rovers reached their final goal; mission complete" in page.inner_text("#runinfo")
+            assert "final, at t = 64.3 s" in page.inner_text("#stats-when")
+            cell = lambda field: page.inner_text(f"#simstats td[data-field={field}]")  # noqa: E731
+            assert (cell("relative_path_length_m"), cell("average_distance_covered_m")) == ("123.5", "98.8")
+            assert (cell("average_path_efficiency"), cell("worst_rover_connected_fraction")) == ("0.88", "97.3%")
+            assert (cell("rovers_reached_final_goal"), cell("rover_collisions"), cell("complete")) == ("1", "0", "yes")
+            assert cell("mission_duration_s") == "64.3"
+            short = report.model_copy(update={"average_path_efficiency": 1.5234, "rovers_holding_relay_spots": 2,
+                                              "reached_path_efficiency": None, "rovers_reached_final_goal": 0})
+            _publish(session, keys.stats, m.WorldStats(stamp=65.0, report=short, final=True))
+            wait_for(lambda: "above 1" in cell("average_path_efficiency"), 10, "the note on an efficiency above 1")
+            assert cell("average_path_efficiency") == "1.52 (above 1: rovers stopped short)"
+            assert (cell("reached_path_efficiency"), cell("rovers_holding_relay_spots")) == ("–", "2")
         shot(page, "header_run_ended")
         assert not page.failed and not late.failed, (page.failed, late.failed)
         assert not page.errors, page.errors

@@ -8,8 +8,10 @@ const $ = (id) => document.getElementById(id);
 const SIM_FIELDS = [
   ["relative_path_length_m", "relative path length (m)", "m"],
   ["average_distance_covered_m", "average distance covered (m)", "m"],
-  ["average_path_efficiency", "average path efficiency", "ratio"],
+  ["average_path_efficiency", "average path efficiency (every rover)", "ratio"],
+  ["reached_path_efficiency", "path efficiency of the rovers that reached", "ratio"],
   ["rovers_reached_final_goal", "rovers that reached the final goal", "count"],
+  ["rovers_holding_relay_spots", "rovers holding daisy-chain relay spots", "count"],
   ["rover_collisions", "rover collisions", "count"],
   ["obstacle_collisions", "obstacle collisions", "count"],
   ["rovers_stuck", "rovers stuck", "count"],
@@ -34,6 +36,11 @@ const OPTIONAL_FIELDS = [
   ["power_shutdowns", "power shutdowns (battery empty)", "count"],
   ["cold_shutdowns", "cold shutdowns (too cold to run)", "count"],
 ];
+// The report's average efficiency divides the ideal path by the distance every rover covered, finished or not, so
+// above 1 it says rovers stopped short, not that they did well: the page says so, as the terminal does.
+const NOTES = {
+  average_path_efficiency: (v) => (v > 1 ? " (above 1: rovers stopped short)" : ""),
+};
 const BASE_COLUMNS = "<th>id</th><th>state</th><th>goal</th><th>to goal m</th><th>covered m</th>";
 const POWER_COLUMNS = "<th title=\"battery charge\">Wh</th><th title=\"battery charge, % of capacity\">%</th>" +
   "<th title=\"temperature\">°C</th><th title=\"panel in sunlight\">light</th><th title=\"off: battery empty or too cold\">on</th>";
@@ -108,7 +115,7 @@ export class Panels {
     const r = stats.report;
     const fields = SIM_FIELDS.concat(OPTIONAL_FIELDS.filter(([k]) => r[k] !== null && r[k] !== undefined));
     $("simstats").innerHTML = fields.map(([k, label, kind]) =>
-      `<tr><td>${label}</td><td data-field="${k}">${formatStat(kind, r[k])}</td></tr>`).join("")
+      `<tr><td>${label}</td><td data-field="${k}">${formatStat(kind, r[k])}${NOTES[k]?.(r[k]) ?? ""}</td></tr>`).join("")
       + `<tr><td>rovers</td><td data-field="rovers_total">${r.rovers_total}</td></tr>`;
     $("stats-when").textContent = `${stats.final ? "final, " : ""}at t = ${formatStat("s", stats.stamp)} s`;
   }
