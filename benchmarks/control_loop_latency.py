@@ -33,8 +33,8 @@ from pathlib import Path
 import zenoh
 from latency_summary import Summary, print_table, write_json
 
-from bus.zenoh_config import RouterUnreachable, build_config, open_session
-from deploy.children import Children, port_in_use, wait_for_port
+from bus.zenoh_config import RouterUnreachable, build_config, open_session, port_in_use
+from deploy.children import Children, wait_for_port
 from rover_agent.agent import RoverAgent
 from rover_agent.dead_reckoning import Pose
 from schemas import codec

@@ -12,6 +12,7 @@ import argparse
 import json
 import os
 import re
+import socket
 import sys
 import time
 from collections.abc import Sequence
@@ -114,6 +115,21 @@ def describe_endpoints(args: argparse.Namespace) -> str:
 
 
 WAIT_REMINDER_S = 30.0
+
+
+def port_in_use(host: str, port: int) -> bool:
+    """Whether something listens there (a router, a world serving as one): a plain TCP connect, no Zenoh."""
+    with socket.socket() as s:
+        s.settimeout(0.2)
+        return s.connect_ex((host, port)) == 0
+
+
+def default_router_missing(args: argparse.Namespace) -> bool:
+    """No endpoint was asked for and nothing listens on the default one: a tool that publishes (a replay) may then
+    serve as the router there, so viewers started for a run that has ended find it where they look."""
+    if args.connect or args.config or os.environ.get("ZENOH_CONFIG"):
+        return False
+    return not port_in_use("127.0.0.1", DEFAULT_PORT)
 
 
 def open_router(conf: zenoh.Config, listen: Sequence[str], config_file: str | None = None) -> zenoh.Session:

@@ -95,12 +95,6 @@ def wait_for_port(host: str, port: int, timeout_s: float, proc: subprocess.Popen
     return False
 
 
-def port_in_use(host: str, port: int) -> bool:
-    with socket.socket() as s:
-        s.settimeout(0.2)
-        return s.connect_ex((host, port)) == 0
-
-
 def environment() -> dict[str, str]:
     env = dict(os.environ)
     env.setdefault("PYTHONUNBUFFERED", "1")

@@ -100,7 +100,7 @@ def run_from_args(args: argparse.Namespace) -> int:
 
 
 def _check_port_free(port: int) -> None:
-    from deploy.children import port_in_use
+    from bus.zenoh_config import port_in_use
 
     if port_in_use("127.0.0.1", port):
         raise process.UsageError(f"port {port} on 127.0.0.1 is already in use (another run, or another program): "

@@ -7,6 +7,8 @@
 The recorded world clock is left out unless ``--clock``: a replay beside a live world must not drive its
 agents. Controls: on a terminal, space pauses/resumes, ``s`` or the right arrow steps one sample, ``q``
 quits; from anywhere, ``pause``/``resume``/``step``/``seek`` ground commands on the target world's keyspace.
+With no ``--connect`` and nothing listening on the default endpoint (the run that served as router has ended),
+the replay serves as the router there.
 """
 
 from __future__ import annotations
@@ -110,15 +112,34 @@ def run_from_args(args: argparse.Namespace) -> int:
         first_ns=recording.first_ns, last_ns=recording.last_ns))
 
 
+def _open(args: argparse.Namespace):
+    """The run's router, or, when none was named and none listens on the default endpoint (the run that served
+    as router has ended), a router of its own there: viewers left open on the default find the replay."""
+    from bus.zenoh_config import (
+        DEFAULT_ENDPOINT,
+        build_config,
+        config_from_args,
+        default_router_missing,
+        describe_endpoints,
+        open_router,
+        open_session,
+    )
+
+    if default_router_missing(args):
+        print(f"lunarsim replay: no router at {DEFAULT_ENDPOINT}; serving as the router there", file=sys.stderr,
+              flush=True)
+        return open_router(build_config("router", listen=[DEFAULT_ENDPOINT]), [DEFAULT_ENDPOINT])
+    return open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
+                        who="lunarsim replay")
+
+
 def _play(args: argparse.Namespace, recording: Recording, world: str, make_player) -> int:
     """Open Zenoh, play on a worker thread, and keep the main thread for signals and the progress bar."""
     from bus.bus import Bus
-    from bus.zenoh_config import config_from_args, describe_endpoints, open_session
     from schemas.keyspace import Keyspace
 
     keys = Keyspace(world)
-    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
-                           who="lunarsim replay")
+    session = _open(args)
     with Bus(session, lossless=True) as bus:
         own = OwnCommands(keys.ground_command)
         player = make_player(own.wrap(bus.put))

@@ -352,3 +352,35 @@ def test_prefetch_yields_everything_in_order_passes_errors_on_and_stops_its_read
     partial.close()  # a seek: the reader thread must not stay blocked on its full buffer
     wait_for(lambda: not any(t.name == "replay-read-ahead" for t in threading.enumerate()), 5,
              "the read-ahead thread to stop")
+
+
+def test_with_no_router_named_or_listening_a_replay_serves_as_the_router_on_the_default_endpoint(tmp_path):
+    """The tour's order: a run (the world its router) ends, then a replay; a viewer left on the default endpoint
+    finds the replay there."""
+    from bus.zenoh_config import DEFAULT_ENDPOINT, DEFAULT_PORT, port_in_use
+
+    assert not port_in_use("127.0.0.1", DEFAULT_PORT), "this test needs the default Zenoh port free"
+    path = tmp_path / "run.mcap"
+    writer = SessionWriter(path, {"world": "w1"})
+    status = codec.encode(m.RoverStatus(stamp=0.0, state="waiting"))
+    for i in range(50):
+        writer.write(Sample("lunar/w1/rover/1/status", status, BASE_NS + i * 10**8, BASE_NS + i * 10**8))
+    writer.close()
+    replay = lunarsim("replay", str(path), "--start-paused", "--quiet")
+    received: list[str] = []
+    try:
+        wait_for(lambda: port_in_use("127.0.0.1", DEFAULT_PORT), 20, "the replay listening on the default port")
+        with zenoh.open(build_config(connect=[DEFAULT_ENDPOINT])) as session:
+            session.declare_subscriber("lunar/w1/rover/**", lambda sample: received.append(str(sample.key_expr)))
+            resume = codec.encode(m.GroundCommand(command="resume"))
+
+            def heard() -> bool:
+                session.put("lunar/w1/ground/command", resume)
+                return bool(received)
+
+            wait_for(heard, 20, "replayed samples through the replay's own router", interval=0.2)
+        _, err = replay.communicate(timeout=60)
+    finally:
+        replay.kill()
+    assert replay.returncode == 0, err
+    assert f"no router at {DEFAULT_ENDPOINT}; serving as the router there" in err
