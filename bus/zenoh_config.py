@@ -28,7 +28,7 @@ SHARED_MEMORY = "transport/shared_memory/enabled"
 through the radio, the world's state) into a 16 MiB shared-memory pool, which it makes and mlocks on the first
 such message: 36-50 ms of the sending thread's CPU zeroing pages. In the real-time world that first photo held a
 tick back by as much, past a gyroscope period, and every agent that relays a photo would lock 16 MiB of its own.
-LunarSim's messages are small: a copy costs microseconds (the runs are in docs/benchmarks.md). A config file
+LunarSim's messages are small: a copy costs microseconds. A config file
 may switch it back on."""
 
 

@@ -12,8 +12,10 @@ import argparse
 import json
 import os
 import sys
+import types
 import typing
 from pathlib import Path
+from typing import Annotated, Union, get_args, get_origin
 
 from pydantic import BaseModel
 
@@ -125,17 +127,41 @@ def _model_section(model: type[BaseModel], title: str) -> list[str]:
     lines += ["| field | type | default | bounds | meaning |", "|---|---|---|---|---|"]
     for name, info in model.model_fields.items():
         default = "required" if info.is_required() else f"`{_short(info.get_default(call_default_factory=True))}`"
-        lines.append(f"| `{name}` | {_type_name(info.annotation)} | {default} | {_bounds(info.metadata)} | "
+        lines.append(f"| `{name}` | {_type_name(info.annotation)} | {default} | {_bounds(_metadata(info))} | "
                      f"{(info.description or '').replace('|', '/')} |")
     return [*lines, ""]
 
 
 def _type_name(annotation: object) -> str:
+    return f"`{_plain(annotation)}`".replace("|", "&#124;")
+
+
+def _plain(annotation: object) -> str:
+    """``Coordinate | None`` reads ``float | None``: the constrained alias's bounds are in the bounds column."""
+    origin, args = get_origin(annotation), get_args(annotation)
+    if origin is Annotated:
+        return _plain(args[0])
+    if origin in (Union, types.UnionType):
+        return " | ".join(_plain(arg) for arg in args)
+    if annotation is type(None):
+        return "None"
+    if origin in (tuple, list, dict, set):
+        return f"{origin.__name__}[{', '.join(_plain(arg) for arg in args)}]"
     text = getattr(annotation, "__name__", None) if isinstance(annotation, type) else None
     text = text or str(annotation).replace("typing.", "").replace("schemas.", "")
     for prefix in ("scenario.", "messages.", "params.", "truth.", "base."):
         text = text.replace(prefix, "")
-    return f"`{text}`".replace("|", "&#124;")
+    return text
+
+
+def _metadata(info) -> list:
+    """A field's constraints, also those of an ``Annotated`` alias inside an optional or a tuple (``Coordinate |
+    None``, ``tuple[Coordinate, Coordinate]``), each once."""
+    found = list(info.metadata)
+    for arg in get_args(info.annotation):
+        if get_origin(arg) is Annotated:
+            found += [item for inner in get_args(arg)[1:] for item in getattr(inner, "metadata", [inner])]
+    return list(dict.fromkeys(found))
 
 
 def _bounds(metadata: list) -> str:

@@ -1,6 +1,6 @@
 """The layout's import rules, read from the source (every import, also those inside functions): each package
 depends only on the packages below it, no two modules import each other round a circle, and no module outgrows one
-concept. What a newcomer reads in docs/architecture.md about the layout holds because this test does (what the
+concept. What a newcomer reads in docs/concepts/processes.md about the layout holds because this test does (what the
 flight wheel carries is ``tests/test_flight.py``'s)."""
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ MAY_IMPORT: dict[str, set[str]] = {
     "deploy": {"schemas", "bus", "world_service", "rover_agent", "lander_agent", "scenarios", "harness", "rover_env",
                "sessions", "hardware", "web"},
 }
-"""Each package's allowed imports among LunarSim's own: downwards only (the table of docs/README's layout)."""
+"""Each package's allowed imports among LunarSim's own: downwards only (the table in docs/concepts/processes.md)."""
 MAX_LINES = 400
 
 
