@@ -56,7 +56,7 @@ def make_env(rovers: int, sim_seconds: float) -> LunarSimEnv:
 
 def idle_action() -> dict:
     return {"command": 0, "move": np.zeros(2, np.float32), "rotate": np.zeros(1, np.float32), "speed": 0,
-            "radio": 0, "radio_out": np.zeros(sp.RADIO_FLOATS, np.float32)}
+            "goal": 0, "radio": 0, "radio_out": np.zeros(sp.RADIO_FLOATS, np.float32)}
 
 
 def single(env: LunarSimEnv, policy: str, max_rounds: int) -> dict:

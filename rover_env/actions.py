@@ -12,9 +12,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from rover_env.spaces import COMMANDS
+from rover_env.spaces import COMMANDS, GOAL_REPORTS
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas import radio
 
 Out = tuple[str, m.Message]
 PUBLISHED_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.SPEED_ACTION, ks.PHOTO_ACTION,
@@ -33,17 +34,30 @@ class ArrayActions:
         self.keys, self.id, self.others = keys, rover_id, others
         self.next_id = 1
 
-    def messages(self, action: Mapping[str, np.ndarray]) -> list[Out]:
+    def messages(self, action: Mapping[str, np.ndarray], direction: m.MissionDirection | None,
+                 now: float) -> list[Out]:
+        """``direction``: the last mission direction the rover heard (the goal a goal report is about)."""
         out: list[Out] = []
         command = COMMANDS[int(action["command"])]
         if command != "none":
             out.append(self._command(command, action))
+        report = GOAL_REPORTS[int(action.get("goal", 0))]
+        if report != "none" and direction is not None:
+            out += self._goal_report(report, direction, now)
         if int(action["speed"]):
             out.append((self.keys.rover(self.id, ks.SPEED_ACTION), m.SpeedAction(level=int(action["speed"]))))
         if int(action["radio"]) and self.others:
             payload = np.asarray(action["radio_out"], dtype=np.float32).tobytes()
             out.append((self.keys.rover(self.id, ks.COMM_OUT), m.OutboundComm(targets=self.others, payload=payload)))
         return out
+
+    def _goal_report(self, outcome: str, direction: m.MissionDirection, now: float) -> list[Out]:
+        final = direction.goal_index == direction.goals_total - 1
+        state = "stuck" if outcome == "stuck" else "done" if final else "waiting"
+        said = radio.pack(radio.GoalReport(goal_index=direction.goal_index, outcome=outcome))
+        return [(self.keys.rover(self.id, ks.COMM_OUT), m.OutboundComm(targets=[ks.LANDER_ID], payload=said)),
+                (self.keys.rover(self.id, ks.STATUS), m.RoverStatus(stamp=now, state=state,
+                                                                     goal_index=direction.goal_index))]
 
     def _command(self, command: str, action: Mapping[str, np.ndarray]) -> Out:
         action_id, self.next_id = self.next_id, self.next_id + 1

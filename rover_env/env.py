@@ -78,6 +78,7 @@ class LunarSimEnv(ParallelEnv):
         self._arrays = {rid: ArrayActions(self.rounds.keys, rid, [o for o in ids if o != rid]) for rid in ids}
         self.agents = list(self.possible_agents)
         self.cycles = 0
+        self._directions: dict[int, m.MissionDirection] = {}  # the last each rover heard: its goal reports' goal
         self._report: m.MissionReport | None = None
         observations, _, infos = self._observe(self.rounds.advance({}))
         return observations, infos
@@ -113,7 +114,7 @@ class LunarSimEnv(ParallelEnv):
         rid = self._ids[agent]
         if isinstance(action, list):
             return checked_messages(self.rounds.keys, rid, action)
-        return self._arrays[rid].messages(action)
+        return self._arrays[rid].messages(action, self._directions.get(rid), self.rounds.world.sim_time)
 
     def _observe(self, heard: Heard):
         observations, rewards, infos = {}, {}, {}
@@ -122,6 +123,7 @@ class LunarSimEnv(ParallelEnv):
             rid = self._ids[agent]
             samples = heard.get(rid, [])
             decoded = [(topic, decode(topic, payload)) for topic, payload in samples]
+            self._directions.update((rid, msg) for topic, msg in decoded if topic == ks.MISSION_DIRECTION)
             observations[agent] = sp.observe(decoded, self._empty)
             rewards[agent] = self.rewards.round(rid, decoded)
             infos[agent] = {"samples": samples, "tick": world.tick, "sim_time": world.sim_time}

@@ -30,6 +30,9 @@ NAV_OUTCOMES = get_args(m.NavigationStatus.model_fields["outcome"].annotation)
 REJECT_REASONS = get_args(m.ActionRejected.model_fields["reason"].annotation)
 DIRECTION_KINDS = get_args(m.DirectionKind)
 COMMANDS = ("none", "move", "rotate", "cancel", "photo")
+GOAL_REPORTS = ("none", "reached", "stuck")
+"""What a rover says of the goal its last mission direction named: the lander sends the next goal on "reached"
+(as the shipped agent's ``radio.GoalReport``), and the rover's status says done (final goal), waiting or stuck."""
 RADIO_FLOATS = 8
 """Numbers in one radio broadcast of the array action (float32, sent as their bytes)."""
 _F = np.float32
@@ -70,6 +73,7 @@ def action_space(params: RoverParams) -> spaces.Dict:
         "move": _box(2, low=-reach, high=reach),  # x (right), z (ahead), m; must be in view, as MoveAction
         "rotate": _box(1, low=-180.0, high=180.0),  # degrees, positive right
         "speed": spaces.Discrete(4),  # 0: keep; 1-3: SpeedAction level
+        "goal": spaces.Discrete(len(GOAL_REPORTS)),  # tell the lander (and the world's status) of the goal
         "radio": spaces.Discrete(2),  # 1: broadcast radio_out to the other rovers
         "radio_out": _box(RADIO_FLOATS, low=-1.0, high=1.0),
     })

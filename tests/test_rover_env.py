@@ -19,7 +19,7 @@ from rover_env.policy import AgentPolicy, run_episode
 from rover_env.vector import EPISODE, VectorEnv, evaluate
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.scenario import load_scenario
+from schemas.scenario import Scenario, load_scenario
 
 REPORT_SCENARIOS = ("crater_observation", "crater_and_return", "maze", "maze_crater_return")
 """The report's editor profiles (appendix C.3, figures 27-30), with their shipped noise."""
@@ -47,7 +47,8 @@ def test_random_actions_give_observations_inside_their_spaces_and_reach_the_worl
     while env.agents:
         assert all(env.observation_space(a).contains(o) for a, o in observations.items())
         heard += sum(o["heard"] for o in observations.values())
-        actions = {agent: env.action_space(agent).sample() for agent in env.agents}
+        # never a goal report: random ones say "stuck" at once and end the mission before the radio reports
+        actions = {agent: {**env.action_space(agent).sample(), "goal": 0} for agent in env.agents}
         observations, *_ = env.step(actions)
     for topic in (ks.CLOCK, ks.PERCEPTION, ks.NAVIGATION_STATUS, ks.GYROSCOPE, ks.COMM_IN, ks.COMM_PARTNERS,
                   ks.MISSION_DIRECTION):
@@ -92,7 +93,7 @@ def test_rovers_answering_each_other_without_end_do_not_stop_the_clock():
 
 def _still() -> dict:
     return {"command": 0, "move": np.zeros(2, np.float32), "rotate": np.zeros(1, np.float32), "speed": 0,
-            "radio": 0, "radio_out": np.zeros(sp.RADIO_FLOATS, np.float32)}
+            "goal": 0, "radio": 0, "radio_out": np.zeros(sp.RADIO_FLOATS, np.float32)}
 
 
 @pytest.mark.parametrize("name", REPORT_SCENARIOS)
@@ -171,3 +172,60 @@ def test_a_vector_of_environments_steps_together_and_starts_the_next_seed_when_a
             if len(ended) >= 4:
                 break
     assert sorted(ended[:4]) == [10, 11, 12, 13]
+
+
+class GoThere:
+    """A scripted array policy: dead-reckon from the calibration, turn to the mission direction's target, drive
+    in steps, say the goal is reached. Enough to show the array interface can finish a mission on its own."""
+
+    def __init__(self) -> None:
+        self.pose = self.target = None
+        self.waiting = None  # "rotate" or "move" in flight: (kind, amount)
+        self.reported = False
+
+    def act(self, obs: dict) -> dict:
+        heard = dict(zip(sp.HEARD_TOPICS, obs["heard"], strict=True))
+        if heard[ks.CALIBRATION] and self.pose is None:  # the lander repeats it; dead reckoning starts once
+            self.pose = [float(v) for v in obs["calibration"]]
+        if heard[ks.MISSION_DIRECTION]:
+            _, _, bearing, distance = (float(v) for v in obs["direction"])
+            self.target = (distance * np.sin(np.radians(bearing)), distance * np.cos(np.radians(bearing)))
+        if heard[ks.NAVIGATION_STATUS] and obs["navigation"][1] == sp.NAV_OUTCOMES.index("completed") + 1:
+            self._done()
+        if self.pose is None or self.target is None or self.waiting or self.reported:
+            return _still()
+        dx, dz = self.target[0] - self.pose[0], self.target[1] - self.pose[1]
+        if np.hypot(dx, dz) < 0.5:
+            self.reported = True
+            return {**_still(), "goal": sp.GOAL_REPORTS.index("reached")}
+        turn = (np.degrees(np.arctan2(dx, dz)) - self.pose[2] + 180) % 360 - 180
+        if abs(turn) > 1:
+            self.waiting = ("rotate", turn)
+            return {**_still(), "command": 2, "rotate": np.array([turn], np.float32)}
+        step = min(np.hypot(dx, dz), 6.0)
+        self.waiting = ("move", step)
+        return {**_still(), "command": 1, "move": np.array([0, step], np.float32)}
+
+    def _done(self) -> None:
+        kind, amount = self.waiting
+        x, z, heading = self.pose
+        if kind == "rotate":
+            self.pose = [x, z, (heading + amount) % 360]
+        else:
+            self.pose = [x + amount * np.sin(np.radians(heading)), z + amount * np.cos(np.radians(heading)), heading]
+        self.waiting = None
+
+
+def test_an_array_policy_can_finish_a_mission_on_its_own_and_is_rewarded_for_it():
+    base = load_scenario(SCENARIOS / "crater_observation.yaml").with_overrides(rovers=1)
+    data = base.model_dump()
+    spawn = base.rovers[0]
+    data["mission"] = [{"x": spawn.x - 12.0, "z": spawn.z + 3.0, "kind": "waypoint"}]
+    env = LunarSimEnv(Scenario.model_validate(data), max_sim_time=300.0)
+    observations, _ = env.reset()
+    policy, total = GoThere(), 0.0
+    while env.agents:
+        observations, rewards, terminations, _, _ = env.step({"rover1": policy.act(observations["rover1"])})
+        total += rewards["rover1"]
+    assert terminations == {"rover1": True} and env.report().rovers_reached_final_goal == 1
+    assert 0.8 < total < 1.0  # +1 for reaching, less a tenth a length of the ideal path walked
