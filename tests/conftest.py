@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from procs import free_port, module, stop
 
@@ -17,3 +19,27 @@ def router():
     assert wait_for_port("127.0.0.1", port, 15, proc), proc.stdout.read() if proc.poll() is not None else "timeout"
     yield endpoint
     stop(proc)
+
+
+@pytest.fixture(scope="module")
+def shim(tmp_path_factory) -> Path:
+    """A ``lunarsim`` that prints its arguments NUL-separated, so a container's shell line runs for real."""
+    folder = tmp_path_factory.mktemp("shim")
+    script = folder / "lunarsim"
+    script.write_text("#!/bin/sh\nfor a in \"$@\"; do printf '%s\\0' \"$a\"; done\n")
+    script.chmod(0o755)
+    return folder
+
+
+@pytest.fixture
+def browser():
+    """A headless Chromium context of its own (``test_web_browser.browser_context``), closed after the test."""
+    import tempfile
+
+    from playwright.sync_api import sync_playwright
+    from test_web_browser import browser_context
+
+    with tempfile.TemporaryDirectory() as user_data, sync_playwright() as p:
+        context = browser_context(p, Path(user_data))
+        yield context
+        context.close()

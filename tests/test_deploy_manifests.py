@@ -180,16 +180,6 @@ def k8s_expand(text: str, env: dict[str, str]) -> str:
     return "".join(out)
 
 
-@pytest.fixture(scope="module")
-def shim(tmp_path_factory) -> Path:
-    """A ``lunarsim`` that prints its arguments NUL-separated, so a container's shell line runs for real."""
-    folder = tmp_path_factory.mktemp("shim")
-    script = folder / "lunarsim"
-    script.write_text("#!/bin/sh\nfor a in \"$@\"; do printf '%s\\0' \"$a\"; done\n")
-    script.chmod(0o755)
-    return folder
-
-
 def lunarsim_argv(argv: list[str], env: dict[str, str], shim: Path, where: str) -> list[str]:
     """The arguments ``lunarsim`` receives from a container's argv, through ``sh -c`` when there is one."""
     if argv[:1] == ["lunarsim"]:

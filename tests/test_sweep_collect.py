@@ -93,15 +93,6 @@ def _collect(folder: Path, *extra: str, shim: Path | None = None) -> tuple[int, 
 
 
 @pytest.fixture(scope="module")
-def shim(tmp_path_factory) -> Path:
-    folder = tmp_path_factory.mktemp("shim")
-    script = folder / "lunarsim"
-    script.write_text("#!/bin/sh\nfor a in \"$@\"; do printf '%s\\0' \"$a\"; done\n")
-    script.chmod(0o755)
-    return folder
-
-
-@pytest.fixture(scope="module")
 def sweep(tmp_path_factory, shim) -> dict:
     """The Job's indexes, all at once as real processes into one results folder, and ``lunarsim batch`` of the
     same scenario and seeds afterwards (two runs at a time, as on this 2-core machine)."""

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import tempfile
 from pathlib import Path
 
 import pytest
@@ -58,16 +57,6 @@ def page_value(page, expression: str):
 
 def positions(page) -> dict:
     return {r["id"]: (r["x"], r["z"]) for r in page_value(page, "lunarsim.state.rovers") or []}
-
-
-@pytest.fixture
-def browser():
-    from playwright.sync_api import sync_playwright
-
-    with tempfile.TemporaryDirectory() as user_data, sync_playwright() as p:
-        context = browser_context(p, Path(user_data))
-        yield context
-        context.close()
 
 
 def test_live_view_shows_rovers_moving_and_commands_reach_the_lander(router, tmp_path, browser):

@@ -10,13 +10,11 @@ from __future__ import annotations
 
 import math
 import re
-import tempfile
-from pathlib import Path
 
 import pytest
 import zenoh
 from procs import SCENARIOS, lunarsim, stop, wait_for
-from test_web_browser import browser_context, page_value, shot, start_view
+from test_web_browser import page_value, shot, start_view
 
 from bus.zenoh_config import build_config
 from schemas import codec
@@ -27,16 +25,6 @@ from schemas.scenario import load_scenario
 pytestmark = pytest.mark.e2e
 
 CRATER = SCENARIOS / "crater_observation.yaml"
-
-
-@pytest.fixture
-def chromium():
-    from playwright.sync_api import sync_playwright
-
-    with tempfile.TemporaryDirectory() as user_data, sync_playwright() as p:
-        context = browser_context(p, Path(user_data))
-        yield context
-        context.close()
 
 
 def watched_page(context):
@@ -61,10 +49,10 @@ def assert_nice_scale(scale: dict, max_px: float) -> None:
     assert 0.39 * max_px <= scale["px"] <= max_px + 1, scale
 
 
-def test_editor_opens_the_given_scenario_on_its_own_url_with_labels_apart(router, tmp_path, chromium):
+def test_editor_opens_the_given_scenario_on_its_own_url_with_labels_apart(router, tmp_path, browser):
     view, url = start_view(router, "webtabs", tmp_path, "--scenario", str(CRATER))
     try:
-        page = watched_page(chromium)
+        page = watched_page(browser)
         page.goto(url + "editor")
         wait_for(lambda: page_value(page, "lunarsim.editor.scenario.name") == "crater_observation", 15,
                  "the editor to open the --scenario given to the view")
@@ -110,10 +98,10 @@ def test_editor_opens_the_given_scenario_on_its_own_url_with_labels_apart(router
         stop(view)
 
 
-def test_live_view_starts_framed_on_the_mission_with_a_scale_bar_and_axes(router, tmp_path, chromium):
+def test_live_view_starts_framed_on_the_mission_with_a_scale_bar_and_axes(router, tmp_path, browser):
     view, url = start_view(router, "webframe", tmp_path, "--scenario", str(CRATER))
     try:
-        page = watched_page(chromium)
+        page = watched_page(browser)
         page.goto(url)
         wait_for(lambda: page_value(page, "lunarsim.view.framed"), 15, "the view framed on the mission")
         wait_for(lambda: page_value(page, "lunarsim.view.overlay.scale"), 10, "the scale bar")
@@ -167,13 +155,13 @@ def _rover(stamp: float) -> m.RoverTruth:
                         distance_to_goal_m=10.0, distance_covered_m=stamp, alive=True)
 
 
-def test_the_header_says_when_the_world_goes_silent_or_the_run_ends(router, tmp_path, chromium):
+def test_the_header_says_when_the_world_goes_silent_or_the_run_ends(router, tmp_path, browser):
     """The viewer stays connected after the world stops: the header must not go on saying so in green."""
     world = "websilent"
     keys = Keyspace(world)
     view, url = start_view(router, world, tmp_path)
     try:
-        page = watched_page(chromium)
+        page = watched_page(browser)
         page.goto(url)
         wait_for(lambda: page_value(page, "lunarsim.run.status") == "waiting", 10, "waiting for a world")
         with zenoh.open(build_config(connect=[router])) as session:
@@ -189,7 +177,7 @@ def test_the_header_says_when_the_world_goes_silent_or_the_run_ends(router, tmp_
             assert page.inner_text("#conn") == "world silent" and "no world state for" in page.inner_text("#runinfo")
             shot(page, "header_world_silent")
 
-            late = watched_page(chromium)  # a page opened after the world went quiet knows at once
+            late = watched_page(browser)  # a page opened after the world went quiet knows at once
             late.goto(url)
             wait_for(lambda: page_value(late, "lunarsim.run.status") == "silent", 3, "the late page to see silence")
 
@@ -221,11 +209,11 @@ def test_the_header_says_when_the_world_goes_silent_or_the_run_ends(router, tmp_
         stop(view)
 
 
-def test_a_real_run_ends_on_the_page_with_photos_and_goals_numbered_from_one(router, tmp_path, chromium):
+def test_a_real_run_ends_on_the_page_with_photos_and_goals_numbered_from_one(router, tmp_path, browser):
     """crater_observation to its end: photos named goal1_*, the end and its statistics on the page."""
     world, out = "webend", tmp_path / "run"
     view, url = start_view(router, world, tmp_path, "--scenario", str(CRATER))
-    page = watched_page(chromium)
+    page = watched_page(browser)
     page.goto(url)
     run = lunarsim("run", str(CRATER), "--connect", router, "--world", world, "--time-scale", "5",
                    "--max-sim-time", "300", "--quiet", "--no-record", "--out", str(out))
