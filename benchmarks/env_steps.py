@@ -71,7 +71,8 @@ def single(env: LunarSimEnv, policy: str, max_rounds: int) -> dict:
         if policy == "idle":
             actions = dict.fromkeys(env.agents, idle)
         elif policy == "random":
-            actions = {agent: env.action_space(agent).sample() for agent in env.agents}
+            # no goal reports: random ones say "stuck" at once and end the episode
+            actions = {agent: {**env.action_space(agent).sample(), "goal": 0} for agent in env.agents}
         else:
             actions = agents.act(observations, infos)
         steps += len(env.agents)

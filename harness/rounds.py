@@ -9,8 +9,9 @@ agent would over Zenoh, and the cascade goes on. That is one round; a tick has a
 ticks that send the rovers nothing have none.
 
 The in-process mission (``harness.loopback``) answers with the rover agents themselves; the PettingZoo
-environment (``rover_env``) with a policy. Both therefore see the world exactly as ``lunarsim run --lockstep``
-does (tests/test_loopback_equals_processes.py, tests/test_rover_env.py).
+environment (``rover_env``) with a policy. With the shipped agents the report is the one ``lunarsim run --lockstep``
+gives (tests/test_loopback_equals_processes.py, tests/test_rover_env.py), though a reply to an answer can reach a
+rover within the tick here where over Zenoh it may come a tick later.
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ class Rounds:
     def __post_init__(self) -> None:
         self.world = World(self.scenario, self.keys)
         self.world.lockstep = True
+        self.world.run_id = f"rounds-{self.scenario.seed}"  # the clock names the run: the same seed, the same bytes
         self.lander = Lander(MissionPlan(self.scenario), self.keys, self.archive, self.map_folder)
         self.plan = AckPlan(self.keys, self.world.dt)
         self.rover_ids = sorted(self.world.bodies)
@@ -91,7 +93,8 @@ class Rounds:
             said = []
             for key, message in answers[rid]:
                 if isinstance(message, m.Ack):
-                    self.plan.acked(self.plan.agent_of(key), message.tick, message.wake)
+                    if message.tick == self.world.tick:  # as the service: an ack of another tick says nothing
+                        self.plan.acked(self.plan.agent_of(key), message.tick, message.wake)
                 else:
                     said.append((key, message))
             if said and self.strict and self._clock_round and rid not in self._asked:
@@ -104,6 +107,7 @@ class Rounds:
         """Route one generation: the world's and the lander's part here, the rovers' returned."""
         generation, self._queue = self._queue, []
         heard: Heard = {}
+        taken: list[tuple[str, bytes]] = []
         for key, message in generation:
             self.plan.note(key)
             if self.drop is not None and self.drop(key, message):
@@ -113,7 +117,11 @@ class Rounds:
             if rover is not None:
                 heard.setdefault(rover[0], []).append((rover[1], payload))
             else:
-                self._queue += self._deliver(key, payload)
+                taken.append((key, payload))
+        # By key, each key's samples in order, as the world service takes a tick's inputs: moves draw their noise
+        # from one generator, so rover 10's move before rover 2's ("rover/10" < "rover/2") is part of the result.
+        for key, payload in sorted(taken, key=lambda sample: sample[0]):
+            self._queue += self._deliver(key, payload)
         return heard
 
     def _rover_topic(self, key: str) -> tuple[int, str] | None:
@@ -153,6 +161,9 @@ class Rounds:
         for key, message in self.lander.handle(self.keys.clock, payload):
             if isinstance(message, m.Ack):
                 self.plan.acked(ks.LANDER_ID, message.tick, message.wake)
+            elif self.strict and ks.LANDER_ID not in (clock.acks or ()):
+                raise AssertionError(f"the lander published {key} on tick {clock.tick}, which the world does not "
+                                     "wait for: its next_wake() misses a timer")
             else:
                 self._queue.append((key, message))
         self._clock_round = True

@@ -11,8 +11,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+from gymnasium import spaces
 
-from rover_env.spaces import COMMANDS, GOAL_REPORTS
+from rover_env.spaces import COMMANDS, GOAL_REPORTS, pack_numbers
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas import radio
@@ -23,41 +24,70 @@ PUBLISHED_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION
 """What a rover agent publishes (the world's inputs, its status and its lockstep ack)."""
 
 
+
 class ActionError(ValueError):
     """A policy's action that no rover could publish: names the rover and what is wrong."""
 
 
 class ArrayActions:
-    """Turns one rover's array actions into messages, numbering its actions as an agent does."""
+    """Turns one rover's array actions into messages, as an agent would publish them: actions numbered, goal
+    reports radioed to the lander, and a status naming the last action whose end the rover heard, so the world
+    stops re-sending that end (``world_service.actions``) and a collision is told once."""
 
-    def __init__(self, keys: ks.Keyspace, rover_id: int, others: list[int]) -> None:
-        self.keys, self.id, self.others = keys, rover_id, others
+    def __init__(self, keys: ks.Keyspace, rover_id: int, others: list[int], space: spaces.Dict) -> None:
+        self.keys, self.id, self.others, self.space = keys, rover_id, others, space
         self.next_id = 1
+        self.state: m.RoverState = "waiting"
+        self.direction: m.MissionDirection | None = None  # the last heard: the goal a goal report is about
+        self.heard_action = 0  # the last action whose end (or refusal) the rover heard
+        self._told = 0  # the heard_action its last status carried
 
-    def messages(self, action: Mapping[str, np.ndarray], direction: m.MissionDirection | None,
-                 now: float) -> list[Out]:
-        """``direction``: the last mission direction the rover heard (the goal a goal report is about)."""
+    def hear(self, topic: str, message: m.Message) -> None:
+        if topic == ks.MISSION_DIRECTION:
+            self.direction = message
+        ended = ((isinstance(message, m.NavigationStatus) and message.outcome != "running")
+                 or isinstance(message, m.CancelResult | m.ActionRejected))
+        if ended:
+            self.heard_action = max(self.heard_action, message.action_id)
+
+    def messages(self, action: Mapping[str, np.ndarray], now: float) -> list[Out]:
+        self._check(action)
         out: list[Out] = []
         command = COMMANDS[int(action["command"])]
         if command != "none":
             out.append(self._command(command, action))
-        report = GOAL_REPORTS[int(action.get("goal", 0))]
-        if report != "none" and direction is not None:
-            out += self._goal_report(report, direction, now)
+        report = GOAL_REPORTS[int(action["goal"])]
+        if report != "none" and self.direction is not None:
+            out += self._goal_report(report, self.direction)
+        if report != "none" or self.heard_action != self._told:
+            out.append(self._status(now))
         if int(action["speed"]):
             out.append((self.keys.rover(self.id, ks.SPEED_ACTION), m.SpeedAction(level=int(action["speed"]))))
         if int(action["radio"]) and self.others:
-            payload = np.asarray(action["radio_out"], dtype=np.float32).tobytes()
-            out.append((self.keys.rover(self.id, ks.COMM_OUT), m.OutboundComm(targets=self.others, payload=payload)))
+            out.append((self.keys.rover(self.id, ks.COMM_OUT),
+                        m.OutboundComm(targets=self.others, payload=pack_numbers(action["radio_out"]))))
         return out
 
-    def _goal_report(self, outcome: str, direction: m.MissionDirection, now: float) -> list[Out]:
+    def _check(self, action: Mapping[str, np.ndarray]) -> None:
+        if not isinstance(action, Mapping) or set(action) != set(self.space.spaces):
+            given = sorted(action) if isinstance(action, Mapping) else type(action).__name__
+            raise ActionError(f"rover {self.id}: an array action has the keys {sorted(self.space.spaces)}, got {given}")
+        bad = [name for name, sub in self.space.spaces.items() if not sub.contains(_as_space(sub, action[name]))]
+        if bad:
+            raise ActionError(f"rover {self.id}: outside the action space: "
+                              + ", ".join(f"{name}={action[name]!r}" for name in bad))
+
+    def _goal_report(self, outcome: str, direction: m.MissionDirection) -> list[Out]:
         final = direction.goal_index == direction.goals_total - 1
-        state = "stuck" if outcome == "stuck" else "done" if final else "waiting"
+        self.state = "stuck" if outcome == "stuck" else "done" if final else "waiting"
         said = radio.pack(radio.GoalReport(goal_index=direction.goal_index, outcome=outcome))
-        return [(self.keys.rover(self.id, ks.COMM_OUT), m.OutboundComm(targets=[ks.LANDER_ID], payload=said)),
-                (self.keys.rover(self.id, ks.STATUS), m.RoverStatus(stamp=now, state=state,
-                                                                     goal_index=direction.goal_index))]
+        return [(self.keys.rover(self.id, ks.COMM_OUT), m.OutboundComm(targets=[ks.LANDER_ID], payload=said))]
+
+    def _status(self, now: float) -> Out:
+        self._told = self.heard_action
+        goal = self.direction.goal_index if self.direction is not None else -1
+        return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(stamp=now, state=self.state, goal_index=goal,
+                                                                   action_id=self.heard_action)
 
     def _command(self, command: str, action: Mapping[str, np.ndarray]) -> Out:
         action_id, self.next_id = self.next_id, self.next_id + 1
@@ -70,6 +100,11 @@ class ArrayActions:
         if command == "cancel":
             return self.keys.rover(self.id, ks.CANCEL_ACTION), m.CancelAction(action_id=0)
         return self.keys.rover(self.id, ks.PHOTO_ACTION), m.PhotoAction(label=f"photo{action_id}", action_id=action_id)
+
+
+def _as_space(sub: spaces.Space, value: object) -> object:
+    """Python numbers for Box entries are fine (``[0, 2]``); a Box checks an array of its own dtype."""
+    return np.asarray(value, dtype=sub.dtype) if isinstance(sub, spaces.Box) else value
 
 
 def checked_messages(keys: ks.Keyspace, rover_id: int, messages: list) -> list[Out]:

@@ -1,10 +1,11 @@
 """LunarSim as a PettingZoo ``ParallelEnv``: one agent a rover, over the lockstep world in this process.
 
 A step is one round of a lockstep tick (``harness.rounds``): every rover hears what reached its keys (the clock,
-perception, radio...) and answers; the world and the lander run in between exactly as in ``lunarsim run
---lockstep``. So a policy answering with the shipped rover agent (``rover_env.policy.AgentPolicy``) gives the
-report of ``lunarsim run --lockstep --seed`` of the same scenario and seed (tests/test_rover_env.py), and a
-rover's observation is what its agent would receive, nothing more.
+perception, radio...) and answers; the world and the lander run in between with the code of ``lunarsim run
+--lockstep``. A policy answering with the shipped rover agent (``rover_env.policy.AgentPolicy``) gives the report
+of ``lunarsim run --lockstep --seed`` of the same scenario and seed (tests/test_rover_env.py), and a rover's
+observation is what its agent would receive, nothing more. (A reply to an answer can reach a rover within the
+tick here, a tick later over Zenoh: ``docs/guides/research.md``.)
 
 A policy that never acks a clock (the array actions do not) is asked for an answer every tick, so it steps once
 a tick at least; the shipped agent acks with its next timer, and its ticks with nothing to hear are skipped.
@@ -22,7 +23,7 @@ from pettingzoo import ParallelEnv
 
 from harness.rounds import Heard, Out, Rounds
 from rover_env import spaces as sp
-from rover_env.actions import ArrayActions, checked_messages
+from rover_env.actions import ActionError, ArrayActions, checked_messages
 from rover_env.rewards import Rewards, RewardWeights
 from schemas import codec
 from schemas import keyspace as ks
@@ -75,10 +76,10 @@ class LunarSimEnv(ParallelEnv):
         self.rounds = Rounds(scenario, self.max_sim_time)
         self.rewards = Rewards(self.rounds.world, self.weights)
         ids = self.rounds.rover_ids
-        self._arrays = {rid: ArrayActions(self.rounds.keys, rid, [o for o in ids if o != rid]) for rid in ids}
+        self._arrays = {rid: ArrayActions(self.rounds.keys, rid, [o for o in ids if o != rid],
+                                          self._action_spaces[agent_name(rid)]) for rid in ids}
         self.agents = list(self.possible_agents)
         self.cycles = 0
-        self._directions: dict[int, m.MissionDirection] = {}  # the last each rover heard: its goal reports' goal
         self._report: m.MissionReport | None = None
         observations, _, infos = self._observe(self.rounds.advance({}))
         return observations, infos
@@ -86,8 +87,10 @@ class LunarSimEnv(ParallelEnv):
     def step(self, actions: Mapping[str, object]):
         if self.rounds is None or not self.agents:
             raise RuntimeError("step() after the episode ended: call reset() first")
-        answers = {self._ids[agent]: self._messages(agent, action) for agent, action in actions.items()
-                   if agent in self._ids}
+        for agent in actions:
+            if agent not in self.agents:
+                raise ActionError(f"no live agent {agent!r}: this episode's are {', '.join(self.agents)}")
+        answers = {self._ids[agent]: self._messages(agent, action) for agent, action in actions.items()}
         heard = self.rounds.advance(answers)
         self.cycles += 1
         observations, rewards, infos = self._observe(heard)
@@ -114,7 +117,7 @@ class LunarSimEnv(ParallelEnv):
         rid = self._ids[agent]
         if isinstance(action, list):
             return checked_messages(self.rounds.keys, rid, action)
-        return self._arrays[rid].messages(action, self._directions.get(rid), self.rounds.world.sim_time)
+        return self._arrays[rid].messages(action, self.rounds.world.sim_time)
 
     def _observe(self, heard: Heard):
         observations, rewards, infos = {}, {}, {}
@@ -123,7 +126,8 @@ class LunarSimEnv(ParallelEnv):
             rid = self._ids[agent]
             samples = heard.get(rid, [])
             decoded = [(topic, decode(topic, payload)) for topic, payload in samples]
-            self._directions.update((rid, msg) for topic, msg in decoded if topic == ks.MISSION_DIRECTION)
+            for topic, msg in decoded:
+                self._arrays[rid].hear(topic, msg)
             observations[agent] = sp.observe(decoded, self._empty)
             rewards[agent] = self.rewards.round(rid, decoded)
             infos[agent] = {"samples": samples, "tick": world.tick, "sim_time": world.sim_time}

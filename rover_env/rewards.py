@@ -43,14 +43,17 @@ class Rewards:
             self.ideal[rid] = max(stats.remaining_path(scenario, goals, spawn.x, spawn.z), 1.0)
         self.covered = dict.fromkeys(world.bodies, 0.0)
         self.reached: set[int] = set()
+        self.collided: dict[int, set[int]] = {rid: set() for rid in world.bodies}
 
     def round(self, rid: int, heard: list[tuple[str, m.Message | None]]) -> float:
         """The reward of rover ``rid`` for the round in which it heard ``heard`` (topic, decoded message)."""
         body, w = self.world.bodies[rid], self.weights
         reward = w.distance * (body.distance_covered - self.covered[rid]) / self.ideal[rid]
         self.covered[rid] = body.distance_covered
-        reward += w.collision * sum(1 for topic, msg in heard if topic == ks.NAVIGATION_STATUS
-                                    and isinstance(msg, m.NavigationStatus) and msg.outcome == "collided")
+        collided = {msg.action_id for topic, msg in heard if topic == ks.NAVIGATION_STATUS
+                    and isinstance(msg, m.NavigationStatus) and msg.outcome == "collided"}
+        reward += w.collision * len(collided - self.collided[rid])  # an end the world re-sends is one collision
+        self.collided[rid] |= collided
         if rid not in self.reached and self._at_final_goal(rid):
             self.reached.add(rid)
             reward += w.reached

@@ -35,6 +35,8 @@ GOAL_REPORTS = ("none", "reached", "stuck")
 (as the shipped agent's ``radio.GoalReport``), and the rover's status says done (final goal), waiting or stuck."""
 RADIO_FLOATS = 8
 """Numbers in one radio broadcast of the array action (float32, sent as their bytes)."""
+RADIO_MARK = b"LSnum1"
+"""Starts an array policy's broadcast (``pack_numbers``)."""
 _F = np.float32
 _INF = np.float32(np.inf)
 
@@ -58,7 +60,7 @@ def observation_space(params: RoverParams, radio_ids: int) -> spaces.Dict:
         "rejected": spaces.Discrete(len(REJECT_REASONS) + 1),
         "partners": spaces.MultiBinary(radio_ids),
         "radio_senders": spaces.MultiBinary(radio_ids),
-        "radio_in": _box(radio_ids, RADIO_FLOATS),
+        "radio_in": _box(radio_ids, RADIO_FLOATS, low=-1.0, high=1.0),
         "direction_kind": spaces.Discrete(len(DIRECTION_KINDS) + 1),
         "direction": _box(4),  # goal index, goals in total, bearing (degrees) and distance (m) from the lander
         "calibration": _box(3),  # dispatch x, z (m, lander frame) and heading (degrees)
@@ -124,8 +126,9 @@ def _gyroscope(obs, msg: m.Gyroscope) -> None:
 def _comm_in(obs, msg: m.InboundComm) -> None:
     if 0 <= msg.sender < len(obs["radio_senders"]):
         obs["radio_senders"][msg.sender] = 1
-        if len(msg.payload) == RADIO_FLOATS * 4:  # another policy's broadcast; anything else only in the samples
-            obs["radio_in"][msg.sender] = np.frombuffer(msg.payload, dtype=_F)
+        numbers = unpack_numbers(msg.payload)  # another array policy's broadcast; anything else only in the samples
+        if numbers is not None:
+            obs["radio_in"][msg.sender] = numbers
 
 
 def _partners(obs, msg: m.CommPartners) -> None:
@@ -158,3 +161,17 @@ _FILL = {ks.CLOCK: _clock, ks.PERCEPTION: _perception, ks.NAVIGATION_STATUS: _na
          ks.CANCEL_RESULT: _cancel, ks.ACTION_REJECTED: _rejected, ks.GYROSCOPE: _gyroscope, ks.COMM_IN: _comm_in,
          ks.COMM_PARTNERS: _partners, ks.MISSION_DIRECTION: _direction, ks.CALIBRATION: _calibration,
          ks.PHOTO: lambda obs, msg: None, ks.BATTERY: _battery, ks.TEMPERATURE: _temperature, ks.SUN: _sun}
+
+
+def pack_numbers(numbers: object) -> bytes:
+    """An array policy's radio broadcast: marked, so a receiver never reads another payload as numbers."""
+    values = np.nan_to_num(np.asarray(numbers, dtype=np.float32), nan=0.0, posinf=1.0, neginf=-1.0)
+    return RADIO_MARK + np.clip(values, -1.0, 1.0).astype(np.float32).tobytes()
+
+
+def unpack_numbers(payload: bytes) -> np.ndarray | None:
+    """The numbers of ``pack_numbers``'s payload, None for any other payload."""
+    if len(payload) != len(RADIO_MARK) + 4 * RADIO_FLOATS or not payload.startswith(RADIO_MARK):
+        return None
+    values = np.frombuffer(payload[len(RADIO_MARK):], dtype=np.float32)
+    return np.clip(np.nan_to_num(values, nan=0.0), -1.0, 1.0)

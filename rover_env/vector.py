@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
@@ -23,25 +24,38 @@ EPISODE = "__episode__"
 
 
 def _work(pipe: Connection, make_env: Callable[[], LunarSimEnv], seed: int, stride: int) -> None:
-    env = make_env()
+    worker = _Worker(make_env(), seed, stride)
     try:
         while True:
             command, actions = pipe.recv()
             if command == "close":
                 return
-            if command == "reset":
-                pipe.send(env.reset(seed=seed))
-                continue
-            observations, rewards, terminations, truncations, infos = env.step(actions)
-            if not env.agents:
-                infos = {**infos, EPISODE: {"seed": seed, "report": env.report().model_dump()}}
-                seed += stride
-                observations, reset_infos = env.reset(seed=seed)
-                infos = {**reset_infos, EPISODE: infos[EPISODE]}
-            pipe.send((observations, rewards, terminations, truncations, infos))
+            try:
+                pipe.send(("ok", worker.reset() if command == "reset" else worker.step(actions)))
+            except Exception as exc:  # to the caller, who raises it naming this worker: not lost on our stderr
+                pipe.send(("error", f"{type(exc).__name__}: {exc} (episode seed {worker.seed})"))
+    except (EOFError, KeyboardInterrupt):  # the caller has gone
+        return
     finally:
-        env.close()
+        worker.env.close()
         pipe.close()
+
+
+class _Worker:
+    def __init__(self, env: LunarSimEnv, seed: int, stride: int) -> None:
+        self.env, self.seed, self.stride = env, seed, stride
+
+    def reset(self):
+        return self.env.reset(seed=self.seed)
+
+    def step(self, actions: dict):
+        observations, rewards, terminations, truncations, infos = self.env.step(actions)
+        if self.env.agents:
+            return observations, rewards, terminations, truncations, infos
+        ended = {"seed": self.seed, "report": self.env.report().model_dump()}
+        self.seed += self.stride
+        observations, reset_infos = self.reset()
+        return observations, rewards, terminations, truncations, {**reset_infos, EPISODE: ended}
 
 
 class VectorEnv:
@@ -65,17 +79,27 @@ class VectorEnv:
         return self._all("step", actions)
 
     def close(self) -> None:
+        """Safe to call twice, and after a worker has died: every worker is joined or killed."""
         for pipe in self.pipes:
-            pipe.send(("close", None))
+            with contextlib.suppress(OSError, EOFError):
+                pipe.send(("close", None))
         for worker in self.workers:
             worker.join(timeout=10)
             if worker.is_alive():
                 worker.kill()
+                worker.join()
+        for pipe in self.pipes:
+            pipe.close()
+        self.pipes, self.workers = [], []
 
     def _all(self, command: str, payloads: list) -> list:
         for pipe, payload in zip(self.pipes, payloads, strict=True):
             pipe.send((command, payload))
-        return [pipe.recv() for pipe in self.pipes]
+        answers = [pipe.recv() for pipe in self.pipes]
+        for i, (status, value) in enumerate(answers):
+            if status == "error":
+                raise RuntimeError(f"environment {i} of {len(answers)}: {value}")
+        return [value for _, value in answers]
 
     def __enter__(self) -> VectorEnv:
         return self

@@ -276,3 +276,6 @@ def test_one_camera_takes_one_photo_at_a_time_so_a_flood_of_photo_actions_queues
         world.step()
     assert _send(world, ks.PHOTO_ACTION, m.PhotoAction(label="c", action_id=3)) == []
     assert len(world.photo_jobs) == 2
+    _send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=0.5, action_id=4))  # another action between photos
+    refused = _of(_send(world, ks.PHOTO_ACTION, m.PhotoAction(label="d", action_id=5)), ks.ACTION_REJECTED)
+    assert [r.reason for r in refused] == ["action_in_progress"] and len(world.photo_jobs) == 2

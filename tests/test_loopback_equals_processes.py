@@ -39,3 +39,12 @@ def test_a_generated_mission_with_obstacles_noise_and_a_rover_that_never_hears_t
     path = tmp_path / "generated.yaml"
     path.write_text(dump_scenario(made.scenario))
     _compare(tmp_path, path, 400.0)
+
+
+def test_a_team_of_twelve_whose_inputs_the_world_takes_in_key_order(tmp_path):
+    """rover/10 sorts before rover/2: the world takes a tick's inputs by key, and moves draw noise in that order."""
+    scenario = load_scenario(SCENARIOS / "crater_and_return.yaml").with_overrides(rovers=12, seed=3)
+    path = tmp_path / "twelve.yaml"
+    path.write_text(dump_scenario(scenario))
+    report = _compare(tmp_path, path, 400.0)
+    assert report["rovers_total"] == 12

@@ -4,10 +4,12 @@ the shipped agent as a policy giving the same report as the in-process mission a
 
 from __future__ import annotations
 
+import re
 from functools import partial
 
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import data_equivalence
 from pettingzoo.test import parallel_api_test, parallel_seed_test
 from procs import SCENARIOS, free_port, run_cli_mission
 
@@ -91,6 +93,65 @@ def test_rovers_answering_each_other_without_end_do_not_stop_the_clock():
     assert env.cycles > 3.0 / env.rounds.world.dt * 10  # many rounds a tick, yet every tick came
 
 
+def test_an_actions_end_is_observed_once_because_the_array_rover_says_it_heard_it():
+    env = crater_env(max_sim_time=60.0)
+    env.reset()
+    still = dict.fromkeys(env.agents, _still())
+    observations, *_ = env.step({**still, "rover1": {**_still(), "command": 1, "move": np.array([0, 2], np.float32)}})
+    ends = 0
+    while env.rounds.world.sim_time < 8.0:  # the world re-sends an unheard end every second
+        ends += observations["rover1"]["navigation"][1] == sp.NAV_OUTCOMES.index("completed") + 1
+        observations, *_ = env.step(still)
+    assert ends == 1
+
+
+def test_a_collision_costs_its_reward_once_however_often_its_end_is_heard():
+    env = crater_env(max_sim_time=10.0)
+    env.reset()
+    collided = m.NavigationStatus(stamp=1.0, action="move", remaining=0.0, outcome="collided", action_id=7)
+    first = env.rewards.round(1, [(ks.NAVIGATION_STATUS, collided)])
+    again = env.rewards.round(1, [(ks.NAVIGATION_STATUS, collided)])
+    assert (first, again) == (-1.0, 0.0)
+
+
+@pytest.mark.parametrize(("change", "named"), [({"command": 9}, "command=9"), ({"speed": 5}, "speed=5"),
+                                               ({"move": np.array([0, 99], np.float32)}, "move=")])
+def test_an_array_action_outside_its_space_is_refused_naming_the_rover_and_the_key(change, named):
+    env = crater_env(max_sim_time=10.0)
+    env.reset()
+    with pytest.raises(ActionError, match=f"rover 1: outside the action space: {re.escape(named)}"):
+        env.step({"rover1": {**_still(), **change}})
+    with pytest.raises(ActionError, match="rover 1: an array action has the keys"):
+        env.step({"rover1": {"command": 0}})
+    with pytest.raises(ActionError, match="no live agent 'rover_1'"):
+        env.step({"rover_1": _still()})
+
+
+def test_a_broadcast_of_anything_leaves_every_observation_inside_its_space():
+    env = crater_env(max_sim_time=10.0)
+    env.reset()
+    marked_nan = sp.RADIO_MARK + np.full(sp.RADIO_FLOATS, np.nan, np.float32).tobytes()
+    nan = [("lunar/loopback/rover/1/comm_out", m.OutboundComm(targets=[2, 3], payload=marked_nan))]
+    junk = [("lunar/loopback/rover/2/comm_out", m.OutboundComm(targets=[1, 3], payload=b"\xff" * 32))]
+    for _ in range(30):
+        observations, *_ = env.step({"rover1": nan, "rover2": junk})
+        assert all(env.observation_space(a).contains(o) for a, o in observations.items())
+
+
+def test_a_seeded_episode_repeats_observations_rewards_and_infos_step_for_step():
+    def episode() -> list:
+        env = crater_env(max_sim_time=8.0)
+        steps = [env.reset(seed=9)]
+        for i, agent in enumerate(env.agents):
+            env.action_space(agent).seed(i)
+        while env.agents:
+            steps.append(env.step({a: {**env.action_space(a).sample(), "goal": 0} for a in env.agents}))
+        return steps
+
+    first, second = episode(), episode()
+    assert len(first) > 50 and data_equivalence(first, second)
+
+
 def _still() -> dict:
     return {"command": 0, "move": np.zeros(2, np.float32), "rotate": np.zeros(1, np.float32), "speed": 0,
             "goal": 0, "radio": 0, "radio_out": np.zeros(sp.RADIO_FLOATS, np.float32)}
@@ -108,7 +169,7 @@ def test_the_shipped_agent_as_a_policy_scores_as_the_in_process_mission(name):
 
 
 @pytest.mark.e2e
-@pytest.mark.parametrize("name", ["crater_observation", "maze_crater_return"])
+@pytest.mark.parametrize("name", REPORT_SCENARIOS)
 def test_an_episode_equals_lunarsim_run_lockstep_of_the_same_seed(tmp_path, name):
     scenario_file = SCENARIOS / f"{name}.yaml"
     env = LunarSimEnv(load_scenario(scenario_file), max_sim_time=600.0)
@@ -158,6 +219,19 @@ def test_many_seeds_in_worker_processes_score_as_one_process_does():
     for result in results:
         report, returns = run_episode(make(), AgentPolicy(), seed=result["seed"])
         assert result["report"] == report.model_dump() and result["returns"] == returns
+
+
+def test_a_workers_error_reaches_the_caller_named_and_every_worker_is_stopped():
+    make = partial(LunarSimEnv, load_scenario(SCENARIOS / "crater_observation.yaml").with_overrides(rovers=2), 5.0)
+    envs = VectorEnv(make, 2, seed=1)
+    envs.reset()
+    forged = [("lunar/loopback/rover/2/move_action", m.MoveAction(x=0, z=1))]
+    with pytest.raises(RuntimeError, match=r"environment 0 of 2: ActionError: rover 1 may not publish"):
+        envs.step([{"rover1": forged}, {"rover1": _still()}])
+    workers = list(envs.workers)
+    envs.close()
+    envs.close()
+    assert not any(worker.is_alive() for worker in workers)
 
 
 def test_a_vector_of_environments_steps_together_and_starts_the_next_seed_when_an_episode_ends():

@@ -111,6 +111,7 @@ class World(ActionInputs, RadioLink):
         self.refusals_held = 0
         self.dropped_messages = 0  # counted by the service's inbox, reported here
         self.rover_collisions = 0
+        self.camera_free_at: dict[int, int] = {}  # rover -> first tick its camera may take another photo
         self.obstacle_collisions = 0
         self.rejected: Counter[str] = Counter()
         self.radio_dropped = 0

@@ -124,11 +124,11 @@ class ActionInputs:
         if reason := self._power_problem(rid):
             return self._refuse(rid, "photo", msg.action_id, *reason)
         capture_ticks = max(1, round(self.params.camera.capture_time_s / self.dt))
-        last = self.actions.started.get(rid)
-        if last is not None and last.kind == "photo" and self.tick < last.started_tick + capture_ticks:
+        if self.tick < self.camera_free_at.get(rid, 0):
             # one camera, one photo at a time: a flood of photo actions must not queue renders without end
             return self._refuse(rid, "photo", msg.action_id, "action_in_progress",
                                 "the camera is still taking the last photo")
+        self.camera_free_at[rid] = self.tick + capture_ticks
         self.actions.start(rid, msg.action_id, "photo", self.tick)
         if self.energy is not None:
             self.energy.spend(rid, self.params.power.photo_j)
