@@ -4,7 +4,8 @@ The shipped scenarios are what the behaviour was tuned on. This runs a fixed ran
 for every class value the generator labels (family, terrain, rock density, noise, team, start, walls, goals,
 return) and for each rover's role (formation, in_crater, out_of_range):
 - reach: rovers that reached their final goal (``MissionReport``'s definition: done, at the final goal, and on the
-  crest or within the perception radius) over all rovers;
+  crest or within the perception radius) over all rovers; and "sent", over the rovers not holding a daisy chain's
+  relay spot at the end (a relay stops short of the goal by design: the report's figure counts it as not reached);
 - collisions (rover and obstacle, per mission) and stuck rovers (said so, or counted stalled by the world);
 - path efficiency of the rovers that reached: their ideal path (the report's relative path length) over the
   distance they covered (the report's mission figure mixes in rovers that never moved); above 1 where a rover
@@ -130,8 +131,11 @@ def summarise(rows: list[dict]) -> dict:
     errors = sorted(r["goal_error_m"] for r in rovers)
     efficiencies = [r["efficiency"] for r in reached if r["efficiency"] is not None]
     collisions = sum(row["report"]["rover_collisions"] + row["report"]["obstacle_collisions"] for row in rows)
+    sent = [r for r in rovers if r["state"] != "relay"]  # a relay holds its spot for the others: its job
     return {"missions": len(rows), "rovers": len(rovers), "reached": len(reached),
             "reach": round(len(reached) / len(rovers), 4) if rovers else None,
+            "relays": len(rovers) - len(sent),
+            "reach_sent": round(sum(r["reached"] for r in sent) / len(sent), 4) if sent else None,
             "collisions": collisions, "collisions_per_mission": round(collisions / len(rows), 3) if rows else None,
             "stuck": sum(r["state"] == "stuck" or r["stalled"] for r in rovers),
             "efficiency_reached": round(statistics.fmean(efficiencies), 4) if efficiencies else None,
@@ -164,7 +168,7 @@ def _fmt(value, spec: str = "") -> str:
 
 
 def print_table(agg: dict) -> None:
-    head = (f"{'class':<24}{'missions':>9}{'rovers':>8}{'reach':>8}{'coll/m':>8}{'stuck':>7}{'eff':>7}"
+    head = (f"{'class':<24}{'missions':>9}{'rovers':>8}{'reach':>8}{'sent':>8}{'coll/m':>8}{'stuck':>7}{'eff':>7}"
             f"{'err p50':>9}{'err p90':>9}{'complete':>10}")
     print(head)
     print("-" * len(head))
@@ -174,6 +178,7 @@ def print_table(agg: dict) -> None:
             print(f"{label:<24}{0:>9}")
             continue
         print(f"{label:<24}{s['missions']:>9}{s['rovers']:>8}{_fmt(s['reach'], '.1%'):>8}"
+              f"{_fmt(s['reach_sent'], '.1%'):>8}"
               f"{_fmt(s['collisions_per_mission'], '.2f'):>8}{s['stuck']:>7}{_fmt(s['efficiency_reached'], '.2f'):>7}"
               f"{_fmt(s['pose_error_median_m'], '.1f'):>9}{_fmt(s['pose_error_p90_m'], '.1f'):>9}"
               f"{s['complete']:>6}/{s['missions']:<3}")
@@ -190,6 +195,20 @@ def print_failures(agg: dict, shown: int) -> None:
               f"lander: {'yes' if f['heard_lander'] else 'no'}; {labels}")
     if len(agg["failures"]) > shown:
         print(f"  ... {len(agg['failures']) - shown} more in --json")
+
+
+def print_saved(path: Path, shown: int) -> int:
+    """Tables of a saved run, aggregated again (so a figure added since is shown for old runs too)."""
+    try:
+        saved = json.loads(path.read_text())
+        results = saved["missions"]
+    except (OSError, ValueError, KeyError) as exc:
+        raise SystemExit(f"--table: cannot read {path}: {exc}") from None
+    print(f"{path}: set {saved.get('set')}, seeds {saved.get('seeds')}, {len(results)} missions")
+    agg = aggregate(results)
+    print_table(agg)
+    print_failures(agg, shown)
+    return 0
 
 
 def parse_seeds(text: str) -> range:
@@ -243,7 +262,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--jobs", type=int, default=2, help="missions at a time (default 2)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="every mission's results and the aggregates")
     parser.add_argument("--show-failures", type=int, default=SHOWN_FAILURES, metavar="N")
+    parser.add_argument("--table", type=Path, metavar="FILE", help="print the tables of a --json FILE, run nothing")
     args = parser.parse_args(argv)
+    if args.table:
+        return print_saved(args.table, args.show_failures)
     if args.jobs < 1:
         parser.error("--jobs must be at least 1")
     try:
