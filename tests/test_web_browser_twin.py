@@ -173,6 +173,9 @@ def test_the_header_says_when_the_world_goes_silent_or_the_run_ends(router, tmp_
             assert page_value(page, "lunarsim.run.status") == "live"
             assert page.inner_text("#conn") == "live" and page.get_attribute("#conn", "class") == "ok"
             assert page.inner_text("#rovers td[data-field=goal]") == "1"  # goal_index 0 is the first goal
+            last = _rover(4.0).model_copy(update={"goal_index": 1})  # inside the table's redraw period, then quiet
+            _publish(session, keys.state, m.WorldState(stamp=4.0, rovers=[last]))
+            wait_for(lambda: page.inner_text("#rovers td[data-field=goal]") == "2", 5, "the last state in the table")
             wait_for(lambda: page_value(page, "lunarsim.run.status") == "silent", 10, "the silence noticed")
             assert page.inner_text("#conn") == "world silent" and "no world state for" in page.inner_text("#runinfo")
             shot(page, "header_world_silent")

@@ -50,7 +50,9 @@ export class Panels {
   constructor(page) {
     this.page = page;
     this.selected = null;
-    this.tableAt = 0;
+    this.tableAt = -TABLE_PERIOD_MS;
+    this.tableTimer = null;
+    this.pendingState = null;
     this.known = new Set();
     this.capacity = null;
     this.powerShown = null;
@@ -66,9 +68,19 @@ export class Panels {
 
   setState(state) {
     $("simtime").textContent = `t = ${state.stamp.toFixed(1)} s`;
-    const now = performance.now();
-    if (now - this.tableAt < TABLE_PERIOD_MS) return; // a DOM table of 100 rows is costly at 10 Hz
-    this.tableAt = now;
+    // A DOM table of 100 rows is costly at 10 Hz, so it is redrawn at most once a period; the latest state
+    // is drawn at the period's end, so the last state of a world that stops is never left undrawn.
+    this.pendingState = state;
+    if (this.tableTimer !== null) return;
+    const wait = Math.max(0, this.tableAt + TABLE_PERIOD_MS - performance.now());
+    this.tableTimer = setTimeout(() => {
+      this.tableTimer = null;
+      this.tableAt = performance.now();
+      this.drawTable(this.pendingState);
+    }, wait);
+  }
+
+  drawTable(state) {
     const power = state.rovers.some((r) => r.battery_wh !== undefined);
     if (power !== this.powerShown) {
       this.powerShown = power;
