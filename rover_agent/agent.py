@@ -10,14 +10,17 @@ import logging
 import math
 from pathlib import Path
 
+from rover_agent import relocalise
 from rover_agent.behaviour import DefaultBehaviour
 from rover_agent.contact import ContactSearch
 from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import BaseBehaviour, Finish, Goal, Hit, Hold, MoveTo, TakePhoto, View
 from rover_agent.in_flight import ActionIds, InFlight
+from rover_agent.localising import Localising
 from rover_agent.map_report import MapRecorder
 from rover_agent.navigation_feedback import NavigationFeedback
 from rover_agent.saved_state import STATE_WRITER, SavedState, load_state
+from rover_agent.sightings import Teammate
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -44,7 +47,7 @@ JOINED_LATE_S = 2.0
 """An agent whose first clock is later than this joined a mission already under way: a restart."""
 
 
-class RoverAgent(NavigationFeedback):
+class RoverAgent(NavigationFeedback, Localising):
     def __init__(self, rover_id: int, keys: ks.Keyspace, params: RoverParams,
                  behaviour: BaseBehaviour | None = None, state_file: Path | None = None,
                  dispatch: m.Calibration | None = None) -> None:
@@ -61,7 +64,9 @@ class RoverAgent(NavigationFeedback):
         self.queries = 0  # actions sent again after silence
         self.lost = False  # restarted mid-mission with no saved state of this run: it does not know where it is
         self.contact = ContactSearch(rover_id, dispatch)  # what it does while the lander is silent
-        self.pose: Pose | None = None
+        self.fix = relocalise.LanderFix()  # going by the lander to fix its estimate first (``rover_agent.relocalise``)
+        self.pose = None  # the estimate's mean (``rover_agent.localising``), once calibrated
+        self.teammates: dict[int, Teammate] = {}  # each teammate's latest estimate of itself, heard by radio
         self.goal: Goal | None = None
         self.now = 0.0
         self.pitch = (0.0, -1.0)  # (degrees, stamp)
@@ -150,7 +155,8 @@ class RoverAgent(NavigationFeedback):
         self.contact.heard_at = clock.sim_time  # silence is counted from the first clock of a run
         saved, self.saved = self.saved, None
         if saved is not None and saved.run == clock.run:
-            self.pose, self.ids = saved.pose, ActionIds(saved.next_action)
+            self._resume_estimate(saved.pose, saved.cov)
+            self.ids = ActionIds(saved.next_action)
             if saved.flight is not None:
                 self.in_flight = InFlight.resumed(saved.flight, self.now)
             log.info("rover %d: resumed at %s from %s", self.id, self.pose, self.state_file)
@@ -185,7 +191,9 @@ class RoverAgent(NavigationFeedback):
         self.goal = goal
         if current is None or goal.index != current.index or goal.target != current.target:
             self.finished_goal = None
-            self.behaviour.start_goal(goal)
+            self.fix.active = self.fix.active and current is not None and goal.index == current.index
+            if not self.fix.active:  # a station for the goal the rover goes by the lander for: taken up later
+                self.behaviour.start_goal(goal)
             return [self._status()]
         return []
 
@@ -202,6 +210,8 @@ class RoverAgent(NavigationFeedback):
             return [self._status()] if len(self.photo_outbox) != pending else []
         elif isinstance(message, radio.MapAck) and msg.sender == ks.LANDER_ID:
             self.map.ack(message.seqs)
+        elif isinstance(message, radio.PoseEstimate):
+            self._heard_estimate(msg.sender, message)
         elif isinstance(message, radio.CraterFound):
             self.craters_found.add(message.goal_index)
         elif isinstance(message, radio.StopCommand) and msg.sender == ks.LANDER_ID:
@@ -213,7 +223,7 @@ class RoverAgent(NavigationFeedback):
         lander's word too: a search for contact ends with it."""
         self.contact.heard(self.now)
         self.finished_goal = (self.goal.index if self.goal else -1, "stopped")
-        self.behaviour.state = "stopped"
+        self.behaviour.state, self.fix.active = "stopped", False
         out: list[Out] = []
         flight = self.in_flight
         if flight and flight.navigating and not flight.cancel_sent:
@@ -264,22 +274,27 @@ class RoverAgent(NavigationFeedback):
 
     def _view(self, stamp: float, pose: Pose, hits: tuple[Hit, ...]) -> View:
         charge = self.battery.fraction if self.battery is not None else None
-        return View(stamp, pose, self.contact.goal or self.goal, hits, self.pitch[0], charge, self.sunlit)
+        goal = self.contact.goal or self.fix.goal or self.goal
+        return View(stamp, pose, goal, hits, self.pitch[0], charge, self.sunlit)
 
     def _on_perception(self, msg: m.Perception) -> list[Out]:
         self.now = max(self.now, msg.stamp)
         hits = tuple(Hit(a, d, k) for a, d, k in zip(msg.angles_deg, msg.distances_m, msg.kinds, strict=True))
-        ask = self._ask_station()  # answered with perception, which the lockstep world always waits for
+        standing = self.in_flight is None and self.pose is not None and msg.stamp >= self.settled_at
+        if standing:  # where the estimate says it stands: correct it, then map what it sees from there
+            self._localise(msg.stamp, hits)
+            self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
+        # answered with perception, which the lockstep world always waits for
+        ask = self._ask_station() + self._share_estimate()
         if self.in_flight is not None:
             return ask + self._watch(hits)
-        if self.pose is not None and msg.stamp >= self.settled_at:  # standing still where dead reckoning says
-            self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
         heading_out = (self.goal is not None and self.finished_goal is None) or self._seek_contact()
         ready = (self.pose is not None and heading_out and not self.lost
                  and self.state not in ("done", "stuck", "stopped") and not self.powered_off
                  and msg.stamp >= self.settled_at and self.pitch[1] >= self.settled_at)
         if not ready:
             return ask
+        self._mind_fix()
         return ask + self._act(self.behaviour.decide(self._view(msg.stamp, self.pose, hits)))
 
     def _seek_contact(self) -> bool:
@@ -303,7 +318,7 @@ class RoverAgent(NavigationFeedback):
         ``STATION_ASK_RETRY_S`` until it comes (a lost request, or a lander out of reach for now)."""
         goal, pose = self.goal, self.pose
         if (goal is None or pose is None or not goal.shared or goal.station is not None or self.finished_goal
-                or self.now - self._last_station_ask < STATION_ASK_RETRY_S
+                or self.fix.active or self.now - self._last_station_ask < STATION_ASK_RETRY_S
                 or math.hypot(goal.x - pose.x, goal.z - pose.z) > STATION_ASK_M):
             return []
         self._last_station_ask = self.now
@@ -333,6 +348,8 @@ class RoverAgent(NavigationFeedback):
             self.contact.arrive(self.now, blocked=outcome == "stuck")
             self.behaviour.state = "waiting"
             return [self._status()]
+        if self.fix.active:
+            return self._fix_arrived(outcome)
         goal = self.goal
         self.finished_goal = (goal.index, outcome)
         if outcome in ("stuck", "relay"):
@@ -362,6 +379,8 @@ class RoverAgent(NavigationFeedback):
             detail = "restarted without a saved pose: position unknown"
         elif self.contact.seeking:
             detail = self.contact.detail
+        elif self.fix.active:
+            detail = relocalise.DETAIL
         return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(
             stamp=self.now, state=self.state, goal_index=index, detail=detail, photos_pending=len(self.photo_outbox),
             action_id=self.heard_action, rejected=self.rejected)
@@ -371,4 +390,5 @@ class RoverAgent(NavigationFeedback):
         if self.state_file is None or self.pose is None or not self.run:
             return
         flight = self.in_flight.saved() if self.in_flight is not None else None
-        STATE_WRITER.save(self.state_file, SavedState(self.run, self.pose, flight, self.ids.next_id))
+        STATE_WRITER.save(self.state_file, SavedState(self.run, self.pose, flight, self.ids.next_id,
+                                                      self.localisation.cov))

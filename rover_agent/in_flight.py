@@ -35,6 +35,8 @@ class InFlight:
     heard_at: float = 0.0
     cancel_sent: bool = False
     queries: int = 0
+    walked: float = 0.0  # metres along a move so far, from its latest status (``rover_agent.localising``)
+    walked_at: float = 0.0  # that status's stamp
 
     def mine(self, action_id: int, ids_heard: bool = False) -> bool:
         """Whether an answer is about this action. 0 comes from a world or driver that sends no ids; once answers

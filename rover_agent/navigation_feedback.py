@@ -1,5 +1,5 @@
 """How a rover agent follows the world's answers to its actions: each ends with a completion, a cancel's result or a
-refusal, and only then does the agent update its dead-reckoned pose and decide again.
+refusal, and only then does the agent move its pose estimate (``rover_agent.localisation``) and decide again.
 
 A mixin of ``RoverAgent`` (its state: ``in_flight``, ``pose``, ``behaviour``...), kept apart so the agent's own
 module stays about its inputs and decisions.
@@ -34,14 +34,15 @@ class NavigationFeedback:
             return []  # an old action's end sent again, or a photo's (not a navigation action)
         flight.heard_at = self.now
         if msg.outcome == "running":
+            self._walking(msg.stamp, msg.remaining)
             return []
         if msg.outcome == "completed":
             decision = flight.decision
             if isinstance(decision, MoveTo):
-                self.pose = flight.start.after_move(decision.x, decision.z)
+                self._estimate(flight.start).moved(flight.start, decision.x, decision.z)
                 self.behaviour.moved(math.hypot(decision.x, decision.z))
             else:
-                self.pose = flight.start.after_rotate(decision.degrees)
+                self._estimate(flight.start).rotated(flight.start, decision.degrees)
             self._settle(msg.stamp)
         # otherwise the action ended early: the CancelResult that follows says where the rover stopped
         return []
@@ -50,7 +51,7 @@ class NavigationFeedback:
         flight = self._answered(msg.action_id)
         if flight is None:
             return []
-        self.pose = flight.start.after_partial(msg.x, msg.z, msg.angle_deg)
+        self._estimate(flight.start).stopped_early(flight.start, msg.x, msg.z, msg.angle_deg)
         self.behaviour.moved(math.hypot(msg.x, msg.z))
         self.behaviour.cancelled(self.now)
         self._settle(self.now)

@@ -1,10 +1,10 @@
 """What a rover agent keeps across a restart, as a flight computer keeps it in non-volatile memory.
 
-The dead-reckoned pose alone is not enough: an agent killed while a move runs would come back at the move's
-start, and the world finishes the move without it. So the file also holds the action in flight (its id and what
-it asked), and the run it belongs to (``Clock.run``): a restarted agent asks the world how that action ended
-(the world answers a repeated id with its end) and resumes where the rover really is, and a file left by another
-run is never taken for this one.
+The pose estimate (its mean and covariance) alone is not enough: an agent killed while a move runs would come
+back at the move's start, and the world finishes the move without it. So the file also holds the action in flight
+(its id and what it asked), and the run it belongs to (``Clock.run``): a restarted agent asks the world how that
+action ended (the world answers a repeated id with its end) and resumes where the rover really is, and a file left
+by another run is never taken for this one.
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ class SavedState:
     pose: Pose
     flight: SavedFlight | None = None
     next_action: int = 0  # the id the agent's next action takes
+    cov: list[list[float]] | None = None  # the pose estimate's covariance (``rover_agent.localisation``)
 
     def to_json(self) -> str:
         return json.dumps(asdict(self))
@@ -52,9 +53,13 @@ class SavedState:
                                  float(flight["x"]), float(flight["z"]), float(flight["degrees"]))
             if flight.kind not in ("move", "rotate"):
                 raise ValueError(f"unknown action kind {flight.kind!r}")
-        pose = data["pose"]
+        pose, cov = data["pose"], data.get("cov")
+        if cov is not None:
+            cov = [[float(v) for v in row] for row in cov]
+            if len(cov) != 3 or any(len(row) != 3 for row in cov):
+                raise ValueError("cov: expected a 3 x 3 matrix")
         return cls(str(data["run"]), Pose(float(pose["x"]), float(pose["z"]), float(pose["heading"])), flight,
-                   int(data.get("next_action", 0)))
+                   int(data.get("next_action", 0)), cov)
 
 
 def save_state(path: Path, state: SavedState) -> None:

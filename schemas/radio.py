@@ -105,6 +105,21 @@ class StationRequest(Message):
     z: float
 
 
+class PoseEstimate(Message):
+    """A rover's estimate of its own place, for the rovers in range that may see it (report 7.2.2: rovers exchange
+    position estimates). Lander frame; ``cov_*``: its covariance, square metres; ``stamp``: when it held (simulated
+    seconds); ``moving``: the rover was walking then, or may have set off since, so it may be elsewhere by now
+(``rover_agent.sightings``)."""
+
+    stamp: float
+    x: float
+    z: float
+    cov_xx: float = Field(ge=0)
+    cov_xz: float
+    cov_zz: float = Field(ge=0)
+    moving: bool = False
+
+
 class StopCommand(Message):
     """The lander tells a rover to stop where it is until it is given a new goal (need N6)."""
 
@@ -112,7 +127,7 @@ class StopCommand(Message):
 RADIO_TYPES: dict[str, type[Message]] = {"goal_report": GoalReport, "photo_report": PhotoReport, "photo_ack": PhotoAck,
                                          "crater_found": CraterFound, "stop_command": StopCommand,
                                          "map_report": MapReport, "map_ack": MapAck,
-                                         "station_request": StationRequest}
+                                         "station_request": StationRequest, "pose_estimate": PoseEstimate}
 _TAGS = {model: tag for tag, model in RADIO_TYPES.items()}
 
 

@@ -1,0 +1,301 @@
+"""Localisation without ground truth (issue 25; report 7.2.1-7.2.2): an extended Kalman filter over the rover's
+pose (x, z, heading) in the lander frame.
+
+Dead reckoning alone (``dead_reckoning``) drifts: the ground slips every move by a share of its length and every
+move or rotate turns the heading a little (``NavigationParams.slip_std``, ``heading_noise_std_deg``), and the rover
+senses neither. So beside the dead-reckoned pose the filter keeps how unsure of it the rover is, a covariance grown
+by each action exactly as the rover's own noise parameters say, and corrects the pose whenever perception shows a
+thing whose place it knows (``observe``): the lander, the origin of the frame, known exactly; or another rover,
+known as well as that rover's own estimate, heard over the radio. Another rover's estimate may share errors with
+this one (they may have corrected each other before), so it is fused by covariance intersection, which stays
+consistent whatever the correlation, rather than by a plain Kalman update, which would grow overconfident.
+
+With zero noise parameters the covariance stays exactly zero and ``observe`` changes nothing, so a noise-free
+mission runs exactly as plain dead reckoning did. Pure logic on plain floats (a flight computer needs no numeric
+stack for 3 x 3 matrices); the agent feeds it (``rover_agent.localising``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from rover_agent.dead_reckoning import Pose
+from schemas.params import NavigationParams
+
+Matrix = list[list[float]]
+CI_WEIGHTS = tuple(i / 20 for i in range(1, 20))
+"""The weights covariance intersection may give this rover's own estimate (the rest goes to the sighting): never
+all or nothing, so neither side is ever ignored outright."""
+GATE_999 = 13.82
+"""Chi-square, 2 degrees of freedom, 99.9%: a sighting farther than this from what the estimate predicts, in its
+own uncertainty, is a wrong match or a bad fit, not this rover's drift."""
+
+
+def zeros(n: int, m: int | None = None) -> Matrix:
+    return [[0.0] * (n if m is None else m) for _ in range(n)]
+
+
+def mul(a: Matrix, b: Matrix) -> Matrix:
+    return [[sum(a[i][k] * b[k][j] for k in range(len(b))) for j in range(len(b[0]))] for i in range(len(a))]
+
+
+def transpose(a: Matrix) -> Matrix:
+    return [list(row) for row in zip(*a, strict=True)]
+
+
+def add(a: Matrix, b: Matrix, scale: float = 1.0) -> Matrix:
+    return [[x + scale * y for x, y in zip(ra, rb, strict=True)] for ra, rb in zip(a, b, strict=True)]
+
+
+def scaled(a: Matrix, s: float) -> Matrix:
+    return [[s * x for x in row] for row in a]
+
+
+def inverse2(a: Matrix) -> Matrix | None:
+    det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
+    if not det > 1e-18:
+        return None
+    return [[a[1][1] / det, -a[0][1] / det], [-a[1][0] / det, a[0][0] / det]]
+
+
+def symmetric(a: Matrix) -> Matrix:
+    n = len(a)
+    return [[(a[i][j] + a[j][i]) / 2 for j in range(n)] for i in range(n)]
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """What the rover knows of its own navigation errors: its ``NavigationParams``, the same figures the world
+    draws its slips and turns from. ``slip_std``: 1-sigma slip on each axis, a share of a move's length;
+    ``heading_std_rad``: 1-sigma heading error each completed move or rotate adds."""
+
+    slip_std: float = 0.0
+    heading_std_rad: float = 0.0
+
+    @classmethod
+    def of(cls, params: NavigationParams) -> NoiseModel:
+        return cls(params.slip_std, math.radians(params.heading_noise_std_deg))
+
+    @property
+    def silent(self) -> bool:
+        return self.slip_std == 0.0 and self.heading_std_rad == 0.0
+
+
+@dataclass(frozen=True)
+class Landmark:
+    """Something perception shows at ``seen`` (rover-relative metres: x right, z ahead) whose place in the lander
+    frame is ``at``, give or take ``cov`` (2 x 2, square metres; zero for the lander). ``sensor_std``: 1-sigma error
+    of ``seen`` on each axis. ``shared``: its place comes from an estimate that may share errors with this rover's
+    (another rover's), so it is fused by covariance intersection."""
+
+    seen: tuple[float, float]
+    at: tuple[float, float]
+    cov: Matrix
+    sensor_std: float
+    shared: bool = False
+
+
+class Localisation:
+    """The pose estimate and its covariance (x and z in metres, heading in radians: rows and columns x, z, h).
+
+    Actions are applied from the pose they started at (``start``), as dead reckoning did, so an estimate updated
+    between an action's start and its end (the agent does not) would not be moved twice."""
+
+    def __init__(self, pose: Pose, noise: NoiseModel, cov: Matrix | None = None) -> None:
+        self.pose = pose
+        self.noise = noise
+        self.cov = [list(row) for row in cov] if cov is not None else zeros(3)
+
+    @property
+    def exact(self) -> bool:
+        """Nothing to correct: the rover knows no noise, or has not moved since it was told where it stands."""
+        return all(v == 0.0 for row in self.cov for v in row)
+
+    @property
+    def position_std(self) -> float:
+        """1-sigma position error, metres (the root of the position covariance's trace)."""
+        return math.sqrt(max(0.0, self.cov[0][0] + self.cov[1][1]))
+
+    # ---- prediction: what each action does to the estimate ----
+
+    def moved(self, start: Pose, rel_x: float, rel_z: float) -> None:
+        """A completed move: on its goal facing along it (dead reckoning), give or take a slip in proportion to its
+        length on each axis and a turn of the heading."""
+        end = start.after_move(rel_x, rel_z)
+        slip = self.noise.slip_std * math.hypot(rel_x, rel_z)
+        self.cov = self._carried(start, end, slip, self.noise.heading_std_rad)
+        self.pose = end
+
+    def rotated(self, start: Pose, degrees: float) -> None:
+        """A completed rotate: the heading turns as asked, give or take its error; the position stays."""
+        self.pose = start.after_rotate(degrees)
+        self.cov = add(self.cov, [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, self.noise.heading_std_rad ** 2]])
+
+    def stopped_early(self, start: Pose, rel_x: float, rel_z: float, angle_deg: float) -> None:
+        """A move that ended early: its CancelResult measures where the rover stopped relative to where it started,
+        slip and all, and a move turns the heading only on arriving: the error is only the start's, carried along."""
+        end = start.after_partial(rel_x, rel_z, angle_deg)
+        self.cov = self._carried(start, end, 0.0, 0.0)
+        self.pose = end
+
+    def part_way(self, start: Pose, rel_x: float, rel_z: float, walked_m: float) -> tuple[Pose, Matrix]:
+        """Where a move under way has got to after ``walked_m`` along it, and how unsure that is (the slip grows
+        along the way), without changing the estimate: what the rover tells others while it walks."""
+        length = math.hypot(rel_x, rel_z)
+        share = min(1.0, max(0.0, walked_m / length)) if length > 1e-9 else 0.0
+        here = start.after_partial(rel_x * share, rel_z * share, 0.0)
+        return here, self._carried(start, here, self.noise.slip_std * length * share, 0.0)
+
+    def predicted_std(self, to: tuple[float, float], step_m: float) -> float:
+        """The 1-sigma position error the estimate would have after walking straight from here to ``to`` in moves
+        of ``step_m`` (a turn to face it first), as this rover's own noise says: what drift will do to a goal."""
+        ahead = Localisation(self.pose, self.noise, self.cov)
+        turn = (math.degrees(math.atan2(to[0] - self.pose.x, to[1] - self.pose.z)) - self.pose.heading) % 360.0
+        ahead.rotated(ahead.pose, turn)
+        left = math.hypot(to[0] - self.pose.x, to[1] - self.pose.z)
+        while left > 1e-9:
+            step = min(step_m, left)
+            ahead.moved(ahead.pose, 0.0, step)
+            left -= step
+        return ahead.position_std
+
+    def _carried(self, start: Pose, end: Pose, slip: float, turn: float) -> Matrix:
+        """F P F^T + Q: a heading error at the start swings the displacement (end - start) about the start."""
+        dx, dz = end.x - start.x, end.z - start.z
+        f = [[1.0, 0.0, dz], [0.0, 1.0, -dx], [0.0, 0.0, 1.0]]
+        carried = mul(mul(f, self.cov), transpose(f))
+        q = [[slip ** 2, 0.0, 0.0], [0.0, slip ** 2, 0.0], [0.0, 0.0, turn ** 2]]
+        return symmetric(add(carried, q))
+
+    # ---- correction: a landmark seen ----
+
+    def observe(self, landmark: Landmark, gate: float | None = GATE_999) -> bool:
+        """Correct the estimate with a landmark seen; False when nothing changed (an exact estimate, a degenerate
+        geometry, or a sighting outside ``gate``, a Mahalanobis distance squared; None: no gate)."""
+        if self.exact:
+            return False
+        if landmark.shared:
+            return self._observe_shared(landmark, gate)
+        h, jac, r = self._predicted(landmark)
+        y = [landmark.seen[0] - h[0], landmark.seen[1] - h[1]]
+        pht = mul(self.cov, transpose(jac))
+        hph = mul(jac, pht)
+        s_inv = inverse2(add(hph, r))
+        if s_inv is None or (gate is not None and _quadratic(y, s_inv) > gate):
+            return False
+        update = _kalman(self.cov, pht, hph, r, y)
+        if update is None:
+            return False
+        self.cov, x = update
+        self._shift(x)
+        return True
+
+    def _observe_shared(self, landmark: Landmark, gate: float | None) -> bool:
+        """A landmark whose place is an estimate that may share errors with this one (another rover's).
+
+        Seen from here, it says where this rover stands: its place less what was seen, turned by this rover's
+        heading (whose uncertainty joins the sighting's). The position is fused by covariance intersection,
+        consistent whatever the correlation: the Kalman update with the position covariance over w and the
+        sighting's over 1 - w. The heading follows through its correlation with the position, and keeps its own
+        uncertainty apart from that (intersection on the whole state would scale the heading's, which a sighting
+        of a position does not observe, up by 1 / w each time, without bound)."""
+        y, r = self._implied_position(landmark)
+        pxx = [row[:2] for row in self.cov[:2]]
+        s_inv = inverse2(add(pxx, r))
+        if s_inv is None or (gate is not None and _quadratic(y, s_inv) > gate):
+            return False
+        w = _intersection_weight(pxx, r)
+        pht = [row[:2] for row in self.cov]  # P H^T with H = [I 0]: the sighting sees the position
+        update = _kalman(self.cov, pht, pxx, scaled(r, w / (1.0 - w)), y)
+        if update is None:
+            return False
+        cov, x = update
+        root = 1.0 / math.sqrt(w)  # D P D, D = diag(root, root, 1): the position block as intersection leaves it
+        scale = (root, root, 1.0)
+        self.cov = [[cov[i][j] * scale[i] * scale[j] for j in range(3)] for i in range(3)]
+        self._shift(x)
+        return True
+
+    def _implied_position(self, landmark: Landmark) -> tuple[list[float], Matrix]:
+        """Where a shared landmark seen puts this rover, less where it thinks it is, and that sighting's covariance
+        (the landmark's, the sensor's and this rover's heading's, which turns what was seen)."""
+        hr = math.radians(self.pose.heading)
+        sx, sz = landmark.seen
+        ox, oz = sz * math.sin(hr) + sx * math.cos(hr), sz * math.cos(hr) - sx * math.sin(hr)
+        y = [landmark.at[0] - ox - self.pose.x, landmark.at[1] - oz - self.pose.z]
+        sensor, turn = landmark.sensor_std ** 2, self.cov[2][2]
+        r = add(landmark.cov, [[sensor + turn * oz * oz, -turn * oz * ox], [-turn * oz * ox, sensor + turn * ox * ox]])
+        return y, r
+
+    def _shift(self, x: list[float]) -> None:
+        self.pose = Pose(self.pose.x + x[0], self.pose.z + x[1], (self.pose.heading + math.degrees(x[2])) % 360.0)
+
+    def mahalanobis(self, landmark: Landmark) -> float:
+        """How far a sighting lies from what the estimate predicts, in their uncertainty (squared)."""
+        if landmark.shared:
+            y, r = self._implied_position(landmark)
+            s_inv = inverse2(add([row[:2] for row in self.cov[:2]], r))
+        else:
+            h, jac, r = self._predicted(landmark)
+            y = [landmark.seen[0] - h[0], landmark.seen[1] - h[1]]
+            s_inv = inverse2(add(mul(mul(jac, self.cov), transpose(jac)), r))
+        return math.inf if s_inv is None else _quadratic(y, s_inv)
+
+    def _predicted(self, landmark: Landmark) -> tuple[list[float], Matrix, Matrix]:
+        """Where the landmark should appear (rover-relative), the Jacobian of that in (x, z, h), and the noise of
+        the sighting: the sensor's and the landmark's own uncertainty seen from the rover."""
+        hr = math.radians(self.pose.heading)
+        c, s = math.cos(hr), math.sin(hr)
+        dx, dz = landmark.at[0] - self.pose.x, landmark.at[1] - self.pose.z
+        u, v = dx * c - dz * s, dx * s + dz * c
+        jac = [[-c, s, -v], [-s, -c, u]]
+        rot = [[c, -s], [s, c]]
+        sensor = landmark.sensor_std ** 2
+        r = add(mul(mul(rot, landmark.cov), transpose(rot)), [[sensor, 0.0], [0.0, sensor]])
+        return [u, v], jac, r
+
+
+def _intersection_weight(p: Matrix, r: Matrix) -> float:
+    """Covariance intersection of two estimates of a position, covariances ``p`` (this rover's) and ``r`` (the
+    sighting's): the weight w in [``CI_WEIGHTS[0]``, ``CI_WEIGHTS[-1]``] for which (w p^-1 + (1 - w) r^-1)^-1 is
+    smallest (determinant). det(w A + (1 - w) B) is a quadratic in w, so its largest value on the interval is at an
+    end or at the vertex; a singular ``p`` (no uncertainty yet along some direction) is judged on the grid."""
+    lo, hi = CI_WEIGHTS[0], CI_WEIGHTS[-1]
+    a, b = inverse2(p), inverse2(r)
+    if a is None or b is None:
+        return _intersection_weight_on_grid(p, r)
+    d = add(a, b, -1.0)  # det(B + w D) = det B + w (b11 d22 + b22 d11 - b12 d21 - b21 d12) + w^2 det D
+    linear = b[0][0] * d[1][1] + b[1][1] * d[0][0] - b[0][1] * d[1][0] - b[1][0] * d[0][1]
+    square = d[0][0] * d[1][1] - d[0][1] * d[1][0]
+    candidates = [lo, hi]
+    if square < 0:
+        candidates.append(min(hi, max(lo, -linear / (2 * square))))
+    return max(candidates, key=lambda w: linear * w + square * w * w)
+
+
+def _intersection_weight_on_grid(p: Matrix, r: Matrix) -> float:
+    best, best_w = math.inf, 0.5
+    for w in CI_WEIGHTS:
+        update = _kalman(scaled(p, 1.0 / w), scaled(p, 1.0 / w), scaled(p, 1.0 / w), scaled(r, 1.0 / (1.0 - w)),
+                         [0.0, 0.0])
+        if update is not None:
+            c = update[0]
+            if (volume := c[0][0] * c[1][1] - c[0][1] * c[1][0]) < best:
+                best, best_w = volume, w
+    return best_w
+
+
+def _quadratic(y: list[float], m: Matrix) -> float:
+    return y[0] * (m[0][0] * y[0] + m[0][1] * y[1]) + y[1] * (m[1][0] * y[0] + m[1][1] * y[1])
+
+
+def _kalman(p: Matrix, pht: Matrix, hph: Matrix, r: Matrix, y: list[float]) -> tuple[Matrix, list[float]] | None:
+    """One Kalman update from P, P H^T and H P H^T: the correction and P - K S K^T (kept symmetric)."""
+    s_inv = inverse2(add(hph, r))
+    if s_inv is None:
+        return None
+    k = mul(pht, s_inv)
+    x = [k[i][0] * y[0] + k[i][1] * y[1] for i in range(len(k))]
+    cov = add(p, mul(k, transpose(pht)), -1.0)
+    return symmetric(cov), x

@@ -1,0 +1,107 @@
+"""Going by the lander to fix the pose estimate before a waypoint that drift would otherwise miss (issue 25).
+
+The lander is the one landmark whose place every rover knows exactly: it is the origin of the frame the rover
+navigates in. Seen in perception from a few places, it brings the estimate's uncertainty down to about the
+sighting's (``rover_agent.localisation``). When a waypoint goal comes, the rover asks its filter how unsure it
+would be on arriving there by the direct way, from its own noise parameters. If that is more than ``FIX_STD_M``,
+and going by the lander leaves it surer at the goal (``WORTH``) for a way at most ``MAX_DETOUR`` longer than the
+direct one, it heads for the lander first; it goes on to its goal once the estimate is sure again
+(``FIXED_STD_M``). Where it thought the lander was, not seeing it, it turns round to look, then looks from four
+spots round that place (``SEARCH_SPOTS_DEG``); then, or if it can get no closer, it goes on whatever it saw.
+Returns to the start, as the report's crater_and_return, usually pass near the lander, so they gain most.
+
+The report's remedy for drifting estimates (7.2.1), with what a Lunar Zebro has: its noise model and the mission
+plan's lander. Crater goals need no such fix: the rim is found by pitch, wherever the estimate puts it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from rover_agent.contact import LANDER_GOAL
+from rover_agent.dead_reckoning import Pose
+from rover_agent.decisions import Goal
+from rover_agent.localisation import Localisation
+from schemas.params import RoverParams
+
+FIX_STD_M = 1.5
+"""A waypoint the estimate would reach more unsure than this (1 sigma, metres) is worth a fix first: at a waypoint
+the team shares, the rover's own station is up to 8.5 m from it (20 rovers), which leaves little of the perception
+radius, within which the rover is at the waypoint, for drift."""
+FIXED_STD_M = 1.0
+"""The estimate is fixed once its 1-sigma position error is down to this."""
+FIXED_HEADING_STD_DEG = 2.0
+"""What a fix leaves of the heading's error (1 sigma), to judge the way on from the lander: a 1.5 m lander seen
+within 10 m from a few places gives its bearing to a degree or two."""
+WORTH = 0.75
+"""Going by the lander must leave the estimate at the goal at most this share as unsure as the direct way."""
+MAX_DETOUR = 1.0
+"""The way by the lander may be at most this share longer than the direct way to the goal."""
+DETAIL = "going by the lander to fix its position estimate"
+
+
+SEARCH_SPOTS_DEG = (0.0, 90.0, 180.0, 270.0)
+"""Where, round the lander's estimated place, a rover that has not seen it there looks next: four spots a
+perception radius out, so their views reach twice as far from it."""
+
+
+@dataclass
+class LanderFix:
+    decided: int | None = None  # the goal index the decision was taken for (once a goal)
+    active: bool = False
+    looked: bool = False  # turned round at the lander's estimated place
+    spots: list[tuple[float, float]] | None = None  # the search's spots still to go to, once searching
+
+    @property
+    def goal(self) -> Goal | None:
+        """What the rover walks to while it goes by the lander (None: its own goal)."""
+        if not self.active:
+            return None
+        if not self.spots:
+            return LANDER_GOAL
+        x, z = self.spots[0]
+        return Goal(LANDER_GOAL.index, LANDER_GOAL.total, "waypoint", x, z)
+
+    def arrived(self, outcome: str, here: tuple[float, float], radius: float) -> str:
+        """What the rover does where a leg of the way by the lander ends without a fix: "look" (turn round at the
+        lander's estimated place), "search" (on to the next spot round it) or "over" (on to its own goal; also
+        when it could get no closer)."""
+        if outcome != "reached":
+            return "over"
+        if not self.looked:
+            self.looked = True
+            return "look"
+        if self.spots is None:
+            spots = [(radius * math.sin(math.radians(a)), radius * math.cos(math.radians(a))) for a in SEARCH_SPOTS_DEG]
+            self.spots = sorted(spots, key=lambda p: math.dist(p, here))
+            return "search"
+        self.spots.pop(0)
+        return "search" if self.spots else "over"
+
+    def consider(self, goal: Goal, loc: Localisation, params: RoverParams) -> bool:
+        """At a goal's first decision: whether to go by the lander first (sets ``active``)."""
+        if self.decided == goal.index:
+            return False
+        self.decided = goal.index
+        if goal.kind != "waypoint" or loc.exact:
+            return False
+        step = 0.9 * params.perception.perception_radius
+        target, here = goal.target, (loc.pose.x, loc.pose.z)
+        direct = loc.predicted_std(target, step)
+        if direct <= FIX_STD_M:
+            return False
+        heading_std = math.radians(FIXED_HEADING_STD_DEG)
+        fixed = Localisation(Pose(0.0, 0.0, loc.pose.heading), loc.noise,
+                             [[FIXED_STD_M ** 2 / 2, 0.0, 0.0], [0.0, FIXED_STD_M ** 2 / 2, 0.0],
+                              [0.0, 0.0, heading_std ** 2]])
+        via = fixed.predicted_std(target, step)
+        straight = math.dist(here, target)
+        detour = math.hypot(*here) + math.hypot(*target) - straight
+        self.active = via <= WORTH * direct and detour <= MAX_DETOUR * straight
+        self.looked, self.spots = False, None
+        return self.active
+
+    def fixed(self, loc: Localisation) -> bool:
+        """Sure again: the detour is over."""
+        return self.active and loc.position_std <= FIXED_STD_M

@@ -1,0 +1,188 @@
+"""What perception shows of things whose place the rover knows: the lander, and rovers whose estimates it heard.
+
+Perception gives, for each ray that met something, its angle, distance and kind (report 10.1.3), so a thing is a
+run of hits on its near side. Lander and rovers are upright cylinders: their centre, the point the filter needs
+(``rover_agent.localisation``), is fitted from the hits. Perception says a hit is a rover, not which one; the radio
+says which rovers are in range (``CommPartners``) and what each believes of its own place (``radio.PoseEstimate``),
+so a rover seen is matched to a teammate's estimate only where the match can hardly be another
+(``match_teammates``).
+
+Pure functions of the hits: tested with scripted perception, no router.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from rover_agent.decisions import Hit
+from rover_agent.localisation import Landmark
+from schemas import radio
+
+LANDER_SIGHTING_STD_M = 0.2
+"""1-sigma error of the lander's fitted centre on each axis: an assumption for a real rover's ranging (the
+simulated one is exact to the millimetre)."""
+ROVER_SIGHTING_STD_M = 0.3
+"""1-sigma error of another rover's fitted centre: a small rover shows on one or two rays, so its centre is known
+to about its radius."""
+MAX_FIT_RMS_M = 0.05
+"""A lander fit whose hits stray from a circle by more than this is no fit (hits of something else)."""
+MATCH_GATE = 9.21
+"""Chi-square, 2 degrees of freedom, 99%: a rover seen farther than this (Mahalanobis, squared) from where a
+teammate's estimate puts it is not that teammate."""
+AMBIGUITY = 9.0
+"""How much farther (Mahalanobis, squared) every other pairing must be for a match to stand: a likelihood ratio
+of e^4.5, about 90."""
+IN_RANGE_MARGIN_M = 2.0
+"""A rover seen this much inside radio range was most likely in it too when the partners were last told (once a
+second; rovers walk at most 3.5 m/s, and rarely straight apart)."""
+ESTIMATE_MAX_AGE_S = 1.0
+"""A teammate's estimate older than this is not matched: it walks up to 3.5 m a second."""
+
+
+@dataclass(frozen=True)
+class Teammate:
+    """The latest estimate a teammate sent of itself (``radio.PoseEstimate``)."""
+
+    rover_id: int
+    estimate: radio.PoseEstimate
+
+
+def point(hit: Hit) -> tuple[float, float]:
+    """A hit as a rover-relative point: x to the right, z ahead (angles negative to the left)."""
+    a = math.radians(hit.angle_deg)
+    return hit.distance_m * math.sin(a), hit.distance_m * math.cos(a)
+
+
+def lander_centre(hits: tuple[Hit, ...]) -> tuple[float, float] | None:
+    """The lander's centre, rover-relative, from at least three lander hits (a circle fitted to them; the lander
+    is the only thing of its kind, so every such hit is on it); None if too few or they fit no circle."""
+    pts = [point(h) for h in hits if h.kind == "lander"]
+    if len(pts) < 3:
+        return None
+    fit = _circle(pts)
+    if fit is None:
+        return None
+    cx, cz, r = fit
+    rms = math.sqrt(sum((math.hypot(x - cx, z - cz) - r) ** 2 for x, z in pts) / len(pts))
+    nearest = min(math.hypot(x, z) for x, z in pts)
+    if not (0.2 <= r <= 20.0) or rms > MAX_FIT_RMS_M or math.hypot(cx, cz) <= nearest:
+        return None
+    return cx, cz
+
+
+def rover_centres(hits: tuple[Hit, ...], rover_radius: float, ray_step_deg: float) -> list[tuple[float, float]]:
+    """The centre of each rover seen: runs of rover hits on neighbouring rays at about the same distance."""
+    runs: list[list[Hit]] = []
+    for hit in sorted((h for h in hits if h.kind == "rover"), key=lambda h: h.angle_deg):
+        last = runs[-1][-1] if runs else None
+        if (last is not None and hit.angle_deg - last.angle_deg <= 1.5 * ray_step_deg
+                and abs(hit.distance_m - last.distance_m) <= rover_radius):
+            runs[-1].append(hit)
+        else:
+            runs.append([hit])
+    return [_known_circle([point(h) for h in run], rover_radius) for run in runs]
+
+
+def match_teammates(centres: list[tuple[float, float]], teammates: list[Teammate], partners: list[int], now: float,
+                    comm_range: float, distance: Callable[[tuple[float, float], Teammate], float],
+                    ) -> list[tuple[tuple[float, float], Teammate]]:
+    """Pairs (rover seen, its estimate) that cannot well be another pairing; ``distance``: how far (Mahalanobis,
+    squared) a rover seen lies from where a teammate's estimate and this rover's put it.
+
+    The radio's partners are the rovers in range: so a single rover seen well within range, with a single rover
+    partner that sent a fresh estimate, is that partner, wherever the estimates put the two (the filter's gate
+    still checks). Otherwise a pair must lie within ``MATCH_GATE`` and every other pairing of either (the rover
+    seen with another teammate, the teammate with another rover seen) ``AMBIGUITY`` farther: a likelihood some
+    hundred times smaller."""
+    fresh = [t for t in teammates if now - t.estimate.stamp <= ESTIMATE_MAX_AGE_S]
+    rovers_in_range = [p for p in partners if p != 0]
+    if len(centres) == 1 and len(rovers_in_range) == 1 and math.hypot(*centres[0]) <= comm_range - IN_RANGE_MARGIN_M:
+        return [(centres[0], t) for t in fresh if t.rover_id == rovers_in_range[0]]
+    d = [[distance(centre, mate) for mate in fresh] for centre in centres]
+    pairs = []
+    for k, centre in enumerate(centres):
+        for j, mate in enumerate(fresh):
+            best = d[k][j]
+            if best > MATCH_GATE:
+                continue
+            others = [d[k][i] for i in range(len(fresh)) if i != j] + [d[i][j] for i in range(len(centres)) if i != k]
+            if all(other >= best + AMBIGUITY for other in others):
+                pairs.append((centre, mate))
+    return pairs
+
+
+def teammate_landmark(centre: tuple[float, float], mate: Teammate, now: float, top_speed: float) -> Landmark:
+    """A teammate seen, as a landmark: its estimate, less sure by how far it may have walked since (when it said it
+    was walking)."""
+    e = mate.estimate
+    walked = top_speed * max(0.0, now - e.stamp) if e.moving else 0.0
+    cov = [[e.cov_xx + walked ** 2, e.cov_xz], [e.cov_xz, e.cov_zz + walked ** 2]]
+    return Landmark(centre, (e.x, e.z), cov, ROVER_SIGHTING_STD_M, shared=True)
+
+
+def lander_landmark(centre: tuple[float, float]) -> Landmark:
+    """The lander seen: the origin of the frame every rover navigates in, known exactly."""
+    return Landmark(centre, (0.0, 0.0), [[0.0, 0.0], [0.0, 0.0]], LANDER_SIGHTING_STD_M)
+
+
+def _circle(pts: list[tuple[float, float]]) -> tuple[float, float, float] | None:
+    """Least-squares circle (centre x, z and radius) through points: x^2 + z^2 + a x + b z + c = 0."""
+    sums = [[0.0] * 3 for _ in range(3)]
+    rhs = [0.0] * 3
+    for x, z in pts:
+        row, target = (x, z, 1.0), -(x * x + z * z)
+        for i in range(3):
+            rhs[i] += row[i] * target
+            for j in range(3):
+                sums[i][j] += row[i] * row[j]
+    solved = _solve3(sums, rhs)
+    if solved is None:
+        return None
+    a, b, c = solved
+    r2 = a * a / 4 + b * b / 4 - c
+    return (-a / 2, -b / 2, math.sqrt(r2)) if r2 > 0 else None
+
+
+def _solve3(m: list[list[float]], v: list[float]) -> list[float] | None:
+    """Cramer's rule for a 3 x 3 system; None if (nearly) singular."""
+    def det(a: list[list[float]]) -> float:
+        return (a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+                + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]))
+    d = det(m)
+    if abs(d) < 1e-12:
+        return None
+    out = []
+    for k in range(3):
+        swapped = [[v[i] if j == k else m[i][j] for j in range(3)] for i in range(3)]
+        out.append(det(swapped) / d)
+    return out
+
+
+def _known_circle(pts: list[tuple[float, float]], radius: float) -> tuple[float, float]:
+    """The centre of a circle of known radius whose near side the points lie on: a radius behind the nearest
+    point, then refined (Gauss-Newton) when two points or more pin it down better."""
+    nx, nz = min(pts, key=lambda p: math.hypot(*p))
+    d = math.hypot(nx, nz)
+    cx, cz = nx + radius * nx / d, nz + radius * nz / d
+    if len(pts) < 2:
+        return cx, cz
+    start = (cx, cz)
+    for _ in range(5):
+        jtj, jtr = [[0.0, 0.0], [0.0, 0.0]], [0.0, 0.0]
+        for x, z in pts:
+            dist = math.hypot(x - cx, z - cz)
+            if dist < 1e-9:
+                continue
+            g, res = ((cx - x) / dist, (cz - z) / dist), dist - radius
+            for i in range(2):
+                jtr[i] += g[i] * res
+                for j in range(2):
+                    jtj[i][j] += g[i] * g[j]
+        det = jtj[0][0] * jtj[1][1] - jtj[0][1] * jtj[1][0]
+        if abs(det) < 1e-12:
+            break
+        cx -= (jtj[1][1] * jtr[0] - jtj[0][1] * jtr[1]) / det
+        cz -= (jtj[0][0] * jtr[1] - jtj[1][0] * jtr[0]) / det
+    return (cx, cz) if math.dist((cx, cz), start) <= radius else start

@@ -1,0 +1,227 @@
+"""The pose estimator inside the rover agent (``rover_agent.localising``), fed scripted samples as the world and the
+radio would send them: zero noise changes nothing, the lander seen corrects the estimate, teammates in range hear
+it, and a rover too unsure for its waypoint goes by the lander first (``rover_agent.relocalise``)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from harness.loopback import run_mission
+from rover_agent.agent import RoverAgent
+from rover_agent.contact import LANDER_GOAL
+from rover_agent.dead_reckoning import Pose
+from rover_agent.localising import Localising
+from rover_agent.relocalise import DETAIL, FIX_STD_M, LanderFix
+from rover_agent.saved_state import SavedState
+from scenarios.generator import generate
+from schemas import codec, radio
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.frames import to_relative
+from schemas.keyspace import Keyspace
+from schemas.params import RoverParams
+
+KEYS = Keyspace("w")
+QUIET = RoverParams()
+NOISY = RoverParams.model_validate({"navigation": {"slip_std": 0.05, "heading_noise_std_deg": 1.0}})
+
+
+def _feed(agent: RoverAgent, message: m.Message) -> list:
+    topic = next(t for t, model in m.TOPIC_MODELS.items() if model is type(message))
+    return agent.handle(topic, codec.encode(message))
+
+
+def _lander_scan(stamp: float, truth: Pose) -> m.Perception:
+    """The lander (radius 1.5 at the origin) as a scan from the true pose shows it."""
+    p = QUIET.perception
+    angles, distances = [], []
+    for i in range(p.perception_granularity):
+        angle = -p.field_of_view_degrees / 2 + i * p.field_of_view_degrees / (p.perception_granularity - 1)
+        h = math.radians(truth.heading + angle)
+        dx, dz = math.sin(h), math.cos(h)
+        b, c = truth.x * dx + truth.z * dz, truth.x ** 2 + truth.z ** 2 - 1.5 ** 2
+        if b * b - c >= 0 and (t := -b - math.sqrt(b * b - c)) > 0 and t <= p.perception_radius:
+            angles.append(round(angle, 3))
+            distances.append(round(t, 3))
+    return m.Perception(stamp=stamp, angles_deg=angles, distances_m=distances, kinds=["lander"] * len(angles))
+
+
+def _walked(params: RoverParams, partners: list[int] = ()) -> RoverAgent:
+    """An agent calibrated 15 m south of the lander facing north, a goal far east, one 9 m move done: the lander
+    is 6 m ahead."""
+    agent = RoverAgent(1, KEYS, params)
+    _feed(agent, m.Calibration(x=0.0, z=-15.0, heading_deg=0.0))
+    _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="waypoint", bearing_deg=20.0, distance_m=300.0))
+    _feed(agent, m.CommPartners(ids=[0, *partners]))
+    _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
+    (key, _), = [o for o in _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+                    if o[0] != KEYS.rover(1, ks.COMM_OUT)]
+    assert key == KEYS.rover(1, ks.MOVE_ACTION)
+    _feed(agent, m.NavigationStatus(stamp=3.0, action="move", remaining=0.0, outcome="completed",
+                                    action_id=agent.in_flight.action_id))
+    _feed(agent, m.Gyroscope(stamp=3.1, pitch_deg=0.0))
+    return agent
+
+
+def _estimates(out: list) -> list[radio.PoseEstimate]:
+    return [radio.unpack(msg.payload) for key, msg in out if key == KEYS.rover(1, ks.COMM_OUT)
+            and isinstance(radio.unpack(msg.payload), radio.PoseEstimate)]
+
+
+def test_without_noise_the_lander_seen_changes_nothing_and_nothing_is_told():
+    agent = _walked(QUIET, partners=[2])
+    assert agent.localisation.exact
+    before = agent.pose
+    truth = Pose(0.3, -6.2, 3.0)  # wherever the rover really is, an exact estimate is not corrected
+    out = _feed(agent, _lander_scan(3.2, truth))
+    assert agent.pose.x == before.x and agent.pose.z == before.z and _estimates(out) == []
+
+
+def test_the_lander_seen_standing_still_corrects_the_estimate():
+    agent = _walked(NOISY)
+    p = agent.pose
+    assert math.hypot(p.x, p.z + 15.0) == pytest.approx(9.0, abs=1e-3) and agent.localisation.position_std > 0.4
+    truth = Pose(p.x + 0.5, p.z - 0.4, p.heading + 2.0)  # the move slipped and turned
+    for stamp in (3.2, 3.4, 3.6):  # each scan sets a move off, which the world refuses: it stays where it is
+        _feed(agent, m.Gyroscope(stamp=stamp - 0.05, pitch_deg=0.0))
+        _feed(agent, _lander_scan(stamp, truth))
+        _feed(agent, m.ActionRejected(action="move", reason="blocked", action_id=agent.in_flight.action_id))
+    seen = to_relative(truth.x, truth.z, truth.heading, 0.0, 0.0)
+    assert to_relative(agent.pose.x, agent.pose.z, agent.pose.heading, 0.0, 0.0) == pytest.approx(seen, abs=0.1)
+    assert math.hypot(agent.pose.x - truth.x, agent.pose.z - truth.z) < 0.4
+
+
+def test_a_scan_taken_during_a_move_corrects_nothing():
+    agent = _walked(NOISY)
+    _feed(agent, m.Perception(stamp=3.2, angles_deg=[], distances_m=[], kinds=[]))  # decides: a move in flight
+    assert agent.in_flight is not None
+    before = agent.pose
+    _feed(agent, _lander_scan(3.4, Pose(0.5, -6.4, 2.0)))
+    assert agent.pose == before
+
+
+def test_the_estimate_goes_to_the_rovers_in_range_once_a_second():
+    agent = _walked(NOISY, partners=[2, 5])
+    out = _feed(agent, m.Perception(stamp=3.2, angles_deg=[], distances_m=[], kinds=[]))
+    (sent,) = [msg for key, msg in out if key == KEYS.rover(1, ks.COMM_OUT)]
+    assert sent.targets == [2, 5]
+    (estimate,) = _estimates(out)
+    assert (estimate.x, estimate.z) == (round(agent.pose.x, 3), round(agent.pose.z, 3))
+    assert estimate.moving  # between two moves: it may have set off by the time a teammate sees it
+    assert estimate.cov_xx == pytest.approx(agent.localisation.cov[0][0], abs=1e-6) and estimate.cov_xx > 0
+    assert _estimates(_feed(agent, m.Perception(stamp=3.4, angles_deg=[], distances_m=[], kinds=[]))) == []
+    # walking: where the move has got to, from the world's metres still to go
+    _feed(agent, m.NavigationStatus(stamp=4.0, action="move", remaining=6.0, action_id=agent.in_flight.action_id))
+    (walking,) = _estimates(_feed(agent, m.Perception(stamp=4.2, angles_deg=[], distances_m=[], kinds=[])))
+    assert walking.moving and walking.stamp == 4.0
+    assert math.hypot(walking.x - agent.pose.x, walking.z - agent.pose.z) == pytest.approx(3.0, abs=1e-3)
+
+
+def test_a_rover_done_at_its_goal_says_it_stays_there():
+    agent = _walked(NOISY, partners=[2])
+    agent.behaviour.state = "done"
+    (estimate,) = _estimates(_feed(agent, m.Perception(stamp=3.2, angles_deg=[], distances_m=[], kinds=[])))
+    assert not estimate.moving
+
+
+def test_nobody_in_range_hears_nothing():
+    agent = _walked(NOISY)
+    assert _estimates(_feed(agent, m.Perception(stamp=3.2, angles_deg=[], distances_m=[], kinds=[]))) == []
+
+
+def test_a_teammates_estimate_is_kept_latest_first():
+    agent = _walked(NOISY)
+    for stamp, x in ((5.0, 1.0), (4.0, 2.0)):
+        estimate = radio.PoseEstimate(stamp=stamp, x=x, z=0.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0)
+        _feed(agent, m.InboundComm(sender=3, payload=radio.pack(estimate)))
+    assert agent.teammates[3].estimate.x == 1.0
+
+
+def test_the_saved_state_keeps_the_covariance():
+    agent = _walked(NOISY)
+    state = SavedState("run", agent.pose, None, 7, agent.localisation.cov)
+    again = SavedState.from_json(state.to_json())
+    assert again.cov == agent.localisation.cov and again.pose == agent.pose
+    assert SavedState.from_json(SavedState("run", agent.pose).to_json()).cov is None  # older files load too
+
+
+def _unsure_with_a_return(distance: float, bearing: float = 90.0) -> RoverAgent:
+    """A noisy rover 120 m north of the lander, unsure by several metres, sent to a waypoint (by default back near
+    the lander)."""
+    agent = RoverAgent(1, KEYS, NOISY)
+    agent.pose = Pose(0.0, 120.0, 180.0)
+    agent.localisation.cov = [[16.0, 0.0, 0.0], [0.0, 16.0, 0.0], [0.0, 0.0, math.radians(3.0) ** 2]]
+    _feed(agent, m.MissionDirection(goal_index=1, goals_total=2, kind="waypoint", bearing_deg=bearing,
+                                    distance_m=distance))
+    _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
+    return agent
+
+
+def test_a_rover_too_unsure_for_its_waypoint_goes_by_the_lander_first():
+    agent = _unsure_with_a_return(25.0)
+    assert agent.localisation.predicted_std(agent.goal.target, 9.0) > FIX_STD_M
+    out = _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert agent.fix.active and agent._view(0.2, agent.pose, ()).goal == LANDER_GOAL
+    assert [key for key, _ in out] == [KEYS.rover(1, ks.MOVE_ACTION)]
+    assert agent._status()[1].detail == DETAIL
+
+
+def test_a_waypoint_the_lander_is_far_off_the_way_to_is_not_worth_going_by_it():
+    agent = _unsure_with_a_return(240.0, bearing=0.0)  # 120 m on, away from the lander
+    _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert not agent.fix.active and agent._view(0.2, agent.pose, ()).goal == agent.goal
+
+
+def test_once_sure_again_the_rover_goes_on_to_its_goal():
+    agent = _unsure_with_a_return(25.0)
+    _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    _feed(agent, m.NavigationStatus(stamp=3.0, action="move", remaining=0.0, outcome="completed",
+                                    action_id=agent.in_flight.action_id))
+    agent.localisation.cov = [[0.2, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 1e-4]]  # as if it had seen the lander
+    _feed(agent, m.Gyroscope(stamp=3.1, pitch_deg=0.0))
+    _feed(agent, m.Perception(stamp=3.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert not agent.fix.active and agent._view(3.2, agent.pose, ()).goal == agent.goal
+    assert agent.fix.decided == 1  # once a goal: it does not set off for the lander again
+
+
+def test_a_noise_free_rover_never_goes_by_the_lander():
+    agent = RoverAgent(1, KEYS, QUIET)
+    agent.pose = Pose(0.0, 120.0, 180.0)
+    _feed(agent, m.MissionDirection(goal_index=1, goals_total=2, kind="waypoint", bearing_deg=90.0, distance_m=25.0))
+    _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
+    _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert not agent.fix.active
+
+
+def test_a_rover_that_does_not_see_the_lander_where_it_thought_looks_round_then_searches_then_goes_on():
+    fix = LanderFix(decided=1, active=True)
+    assert fix.goal == LANDER_GOAL
+    assert fix.arrived("reached", (0.5, 0.5), 10.0) == "look"
+    assert fix.arrived("reached", (0.5, 0.5), 10.0) == "search"
+    first = fix.goal
+    assert math.hypot(first.x, first.z) == pytest.approx(10.0) and first.kind == "waypoint"
+    seen = [first]
+    while fix.arrived("reached", (first.x, first.z), 10.0) == "search":
+        seen.append(fix.goal)
+    assert len({(g.x, g.z) for g in seen}) == 4  # four spots round the estimated place, then on to its goal
+    assert LanderFix(active=True).arrived("stuck", (0.0, 0.0), 10.0) == "over"  # no closer: on to its goal
+
+
+def _mission(localising: bool):
+    """A generated noise-free mission whose rovers start within sight of the lander (the daisy family)."""
+    made = generate(44)
+    assert made.classes["noise"] == "none" and made.classes["family"] == "daisy"
+    if not localising:  # plain dead reckoning: no corrections, nothing told, no way by the lander
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(Localising, "_localise", lambda self, stamp, hits: None)
+            patch.setattr(Localising, "_share_estimate", lambda self: [])
+            patch.setattr(Localising, "_mind_fix", lambda self: None)
+            return run_mission(made.scenario, 120.0).report()
+    return run_mission(made.scenario, 120.0).report()
+
+
+def test_noise_free_missions_run_exactly_as_plain_dead_reckoning():
+    with_estimator, without = _mission(True), _mission(False)
+    assert with_estimator.model_dump(exclude={"wall_time_s"}) == without.model_dump(exclude={"wall_time_s"})
