@@ -154,11 +154,36 @@ class Localisation:
         turn = (math.degrees(math.atan2(to[0] - self.pose.x, to[1] - self.pose.z)) - self.pose.heading) % 360.0
         ahead.rotated(ahead.pose, turn)
         left = math.hypot(to[0] - self.pose.x, to[1] - self.pose.z)
-        while left > 1e-9:
-            step = min(step_m, left)
-            ahead.moved(ahead.pose, 0.0, step)
-            left -= step
+        whole = left // step_m  # in closed form: a goal may be any distance off (a MissionDirection's is unbounded)
+        if whole > 0:
+            ahead._walked_straight(whole, step_m)
+        rest = min(step_m, max(0.0, left - whole * step_m))
+        if rest > 1e-9:
+            ahead.moved(ahead.pose, 0.0, rest)
+        if not all(math.isfinite(v) for row in ahead.cov for v in row):
+            return math.inf
         return ahead.position_std
+
+    def _walked_straight(self, n: float, step_m: float) -> None:
+        """``n`` moves of ``step_m`` straight ahead, as ``n`` calls of ``moved`` would leave the estimate: the sums
+        of their F P F^T + Q in closed form (the heading's variance grows by one move's each move, and each swings
+        the rest of the way), so the cost does not grow with the way's length."""
+        start = self.pose
+        one = start.after_move(0.0, step_m)
+        u = (one.z - start.z, start.x - one.x)  # F's heading column for one move: (dz, -dx)
+        p, a = self.cov, self.cov[2][2]
+        c = (p[0][2], p[1][2])
+        q, h = (self.noise.slip_std * step_m) ** 2, self.noise.heading_std_rad ** 2
+        swing = a * n * n + h * (n - 1) * n * (2 * n - 1) / 6  # sum over the moves of 2 P_ph(k) / u + P_hh(k)
+        turned = n * a + h * n * (n - 1) / 2  # sum over the moves of P_hh(k)
+        cov = zeros(3)
+        for i in range(2):
+            for j in range(2):
+                cov[i][j] = p[i][j] + n * (u[i] * c[j] + c[i] * u[j]) + swing * u[i] * u[j] + (n * q if i == j else 0.0)
+            cov[i][2] = cov[2][i] = c[i] + u[i] * turned
+        cov[2][2] = a + n * h
+        self.cov = symmetric(cov)
+        self.pose = start.after_move(0.0, n * step_m)
 
     def _carried(self, start: Pose, end: Pose, slip: float, turn: float) -> Matrix:
         """F P F^T + Q: a heading error at the start swings the displacement (end - start) about the start."""
@@ -175,14 +200,22 @@ class Localisation:
         geometry, or a sighting outside ``gate``, a Mahalanobis distance squared; None: no gate)."""
         if self.exact:
             return False
-        if landmark.shared:
-            return self._observe_shared(landmark, gate)
+        before = self.pose, self.cov
+        changed = self._observe_shared(landmark, gate) if landmark.shared else self._observe_known(landmark, gate)
+        if changed and not self._sane():  # overflow, or round-off gone wrong: keep what was known before
+            self.pose, self.cov = before
+            return False
+        return changed
+
+    def _observe_known(self, landmark: Landmark, gate: float | None) -> bool:
         h, jac, r = self._predicted(landmark)
         y = [landmark.seen[0] - h[0], landmark.seen[1] - h[1]]
         pht = mul(self.cov, transpose(jac))
         hph = mul(jac, pht)
         s_inv = inverse2(add(hph, r))
-        if s_inv is None or (gate is not None and _quadratic(y, s_inv) > gate):
+        if s_inv is None or not _positive_definite(symmetric(r)):
+            return False
+        if gate is not None and not _quadratic(y, s_inv) <= gate:
             return False
         update = _kalman(self.cov, pht, hph, r, y)
         if update is None:
@@ -190,6 +223,11 @@ class Localisation:
         self.cov, x = update
         self._shift(x)
         return True
+
+    def _sane(self) -> bool:
+        """A pose and covariance that are numbers, with no negative variance."""
+        values = [self.pose.x, self.pose.z, self.pose.heading, *(v for row in self.cov for v in row)]
+        return all(math.isfinite(v) for v in values) and all(self.cov[i][i] >= 0.0 for i in range(3))
 
     def _observe_shared(self, landmark: Landmark, gate: float | None) -> bool:
         """A landmark whose place is an estimate that may share errors with this one (another rover's).
@@ -203,7 +241,7 @@ class Localisation:
         y, r = self._implied_position(landmark)
         pxx = [row[:2] for row in self.cov[:2]]
         s_inv = inverse2(add(pxx, r))
-        if s_inv is None or (gate is not None and _quadratic(y, s_inv) > gate):
+        if s_inv is None or not _positive_definite(r) or (gate is not None and not _quadratic(y, s_inv) <= gate):
             return False
         w = _intersection_weight(pxx, r)
         pht = [row[:2] for row in self.cov]  # P H^T with H = [I 0]: the sighting sees the position
@@ -284,6 +322,12 @@ def _intersection_weight_on_grid(p: Matrix, r: Matrix) -> float:
             if (volume := c[0][0] * c[1][1] - c[0][1] * c[1][0]) < best:
                 best, best_w = volume, w
     return best_w
+
+
+def _positive_definite(a: Matrix) -> bool:
+    """Whether a symmetric 2 x 2 matrix is finite and positive definite: what a sighting's noise must be, or an
+    update with it can make variances negative (a teammate's covariance that is none, say)."""
+    return all(math.isfinite(v) for row in a for v in row) and a[0][0] > 0.0 and a[0][0] * a[1][1] > a[0][1] * a[0][1]
 
 
 def _quadratic(y: list[float], m: Matrix) -> float:

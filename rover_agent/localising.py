@@ -17,6 +17,7 @@ When the rover corrects itself and talks:
 
 from __future__ import annotations
 
+import logging
 import math
 
 from rover_agent.dead_reckoning import Pose
@@ -24,6 +25,7 @@ from rover_agent.decisions import Hit, MoveTo, Rotate
 from rover_agent.localisation import Localisation, NoiseModel
 from rover_agent.relocalise import LanderFix
 from rover_agent.sightings import (
+    ESTIMATE_MAX_AGE_S,
     Teammate,
     lander_centre,
     lander_landmark,
@@ -33,6 +35,9 @@ from rover_agent.sightings import (
 )
 from schemas import keyspace as ks
 from schemas import radio
+from schemas.scenario_limits import MAX_ROVERS
+
+log = logging.getLogger("lunarsim.rover")
 
 NOT_FROM_TEAMMATES = ("climbing", "observing")
 """States in which a rover takes no correction from teammates: on a crater's rim it finds its goal by pitch,
@@ -45,6 +50,9 @@ SHARE_PERIOD_S = 1.0
 """How often a rover tells its estimate. Every sample a rover hears by radio may make it answer, so a lockstep
 world waits for its ack: told with every scan (5 Hz), estimates made each tick of a 5-rover mission wait for 2.7
 agents on average instead of 1.7 (tests/test_lockstep.py allows 2)."""
+FORGET_AFTER_S = 2 * ESTIMATE_MAX_AGE_S
+"""A teammate's estimate older than this is forgotten: never matched again (``sightings.match_teammates``), and
+a flood of senders must not pile up."""
 STILL_STATES = ("done", "relay", "stuck", "stopped")
 """A rover in these states stays where it is until it is given a new goal: its estimate holds until it says
 otherwise. Any other may be walking by the time a teammate sees it, so its estimate counts as less sure by how far
@@ -125,11 +133,24 @@ class Localising:
             self.behaviour.start_goal(self.goal)
 
     def _heard_estimate(self, sender: int, estimate: radio.PoseEstimate) -> None:
-        if sender == ks.LANDER_ID or sender == self.id:
+        """Keep a teammate's latest estimate. Dropped, and counted as rejected: one from the lander, from this
+        rover or from an id no rover has; one stamped ahead of this rover's clock (kept, it would be fresh for
+        ever and shut the sender's real ones out as older); one older than the sender's last. Estimates too old to
+        be matched go, so a flood of senders cannot pile up."""
+        why = None
+        if sender == ks.LANDER_ID or sender == self.id or not 1 <= sender <= MAX_ROVERS:
+            why = f"from {sender}, not a teammate"
+        elif estimate.stamp > self.now + ESTIMATE_MAX_AGE_S:
+            why = f"stamped {estimate.stamp:.1f}, ahead of the clock ({self.now:.1f})"
+        elif (known := self.teammates.get(sender)) is not None and estimate.stamp < known.estimate.stamp:
+            why = f"stamped {estimate.stamp:.1f}, older than the last one ({known.estimate.stamp:.1f})"
+        if why is not None:
+            self.rejected += 1
+            log.debug("rover %d: dropped a pose estimate %s", self.id, why)
             return
-        known = self.teammates.get(sender)
-        if known is None or estimate.stamp >= known.estimate.stamp:
-            self.teammates[sender] = Teammate(sender, estimate)
+        self.teammates = {rid: mate for rid, mate in self.teammates.items()
+                          if self.now - mate.estimate.stamp <= FORGET_AFTER_S}
+        self.teammates[sender] = Teammate(sender, estimate)
 
     def _share_estimate(self) -> list:
         """The estimate, to the rovers in range, once it is uncertain at all (see the module's docstring)."""
@@ -146,9 +167,13 @@ class Localising:
         if flight is not None and isinstance(flight.decision, MoveTo):
             pose, cov = loc.part_way(flight.start, flight.decision.x, flight.decision.z, flight.walked)
             stamp = max(flight.walked_at, flight.sent_at)
-        estimate = radio.PoseEstimate(stamp=stamp, x=round(pose.x, 3), z=round(pose.z, 3),
-                                      cov_xx=round(cov[0][0], 6), cov_xz=round(cov[0][1], 6),
-                                      cov_zz=round(cov[1][1], 6), moving=moving)
+        try:
+            estimate = radio.PoseEstimate(stamp=stamp, x=round(pose.x, 3), z=round(pose.z, 3),
+                                          cov_xx=round(cov[0][0], 6), cov_xz=round(cov[0][1], 6),
+                                          cov_zz=round(cov[1][1], 6), moving=moving)
+        except ValueError as exc:  # an estimate past what the message carries: untold, rather than a crash
+            log.warning("rover %d: pose estimate not told: %s", self.id, exc)
+            return []
         return [self._radio(rovers, estimate)]
 
     def _walking(self, stamp: float, remaining: float) -> None:

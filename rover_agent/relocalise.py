@@ -89,7 +89,7 @@ class LanderFix:
         step = 0.9 * params.perception.perception_radius
         target, here = goal.target, (loc.pose.x, loc.pose.z)
         direct = loc.predicted_std(target, step)
-        if direct <= FIX_STD_M:
+        if direct <= FIX_STD_M or not math.isfinite(direct):  # a way past reckoning: no fix makes it any surer
             return False
         heading_std = math.radians(FIXED_HEADING_STD_DEG)
         fixed = Localisation(Pose(0.0, 0.0, loc.pose.heading), loc.noise,

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import threading
 from dataclasses import asdict, dataclass
@@ -58,8 +59,26 @@ class SavedState:
             cov = [[float(v) for v in row] for row in cov]
             if len(cov) != 3 or any(len(row) != 3 for row in cov):
                 raise ValueError("cov: expected a 3 x 3 matrix")
+            if not _a_covariance(cov):  # the pose is still good: resumed as from a file without a covariance
+                log.warning("ignoring a saved pose covariance that is none: %s", cov)
+                cov = None
         return cls(str(data["run"]), Pose(float(pose["x"]), float(pose["z"]), float(pose["heading"])), flight,
                    int(data.get("next_action", 0)), cov)
+
+
+def _a_covariance(cov: list[list[float]]) -> bool:
+    """Finite, symmetric and positive semi-definite (every principal minor, a little slack for round-off): json
+    reads NaN and Infinity, and a variance that is none would be fused and told on (a NaN one crashed the agent)."""
+    if not all(math.isfinite(v) for row in cov for v in row):
+        return False
+    scale = max(1.0, *(abs(cov[i][i]) for i in range(3)))
+    if any(abs(cov[i][j] - cov[j][i]) > 1e-9 * scale for i in range(3) for j in range(i)):
+        return False
+    pairs = [cov[i][i] * cov[j][j] - cov[i][j] * cov[i][j] for i in range(3) for j in range(i)]
+    det = (cov[0][0] * pairs[2] - cov[0][1] * (cov[1][0] * cov[2][2] - cov[1][2] * cov[2][0])
+           + cov[0][2] * (cov[1][0] * cov[2][1] - cov[1][1] * cov[2][0]))
+    return (all(cov[i][i] >= 0.0 for i in range(3)) and all(p >= -1e-9 * scale ** 2 for p in pairs)
+            and det >= -1e-9 * scale ** 3)
 
 
 def save_state(path: Path, state: SavedState) -> None:

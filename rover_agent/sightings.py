@@ -164,7 +164,7 @@ def _known_circle(pts: list[tuple[float, float]], radius: float) -> tuple[float,
     """The centre of a circle of known radius whose near side the points lie on: a radius behind the nearest
     point, then refined (Gauss-Newton) when two points or more pin it down better."""
     nx, nz = min(pts, key=lambda p: math.hypot(*p))
-    d = math.hypot(nx, nz)
+    d = max(math.hypot(nx, nz), 1e-9)  # a hit at no distance (rounded to the millimetre): no way to look
     cx, cz = nx + radius * nx / d, nz + radius * nz / d
     if len(pts) < 2:
         return cx, cz

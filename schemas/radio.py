@@ -6,6 +6,7 @@ so a receiver can tell a goal report from anything else and reject what it does 
 
 from __future__ import annotations
 
+import math
 import struct
 from typing import Literal
 
@@ -14,6 +15,7 @@ from pydantic import Field, model_validator
 
 from schemas import codec
 from schemas.messages import Message
+from schemas.scenario_limits import COORDINATE_LIMIT_M, Coordinate
 
 
 class GoalReport(Message):
@@ -105,19 +107,35 @@ class StationRequest(Message):
     z: float
 
 
+MAX_VARIANCE_M2 = COORDINATE_LIMIT_M ** 2
+"""The largest position variance a PoseEstimate may carry: a 1-sigma error as wide as the frame itself."""
+COV_ROUNDING_M2 = 5e-7
+"""A sender rounds each covariance entry to 6 decimals (``rover_agent.localising``)."""
+
+
 class PoseEstimate(Message):
     """A rover's estimate of its own place, for the rovers in range that may see it (report 7.2.2: rovers exchange
     position estimates). Lander frame; ``cov_*``: its covariance, square metres; ``stamp``: when it held (simulated
     seconds); ``moving``: the rover was walking then, or may have set off since, so it may be elsewhere by now
 (``rover_agent.sightings``)."""
 
-    stamp: float
-    x: float
-    z: float
-    cov_xx: float = Field(ge=0)
-    cov_xz: float
-    cov_zz: float = Field(ge=0)
+    stamp: float = Field(ge=0)
+    x: Coordinate
+    z: Coordinate
+    cov_xx: float = Field(ge=0, le=MAX_VARIANCE_M2)
+    cov_xz: float = Field(ge=-MAX_VARIANCE_M2, le=MAX_VARIANCE_M2)
+    cov_zz: float = Field(ge=0, le=MAX_VARIANCE_M2)
     moving: bool = False
+
+    @model_validator(mode="after")
+    def _a_covariance(self) -> PoseEstimate:
+        """Positive semi-definite, give or take the sender's rounding of each entry: a receiver fuses it as the
+        noise of a sighting, and one that is not a covariance turns the receiver's own variances negative."""
+        bound = math.sqrt((self.cov_xx + COV_ROUNDING_M2) * (self.cov_zz + COV_ROUNDING_M2)) + COV_ROUNDING_M2
+        if abs(self.cov_xz) > bound:
+            raise ValueError(f"cov_xz {self.cov_xz} makes no covariance with cov_xx {self.cov_xx} and cov_zz "
+                             f"{self.cov_zz}")
+        return self
 
 
 class StopCommand(Message):

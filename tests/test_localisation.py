@@ -318,3 +318,78 @@ def test_the_intersection_weight_in_closed_form_is_the_best_on_the_grid_or_bette
         p, r = p.tolist(), r.tolist()
         assert volume(p, r, _intersection_weight(p, r)) <= volume(p, r, _intersection_weight_on_grid(p, r)) * (1 + 1e-9)
     assert _intersection_weight([[1.0, 0.0], [0.0, 0.0]], [[1.0, 0.0], [0.0, 1.0]]) in CI_WEIGHTS
+
+
+# ---- bad input: a hostile or corrupt estimate must not corrupt this one ----
+
+
+@pytest.mark.parametrize("fields", [
+    {"cov_xx": 0.0, "cov_xz": 0.25, "cov_zz": 0.0},  # not positive semi-definite
+    {"cov_xx": 1.0, "cov_xz": -3.0, "cov_zz": 1.0},
+    {"x": 1e300},  # no place a rover can be
+    {"cov_xx": 1e300},
+    {"stamp": -5.0},
+])
+def test_a_pose_estimate_that_is_no_estimate_is_refused_by_the_schema(fields):
+    good = {"stamp": 10.0, "x": 1.0, "z": 2.0, "cov_xx": 1.0, "cov_xz": 0.5, "cov_zz": 1.0}
+    radio.PoseEstimate(**good)
+    with pytest.raises(ValueError):
+        radio.PoseEstimate(**{**good, **fields})
+    from schemas import codec
+    with pytest.raises(codec.DecodeError):  # what the agent counts as a rejected sample
+        radio.unpack(radio.pack(radio.PoseEstimate.model_construct(**{**good, **fields}, moving=False)))
+
+
+def test_an_estimate_rounded_to_the_micrometre_squared_is_still_accepted():
+    """A sender rounds each entry to 6 decimals: a nearly singular covariance may come a hair past singular."""
+    radio.PoseEstimate(stamp=1.0, x=0.0, z=0.0, cov_xx=0.0, cov_xz=0.0000005, cov_zz=0.0)
+    radio.PoseEstimate(stamp=1.0, x=0.0, z=0.0, cov_xx=0.0, cov_xz=0.000003, cov_zz=4.0)
+
+
+@pytest.mark.parametrize("cov", [[[0.0, 0.25], [0.25, 0.0]], [[-1.0, 0.0], [0.0, 1.0]],
+                                 [[math.nan, 0.0], [0.0, 1.0]], [[0.0, 1e154], [1e154, 1.7e308]]])
+def test_a_landmark_whose_covariance_is_no_covariance_changes_nothing(cov):
+    """Defence in depth behind the schema: an update with a sighting noise that is not positive definite can turn
+    the estimate's own variances negative (and the agent's next PoseEstimate would then not validate)."""
+    loc = Localisation(Pose(3.0, 2.0, 0.0), NOISY, [[9.0, 0.0, 0.0], [0.0, 9.0, 0.0], [0.0, 0.0, 1e-4]])
+    before = ([list(r) for r in loc.cov], loc.pose)
+    landmark = Landmark((5.0, 6.0), (8.0, 8.0), cov, 0.3, shared=True)
+    assert not loc.observe(landmark)
+    assert not loc.observe(landmark, gate=None)
+    assert not loc.observe(Landmark((5.0, 6.0), (8.0, 8.0), cov, 0.3))
+    assert (loc.cov, loc.pose) == before
+
+
+def test_a_sighting_too_far_off_to_measure_is_outside_the_gate():
+    """Its Mahalanobis distance overflows to NaN, which compared as inside any gate: the pose went to 1e299."""
+    loc = Localisation(Pose(3.0, 2.0, 0.0), NOISY, [[9.0, 0.0, 0.0], [0.0, 9.0, 0.0], [0.0, 0.0, 1e-4]])
+    assert not loc.observe(Landmark((5.0, 6.0), (1e300, 1e300), [[1e200, 1e6], [1e6, 1.0]], 0.3, shared=True))
+    assert loc.pose == Pose(3.0, 2.0, 0.0)
+
+
+def test_the_way_to_a_remote_goal_is_predicted_at_once_and_as_step_by_step():
+    """The prediction walked the way move by move: a goal ten thousand kilometres off (a MissionDirection's
+    distance is any finite number) took minutes, one 1e300 m off never ended."""
+    import time
+
+    loc = Localisation(Pose(1.0, -2.0, 30.0), NOISY, [[2.0, 0.3, 0.01], [0.3, 1.0, -0.02], [0.01, -0.02, 1e-3]])
+    ahead = Localisation(loc.pose, NOISY, loc.cov)
+    to = (60.0, 75.0)
+    turn = (math.degrees(math.atan2(to[0] - 1.0, to[1] + 2.0)) - 30.0) % 360.0
+    ahead.rotated(ahead.pose, turn)
+    left = math.hypot(to[0] - 1.0, to[1] + 2.0)
+    while left > 1e-9:
+        ahead.moved(ahead.pose, 0.0, min(9.0, left))
+        left -= min(9.0, left)
+    assert loc.predicted_std(to, 9.0) == pytest.approx(ahead.position_std, rel=1e-9)
+    started = time.perf_counter()
+    assert loc.predicted_std((0.0, 1e7), 9.0) > 1e3
+    assert loc.predicted_std((0.0, 1e300), 9.0) == math.inf
+    assert loc.predicted_std((1e300, 0.0), 9.0) == math.inf
+    assert time.perf_counter() - started < 1.0
+
+
+def test_a_rover_hit_at_no_distance_gives_a_centre_rather_than_a_crash():
+    """The Perception schema allows a distance of 0 (a distance under half a millimetre, rounded)."""
+    centres = rover_centres((Hit(0.0, 0.0, "rover"), Hit(4.0, 0.0, "rover")), 0.5, RAY_STEP)
+    assert len(centres) == 1 and all(math.isfinite(v) for v in centres[0])

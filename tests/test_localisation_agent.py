@@ -132,8 +132,8 @@ def test_nobody_in_range_hears_nothing():
 
 
 def test_a_teammates_estimate_is_kept_latest_first():
-    agent = _walked(NOISY)
-    for stamp, x in ((5.0, 1.0), (4.0, 2.0)):
+    agent = _walked(NOISY)  # its clock: 3.1 (an estimate stamped more than a second ahead of it is dropped)
+    for stamp, x in ((3.0, 1.0), (2.5, 2.0)):
         estimate = radio.PoseEstimate(stamp=stamp, x=x, z=0.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0)
         _feed(agent, m.InboundComm(sender=3, payload=radio.pack(estimate)))
     assert agent.teammates[3].estimate.x == 1.0
@@ -225,3 +225,79 @@ def _mission(localising: bool):
 def test_noise_free_missions_run_exactly_as_plain_dead_reckoning():
     with_estimator, without = _mission(True), _mission(False)
     assert with_estimator.model_dump(exclude={"wall_time_s"}) == without.model_dump(exclude={"wall_time_s"})
+
+
+# ---- bad input: hostile estimates, stamps and senders; a corrupt saved covariance ----
+
+
+def _heard(agent: RoverAgent, sender: int, estimate: radio.PoseEstimate) -> list:
+    return _feed(agent, m.InboundComm(sender=sender, payload=radio.pack(estimate)))
+
+
+def test_a_teammates_estimate_that_is_no_covariance_is_rejected_and_corrupts_nothing():
+    """cov_xz 0.25 with zero variances passed the schema; matched (one rover seen, one in range), it turned this
+    rover's variances negative, and its own next PoseEstimate failed validation inside the perception handler."""
+    from schemas.frames import to_world
+
+    agent = _walked(NOISY, partners=[2])
+    p = agent.pose
+    x, z = to_world(p.x, p.z, p.heading, 0.0, 5.0)
+    bad = radio.PoseEstimate.model_construct(stamp=3.0, x=round(x, 3), z=round(z, 3), cov_xx=0.0, cov_xz=0.25,
+                                             cov_zz=0.0, moving=False)
+    _heard(agent, 2, bad)
+    assert agent.rejected == 1 and 2 not in agent.teammates
+    out = _feed(agent, m.Perception(stamp=3.2, angles_deg=[0.0], distances_m=[4.5], kinds=["rover"]))
+    assert min(agent.localisation.cov[i][i] for i in range(3)) > 0 and _estimates(out)
+
+
+def test_an_estimate_from_the_future_does_not_lock_the_teammates_real_ones_out():
+    agent = _walked(NOISY)  # its clock: 3.1
+    _heard(agent, 3, radio.PoseEstimate(stamp=1e9, x=50.0, z=50.0, cov_xx=0.01, cov_xz=0.0, cov_zz=0.01))
+    _heard(agent, 3, radio.PoseEstimate(stamp=3.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
+    assert agent.teammates[3].estimate.stamp == 3.0 and agent.rejected == 1
+
+
+@pytest.mark.parametrize("sender", [ks.LANDER_ID, 1, -4, 10**12])
+def test_an_estimate_from_the_lander_itself_or_no_rover_is_dropped_and_counted(sender):
+    agent = _walked(NOISY)
+    _heard(agent, sender, radio.PoseEstimate(stamp=3.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
+    assert agent.teammates == {} and agent.rejected == 1
+
+
+def test_teammates_not_heard_for_long_are_forgotten():
+    """Never matched once stale, and a flood of senders must not pile up."""
+    agent = _walked(NOISY)
+    for sender in range(2, 40):
+        _heard(agent, sender, radio.PoseEstimate(stamp=3.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
+    agent.now = 10.0
+    _heard(agent, 2, radio.PoseEstimate(stamp=10.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
+    assert list(agent.teammates) == [2]
+
+
+@pytest.mark.parametrize("cov", [[[math.nan, 0, 0], [0, 1, 0], [0, 0, 0.01]], [[-1, 0, 0], [0, -1, 0], [0, 0, 0.01]],
+                                 [[1, 5, 0], [5, 1, 0], [0, 0, 0.01]], [[1, 0, 0], [0.5, 1, 0], [0, 0, 0.01]],
+                                 [[math.inf, 0, 0], [0, 1, 0], [0, 0, 0.01]]])
+def test_a_restart_with_a_corrupt_saved_covariance_resumes_without_it(tmp_path, cov):
+    """A NaN variance (json reads NaN) crashed the agent at its first estimate told; a negative one likewise."""
+    import json
+
+    path = tmp_path / "rover1.json"
+    path.write_text(json.dumps({"run": "r1", "pose": {"x": 0.0, "z": -6.0, "heading": 0.0}, "flight": None,
+                                "next_action": 3, "cov": cov}))
+    agent = RoverAgent(1, KEYS, NOISY, state_file=path)
+    agent.on_clock(m.Clock(tick=500, sim_time=50.0, time_scale=1.0, run="r1"))
+    assert agent.pose == Pose(0.0, -6.0, 0.0) and not agent.lost
+    _feed(agent, m.CommPartners(ids=[0, 2]))
+    _feed(agent, m.Perception(stamp=50.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert agent.localisation.exact  # as an older file without a covariance: nothing half-read
+
+
+def test_a_goal_any_distance_off_is_decided_at_once():
+    """The way by the lander was weighed by walking the direct way move by move: a MissionDirection 1e300 m off
+    (its distance is any finite number) hung the agent."""
+    import time
+
+    agent = _unsure_with_a_return(1e300)
+    started = time.perf_counter()
+    _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert time.perf_counter() - started < 1.0 and not agent.fix.active
