@@ -6,8 +6,8 @@ edge of what is known to be free, and rotate 60 degrees when everything in view 
 first such block on, it aims along a route planned on its own map of the obstacles it has seen
 (``planner``), which leads out of dead ends. For a crater goal it climbs the rim with the gyroscope and
 stops on the crest only after having climbed and walked at least the perception radius since first
-seeing crater terrain (the report's 7.2.2 fix for stopping on a local optimum; behind a daisy chain it
-steps back off the bowl's wall onto the crest, in the last relay's sight), then photographs the
+seeing crater terrain (the report's 7.2.2 fix for stopping on a local optimum; a step over the crest is
+taken back off the bowl's wall, at any distance walked), then photographs the
 crater once round. A waypoint is reached once close, or in view with rovers crowding it (6.6); a relay
 spot of the daisy chain once the rover stands on it; a station (the rover's own spot at a waypoint the
 team shares, from the lander) once on it, in short steps with close-quarters gaps.
@@ -282,11 +282,15 @@ class DefaultBehaviour(BaseBehaviour):
             if self._free_distance(0.0, view.hits) >= step:
                 return MoveTo(0.0, step)
             self._backs = MAX_BACKS  # a rover right behind: stay, rather than squeeze into it
-        if goal.relayed and climbed and facing and view.pitch_deg <= -BOWL_PITCH and self._backs < MAX_BACKS:
-            # Past the crest, on the bowl's wall, out of the chain's sight: turn round and step back onto the
-            # crest (a move must be in view), where the radio sees over the rim to the last relay.
+        if climbed and facing and view.pitch_deg <= -BOWL_PITCH and self._backs < MAX_BACKS:
+            # Past the crest, on the bowl's wall: turn round and step back onto the crest (a move must be in
+            # view), where the rover is at its goal and its radio sees over the rim (to a daisy chain's last relay).
             self._backs, self._backing = self._backs + 1, True
             return Rotate(180.0)
+        if climbed and facing and self._squeezing and self._crowded(view):
+            # Up the rim, facing the crater, long held up by rovers ahead that leave no step towards it: they
+            # stand on the crest a body or two ahead (the crater's counterpart of a waypoint crowded in view).
+            return Finish("reached")
         if not (climbed and (self._backs or walked >= self.params.perception.perception_radius)):
             return None
         if view.pitch_deg > CREST_PITCH and not self._backs:
