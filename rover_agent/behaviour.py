@@ -6,16 +6,16 @@ edge of what is known to be free, and rotate 60 degrees when everything in view 
 first such block on, it aims along a route planned on its own map of the obstacles it has seen
 (``planner``), which leads out of dead ends. For a crater goal it climbs the rim with the gyroscope and
 stops on the crest only after having climbed and walked at least the perception radius since first
-seeing crater terrain (the report's 7.2.2 fix for stopping on a local optimum; behind a daisy chain it
-steps back off the bowl's wall onto the crest, in the last relay's sight), then photographs the
-crater once round. A waypoint is reached once close, or in view with rovers crowding it (6.6); a relay
+seeing crater terrain (the report's 7.2.2 fix for stopping on a local optimum; a step over the crest is
+taken back off the bowl's wall), then photographs the crater once round, or from where rovers on the crest
+long hold it up. A waypoint is reached once close, or in view with rovers crowding it (6.6); a relay
 spot of the daisy chain once the rover stands on it; a station (the rover's own spot at a waypoint the
 team shares, from the lander) once on it, in short steps with close-quarters gaps.
 
 Among rovers it follows the report's traffic rule (7.2.1: traffic to the right has right of way), waits
-when only rovers block the way (they move on; rocks do not), squeezes by with small gaps when a jam
-lasts, and gives up only after a long time. A rover that walks on without getting any closer to its goal
-(pacing along a wall) switches to routing, and in the end gives up rather than pace for ever.
+when only rovers block the way (they move on; rocks do not), stops for rovers on a collision course,
+squeezes by with small gaps when a jam lasts, and gives up only after a long time. A rover that walks on
+without getting any closer to its goal (pacing along a wall) switches to routing, and in the end gives up.
 
 No I/O here: the runtime feeds a ``View`` and sends what ``decide`` returns, so this is tested with
 scripted sensor data and no router. The interface every behaviour shares (``View``, the decisions,
@@ -29,6 +29,7 @@ from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 from rover_agent import free_space
+from rover_agent.crossing import CrossingWatch
 from rover_agent.decisions import (
     BaseBehaviour,
     Decision,
@@ -96,6 +97,7 @@ class DefaultBehaviour(BaseBehaviour):
     _routing: bool = False
     _sun: SunSeeker | None = None
     _state_before_charging: str = "migration"
+    _crossing: CrossingWatch | None = None  # rovers on a collision course, scan to scan during a move
 
     name = "default"
     uses_sunlight: ClassVar[bool] = True
@@ -117,6 +119,8 @@ class DefaultBehaviour(BaseBehaviour):
 
     def moved(self, distance: float) -> None:
         self._odometer += distance
+        if self._crossing is not None:
+            self._crossing.reset()
         if distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
             self._blocked_rotations = 0
             self._crowd_since, self._crowd_waits = None, 0
@@ -145,10 +149,13 @@ class DefaultBehaviour(BaseBehaviour):
         """During a move: stop for a rover close ahead that has right of way (report 6.2.2 and 7.2.1).
 
         Traffic ahead or to the right has right of way; a rover ahead-left gives way to this one, which stops
-        for it only when a collision is close.
+        for it only when a collision is close, or when its motion since the last scan says so (``crossing``).
         """
         self._now = view.time
         b = self.params.behaviour
+        self._crossing = self._crossing or CrossingWatch.of(self.params)
+        if self._crossing.danger(view.time, view.hits):
+            return True
         imminent = 2 * b.rover_radius + ROVER_GAP_CLOSE
         danger = imminent if self._close_quarters else b.collision_danger_dist
         if self._sun is not None and self.uses_sunlight and self._sun.should_turn_back(view):
@@ -282,11 +289,15 @@ class DefaultBehaviour(BaseBehaviour):
             if self._free_distance(0.0, view.hits) >= step:
                 return MoveTo(0.0, step)
             self._backs = MAX_BACKS  # a rover right behind: stay, rather than squeeze into it
-        if goal.relayed and climbed and facing and view.pitch_deg <= -BOWL_PITCH and self._backs < MAX_BACKS:
-            # Past the crest, on the bowl's wall, out of the chain's sight: turn round and step back onto the
-            # crest (a move must be in view), where the radio sees over the rim to the last relay.
+        if climbed and facing and view.pitch_deg <= -BOWL_PITCH and self._backs < MAX_BACKS:
+            # Past the crest, on the bowl's wall: turn round and step back onto the crest (a move must be in
+            # view), where the rover is at its goal and its radio sees over the rim (to a daisy chain's last relay).
             self._backs, self._backing = self._backs + 1, True
             return Rotate(180.0)
+        if climbed and facing and self._squeezing and self._crowded(view):
+            # Up the rim, facing the crater, long held up by rovers ahead that leave no step towards it: they
+            # stand on the crest a body or two ahead (the crater's counterpart of a waypoint crowded in view).
+            return Finish("reached")
         if not (climbed and (self._backs or walked >= self.params.perception.perception_radius)):
             return None
         if view.pitch_deg > CREST_PITCH and not self._backs:

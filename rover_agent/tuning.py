@@ -41,11 +41,11 @@ RIGHT_OF_WAY_DEG = 10.0
 MAX_CREST_LOOKS = 3
 BOWL_PITCH = 6.0
 """Degrees nose-down, facing the crater after a climb, that only the bowl's inner wall gives: a step took the
-rover over the crest (the outer rim is still steep just below it, so steps there are whole). When its radio
-route runs through a daisy chain, standing there would hide it from the last relay outside the rim, so it
-turns round and steps back; the crest is then known, and it observes from where it stands once, facing the
-crater, the pitch says it is out of the bowl. Without a chain it observes from the wall, as the report's
-rover does."""
+rover over the crest (the outer rim is still steep just below it, so steps there are whole). The report's rover
+observes from there; this one turns round and steps back, since on the wall it is not on the crest that is its
+goal (a narrow rim's crest is a step wide) and the rim hides it from a daisy chain's last relay outside. The
+crest is then known, and it observes from where it stands once, facing the crater, the pitch says it is out of
+the bowl."""
 MAX_BACKS = 3
 CHARGE_CHECK_S = 1.0
 """While charging in sunlight the rover looks at its battery again this often."""

@@ -9,6 +9,7 @@ import pytest
 from rover_agent.agent import STATION_ASK_M, STATION_ASK_RETRY_S, RoverAgent
 from rover_agent.behaviour import (
     BOWL_PITCH,
+    CROWD_SQUEEZE_S,
     MAX_BACKS,
     MAX_BLOCKED_ROTATIONS,
     MAX_CROWD_WAIT_S,
@@ -379,11 +380,30 @@ def test_a_step_over_the_crest_turns_a_relayed_rover_round_and_back_onto_it():
     assert _on_crest(b, b.decide(_crater_view(pitch=-2.0, hits=(), goal=goal)))
 
 
-def test_without_a_chain_the_rover_observes_from_where_the_step_took_it():
-    b = _behaviour(_goal(0.0, 60.0, kind="crater"))
+def test_a_step_over_the_crest_is_taken_back_with_or_without_a_chain():
+    """A narrow rim's crest is a step wide: a rover on the bowl's wall is not on it (the report's rover stayed)."""
+    goal = _goal(0.0, 60.0, kind="crater")
+    b = _behaviour(goal)
     b.decide(_crater_view(pitch=9.0))
-    b.moved(10.0)
-    assert _on_crest(b, b.decide(_crater_view(pitch=-BOWL_PITCH - 2, hits=())))  # as the report's rover
+    b.moved(2.0)  # not yet a perception radius past the first crater terrain: still over the crest
+    assert b.decide(_crater_view(pitch=-BOWL_PITCH - 2, hits=())) == Rotate(180.0)
+    assert b.decide(_view(goal, pose=Pose(0.0, 0.0, 180.0), pitch=15.0)) == MoveTo(
+        0.0, PARAMS.behaviour.min_move_size / 2)
+    b.moved(1.0)
+    assert _on_crest(b, b.decide(_crater_view(pitch=-2.0, hits=())))
+
+
+def test_a_rover_held_up_on_the_rim_by_rovers_on_the_crest_observes_from_there():
+    """Rovers done on the crest stay there: one come later, up the rim and facing the crater, that they have
+    long left no step towards it is a body or two from the crest, not stuck."""
+    goal = _goal(0.0, 60.0, kind="crater")
+    wall = (*CRATER_AHEAD, *(Hit(a, 1.4, "rover") for a in range(-100, 101, 4)))
+    b = _behaviour(goal)
+    b.decide(_crater_view(pitch=9.0))  # the rim: crater terrain ahead, climbing
+    b.moved(2.0)
+    held = [b.decide(_view(goal, hits=wall, pitch=9.0, time=t)) for t in (0.0, 5.0, 10.0)]
+    assert Finish("reached") not in held  # a moment's jam is waited out, not taken for the crest
+    assert _on_crest(b, b.decide(_view(goal, hits=wall, pitch=9.0, time=CROWD_SQUEEZE_S + 1)))
 
 
 def test_a_rover_never_steps_back_out_of_the_bowl_more_than_a_few_times():
