@@ -13,7 +13,7 @@ from collections import defaultdict
 from collections.abc import Callable
 
 from lander_agent.daisy_chain import Chain, plan_chain
-from lander_agent.stations import pick_station, station_offsets
+from lander_agent.stations import fitted_offsets, pick_station
 from schemas import messages as m
 from schemas.frames import bearing_deg
 from schemas.mission import RoverMissions, calibration
@@ -22,6 +22,9 @@ from schemas.scenario import Goal, Scenario
 
 OBSTACLE_GAP_M = 1.0
 """Metres kept between a station and the lander's body."""
+STATION_GAP_M = 1.0
+"""The least gap between the bodies of rovers at neighbouring stations, where a formation is drawn closer to fit
+(``stations.fitted_offsets``): room to walk in between to a station inside."""
 
 
 class MissionPlan:
@@ -76,12 +79,14 @@ class MissionPlan:
         goal = self.missions.goal(rover_id, index)
         taken = self.stations.setdefault((index, goal), {})
         if rover_id not in taken:
-            formation = self.scenario.formation
-            offsets = station_offsets(len(team), formation.spacing_m, self._travel_bearing(rover_id, index),
-                                      formation.shape, self._clear_of_lander(goal))
+            formation, params = self.scenario.formation, self.scenario.rover_params
+            offsets, spacing = fitted_offsets(len(team), formation.spacing_m, self._travel_bearing(rover_id, index),
+                                              formation.shape, params.perception.perception_radius,
+                                              2 * params.behaviour.rover_radius + STATION_GAP_M,
+                                              self._clear_of_lander(goal))
             lx, lz = self.scenario.lander.x, self.scenario.lander.z
             near = (request.x - (goal.x - lx), request.z - (goal.z - lz))
-            taken[rover_id] = pick_station(offsets, taken.values(), near, formation.spacing_m)
+            taken[rover_id] = pick_station(offsets, taken.values(), near, spacing)
         return True
 
     def _clear_of_lander(self, goal: Goal) -> Callable[[tuple[float, float]], bool]:

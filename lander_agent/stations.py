@@ -23,6 +23,11 @@ Offset = tuple[float, float]
 
 SAME_RING = 0.05
 """Stations whose distances from the waypoint differ by less than this share of the spacing are equally near."""
+WITHIN = 0.6
+"""Every station lies within this share of the perception radius of the waypoint where the spacing allows: a
+rover is at a waypoint within the perception radius, and stops within ``STATION_CLOSE_M`` of its station, so
+this leaves some metres for the drift of its pose estimate. The scenario's spacing would put the outer stations
+of a 20-rover disc 8.5 m out (3.2 m apart), at the edge of a 10 m radius."""
 
 
 def station_offsets(count: int, spacing: float, travel_bearing_deg: float, shape: Shape = "disc",
@@ -43,6 +48,18 @@ def station_offsets(count: int, spacing: float, travel_bearing_deg: float, shape
 
     lattice = _line(count) if shape == "line" else _hex_disc(count + 16)
     return [o for o in map(world, lattice) if allowed is None or allowed(o)][:count]
+
+
+def fitted_offsets(count: int, spacing: float, travel_bearing_deg: float, shape: Shape, radius: float,
+                   least_spacing: float, allowed: Callable[[Offset], bool] | None = None) -> tuple[list[Offset], float]:
+    """``station_offsets`` drawn closer together, down to ``least_spacing``, where the scenario's ``spacing``
+    would put a station farther than ``WITHIN`` x ``radius`` from the waypoint; and the spacing used."""
+    offsets = station_offsets(count, spacing, travel_bearing_deg, shape, allowed)
+    outer = max((math.hypot(*o) for o in offsets), default=0.0)
+    if outer <= WITHIN * radius or spacing <= least_spacing:
+        return offsets, spacing
+    tighter = max(least_spacing, spacing * WITHIN * radius / outer)
+    return station_offsets(count, tighter, travel_bearing_deg, shape, allowed), tighter
 
 
 def pick_station(offsets: list[Offset], taken: Collection[Offset], near: Offset, spacing: float) -> Offset:

@@ -146,7 +146,9 @@ class Formation(Spec):
     """
 
     shape: Literal["disc", "line", "none"] = "disc"
-    spacing_m: float = Field(3.2, gt=0, description="between neighbouring stations")
+    spacing_m: float = Field(3.2, gt=0, description="between neighbouring stations; drawn closer, to no less than "
+                             "a 1 m gap between bodies, where a large team would otherwise stand farther than 60% "
+                             "of the perception radius from the waypoint")
 
 
 class SunSpec(Spec):

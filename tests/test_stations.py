@@ -10,7 +10,7 @@ import pytest
 
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import Lander
-from lander_agent.stations import pick_station, station_offsets
+from lander_agent.stations import WITHIN, fitted_offsets, pick_station, station_offsets
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -124,3 +124,20 @@ def test_no_station_is_placed_on_the_lander_when_every_rover_returns():
         gap = math.hypot(*direction.station) - lander.radius_m - scenario.rover_params.behaviour.rover_radius
         assert gap > 0.9
     assert len({plan.direction_for(r).station for r in plan.rover_ids}) == 20
+
+
+def test_a_large_team_is_drawn_closer_to_stand_well_within_the_waypoints_radius():
+    """At 3.2 m apart the outer stations of 20 rovers stand 8.5 m out, at the edge of a 10 m radius: a metre of
+    drift off the station leaves the rover short of the goal."""
+    wide = station_offsets(20, 3.2, 0.0)
+    assert max(math.hypot(*o) for o in wide) > 8.0
+    offsets, spacing = fitted_offsets(20, 3.2, 0.0, "disc", 10.0, 2.0)
+    assert max(math.hypot(*o) for o in offsets) <= WITHIN * 10.0 + 1e-3  # offsets are rounded to the mm
+    assert len(offsets) == 20 and 2.0 <= spacing < 3.2
+    assert min(math.dist(a, b) for a, b in itertools.combinations(offsets, 2)) >= spacing - 1e-3
+
+
+def test_a_small_team_keeps_its_formation_and_the_least_spacing_holds():
+    assert fitted_offsets(5, 3.2, 30.0, "disc", 10.0, 2.0) == (station_offsets(5, 3.2, 30.0), 3.2)
+    offsets, spacing = fitted_offsets(60, 3.2, 0.0, "disc", 10.0, 2.0)  # too many to fit: no closer than 2 m
+    assert spacing == 2.0 and min(math.dist(a, b) for a, b in itertools.combinations(offsets, 2)) >= 2.0 - 1e-3
