@@ -7,6 +7,7 @@ import pytest
 from schemas import messages as m
 from schemas.mission import RoverMissions
 from schemas.scenario import parse_scenario
+from world_service.sim import all_finished
 from world_service.statistics import MissionStats
 
 SCENARIO = parse_scenario({
@@ -60,3 +61,13 @@ def test_a_rover_that_relayed_is_left_out_of_the_reached_efficiency():
     report = stats.report()
     assert report.rovers_reached_final_goal == 2
     assert report.reached_path_efficiency == pytest.approx((10.0**2 + 100.0**2) ** 0.5 / 125.0)
+
+
+def test_a_stalled_rover_still_moving_does_not_keep_the_mission_from_ending():
+    """A rover walking to and fro for ever (across a crater's bowl, say) is counted stalled: the mission ends
+    without it, moving or not. Any other rover still moving holds the end."""
+    status = {1: m.RoverStatus(stamp=9.0, state="done"), 2: m.RoverStatus(stamp=9.0, state="climbing")}
+    no_route = dict  # no photo pending: the radio is never asked
+    assert not all_finished(status, {1: False, 2: True}, no_route)
+    assert all_finished(status, {1: False, 2: True}, no_route, stalled=frozenset({2}))
+    assert not all_finished(status, {1: True, 2: True}, no_route, stalled=frozenset({2}))

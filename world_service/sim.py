@@ -9,7 +9,7 @@ from __future__ import annotations
 import logging
 import uuid
 from collections import Counter
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from typing import ClassVar
 
 import numpy as np
@@ -58,14 +58,16 @@ def ticks_per_period(rate_hz: float, dt: float) -> int:
     return max(1, round(1.0 / (rate_hz * dt)))
 
 
-def all_finished(status: dict[int, m.RoverStatus], moving: Iterable[bool],
+def all_finished(status: dict[int, m.RoverStatus], moving: dict[int, bool],
                  reaches_lander: Callable[[], dict[int, bool]], stalled: frozenset[int] = frozenset()) -> bool:
-    """Every rover finished (or stalled: counted stuck by the world), none moving, and no photo still on its way
-    to a lander it can reach.
+    """Every rover finished (or stalled: counted stuck by the world), none but a stalled one moving, and no photo
+    still on its way to a lander it can reach. A stalled rover may go on moving (walking to and fro across a
+    crater's bowl, say): that must not keep the mission from ending.
 
     ``reaches_lander`` (rover id -> has a radio route to the lander) is asked only when a photo is pending.
     """
-    if not all(s.state in FINISHED_STATES or rid in stalled for rid, s in status.items()) or any(moving):
+    if (not all(s.state in FINISHED_STATES or rid in stalled for rid, s in status.items())
+            or any(busy for rid, busy in moving.items() if rid not in stalled)):
         return False
     pending = [rid for rid, s in status.items() if s.photos_pending]
     if not pending:
@@ -376,7 +378,7 @@ class World(ActionInputs, RadioLink):
         return "rotate" if isinstance(body.action, nav.Rotate) else "idle"
 
     def _check_complete(self) -> None:
-        if self.completed_at is None and all_finished(self.status, (b.busy for b in self.bodies.values()),
+        if self.completed_at is None and all_finished(self.status, {b.id: b.busy for b in self.bodies.values()},
                                                       self._reaches_lander, self.stalled):
             self.completed_at = self.sim_time
 

@@ -205,7 +205,7 @@ class TwinWorld:
             out.append((self.keys.state, self.observed_state()))
         if self.tick % self.stats_period == 0:
             out.append((self.keys.stats, m.WorldStats(stamp=self.sim_time, report=self.report())))
-        if self.completed_at is None and all_finished(self.status, (r.in_motion for r in self.bodies.values()),
+        if self.completed_at is None and all_finished(self.status, {rid: r.in_motion for rid, r in self.bodies.items()},
                                                       self._reaches_lander):
             self.completed_at = self.sim_time
         out.append((self.keys.clock, self.clock()))
