@@ -47,8 +47,7 @@ class CrossingWatch:
 
     @classmethod
     def of(cls, params: RoverParams) -> CrossingWatch:
-        p = params.perception
-        return cls(params.behaviour.rover_radius, p.field_of_view_degrees / max(1, p.perception_granularity - 1))
+        return cls(params.behaviour.rover_radius, params.perception.ray_step_deg)
 
     def reset(self) -> None:
         """A new move: the frame of the scans before it is not this one's."""

@@ -1,4 +1,4 @@
-"""Localisation without ground truth (issue 25; report 7.2.1-7.2.2): an extended Kalman filter over the rover's
+"""Localisation without ground truth (report 7.2.1-7.2.2): an extended Kalman filter over the rover's
 pose (x, z, heading) in the lander frame.
 
 Dead reckoning alone (``dead_reckoning``) drifts: the ground slips every move by a share of its length and every

@@ -93,8 +93,7 @@ class Localising:
         if not self.teammates or self.state in NOT_FROM_TEAMMATES:
             return
         p = self.params
-        step = p.perception.field_of_view_degrees / max(1, p.perception.perception_granularity - 1)
-        centres = rover_centres(hits, p.behaviour.rover_radius, step)
+        centres = rover_centres(hits, p.behaviour.rover_radius, p.perception.ray_step_deg)
         top_speed = max(p.navigation.speed(level) for level in (1, 2, 3))
         mates = list(self.teammates.values())
 

@@ -34,7 +34,7 @@ class MapRecorder:
         self.cell = params.mapping.cell_m
         self.radius = p.perception_radius
         self.fov = p.field_of_view_degrees
-        self.step_deg = self.fov / (p.perception_granularity - 1)
+        self.step_deg = p.ray_step_deg
         self.rays = [-self.fov / 2 + i * self.step_deg for i in range(p.perception_granularity)]
         self.known: set[Cell] = set()
         self.pending: list[Cell] = []

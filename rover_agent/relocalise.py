@@ -1,4 +1,4 @@
-"""Going by the lander to fix the pose estimate before a waypoint that drift would otherwise miss (issue 25).
+"""Going by the lander to fix the pose estimate before a waypoint that drift would otherwise miss.
 
 The lander is the one landmark whose place every rover knows exactly: it is the origin of the frame the rover
 navigates in. Seen in perception from a few places, it brings the estimate's uncertainty down to about the

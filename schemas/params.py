@@ -82,6 +82,11 @@ class PerceptionParams(Params):
     gyroscope_frequency: Rate = Field(20.0, description="gyroscope rate, Hz")
     gyroscope_noise_std_deg: float = Field(0.0, ge=0, le=10, description="1-sigma pitch noise")
 
+    @property
+    def ray_step_deg(self) -> float:
+        """Degrees between neighbouring rays: the rays span the field of view, ends included."""
+        return self.field_of_view_degrees / (self.perception_granularity - 1)
+
 
 class CommunicationParams(Params):
     """Table 5, communication part, plus the lander's radio (the report's environment reached every rover)."""
