@@ -12,6 +12,8 @@ return) and for each rover's role (formation, in_crater, out_of_range):
   skipped a leg: a daisy chain's relay is not sent on to the goal it relays for;
 - end-of-mission pose error: from each rover's final true position to its final goal where it is reached (the
   crest for a crater goal, the waypoint otherwise: ``world_service.statistics.distance_to_goal``), median and p90;
+- localisation error: from each rover's own estimate of where it stands (``RoverAgent.pose``) to where it truly
+  stands at the end, median and p90 over the rovers that walked at least ``LOCALISED_AFTER_M``;
 - a failure taxonomy: for each rover that did not reach, its classes, role, final state, distance to its final
   goal and whether it ever heard the lander (it holds a goal index only once a mission direction reached it).
 ``MissionReport`` carries no per-rover figures, so they come from the world's last published state.
@@ -36,6 +38,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import statistics
 import sys
 import time
@@ -46,7 +49,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
 
-from harness.loopback import run_mission
+from harness.loopback import run_mission_agents
+from rover_agent.agent import RoverAgent
 from scenarios.generator import CLASS_VALUES, GeneratedScenario, generate
 from schemas.scenario import Scenario
 from world_service import statistics as stats
@@ -58,6 +62,9 @@ SETS = {"dev": DEVELOPMENT, "held-out": HELD_OUT}
 BASE_CAP_S, CAP_S_PER_M, MAX_CAP_S = 600.0, 3.0, 1800.0
 """Simulated-time cap: 600 s (twice the watchdog's stall time) plus 3 s a metre of the longest ideal path."""
 SHOWN_FAILURES = 25
+LOCALISED_AFTER_M = 400.0
+"""The localisation figure counts rovers that walked at least this far: dead reckoning's error grows with the
+distance walked, so short walks would flatter it."""
 
 
 def sim_cap(scenario: Scenario) -> float:
@@ -72,15 +79,22 @@ def run_one(seed: int, kind: str | None) -> dict:
     result = {"seed": seed, "name": made.scenario.name, "classes": made.classes, "cap_s": sim_cap(made.scenario)}
     started = time.perf_counter()
     try:
-        world = run_mission(made.scenario, result["cap_s"])
+        world, agents = run_mission_agents(made.scenario, result["cap_s"])
         report = world.report()
     except Exception as exc:  # a bug in the behaviour or the wiring: record it, go on with the suite
         return {**result, "error": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - started}
     return {**result, "wall_s": round(time.perf_counter() - started, 3), "report": report.model_dump(mode="json"),
-            "rovers": _rovers(world, made)}
+            "rovers": _rovers(world, made, agents)}
 
 
-def _rovers(world: World, made: GeneratedScenario) -> list[dict]:
+def _estimate_error(agent: RoverAgent, scenario: Scenario, x: float, z: float) -> float | None:
+    """Metres between the rover's estimate (lander frame) and its true position (map frame)."""
+    if agent.pose is None:
+        return None
+    return round(math.hypot(agent.pose.x - (x - scenario.lander.x), agent.pose.z - (z - scenario.lander.z)), 3)
+
+
+def _rovers(world: World, made: GeneratedScenario, agents: dict[int, RoverAgent]) -> list[dict]:
     """Per-rover figures from the world's last published state (the one its report was computed from)."""
     scenario, state, missions = made.scenario, world.mission_stats.last, world.missions
     links = world.mission_stats.links
@@ -98,6 +112,7 @@ def _rovers(world: World, made: GeneratedScenario) -> list[dict]:
                     "goal_index": r.goal_index, "final_goal_index": final, "heard_lander": r.goal_index >= 0,
                     "connected_fraction": round(1 - disconnected / links.elapsed_s, 4) if links.elapsed_s else 1.0,
                     "goal_error_m": round(stats.distance_to_goal(scenario, goal, r.x, r.z), 3),
+                    "estimate_error_m": _estimate_error(agents[r.id], scenario, r.x, r.z),
                     "distance_covered_m": r.distance_covered_m, "ideal_path_m": round(ideal, 3),
                     "efficiency": round(ideal / r.distance_covered_m, 4) if r.distance_covered_m > 0 else None,
                     "detail": world.status[r.id].detail})
@@ -129,6 +144,8 @@ def summarise(rows: list[dict]) -> dict:
     rovers = [r for row in rows for r in row["rovers"]]
     reached = [r for r in rovers if r["reached"]]
     errors = sorted(r["goal_error_m"] for r in rovers)
+    walked = sorted(r["estimate_error_m"] for r in rovers  # runs saved before the figure have none
+                    if r.get("estimate_error_m") is not None and r["distance_covered_m"] >= LOCALISED_AFTER_M)
     efficiencies = [r["efficiency"] for r in reached if r["efficiency"] is not None]
     collisions = sum(row["report"]["rover_collisions"] + row["report"]["obstacle_collisions"] for row in rows)
     sent = [r for r in rovers if r["state"] != "relay"]  # a relay holds its spot for the others: its job
@@ -140,10 +157,17 @@ def summarise(rows: list[dict]) -> dict:
             "stuck": sum(r["state"] == "stuck" or r["stalled"] for r in rovers),
             "efficiency_reached": round(statistics.fmean(efficiencies), 4) if efficiencies else None,
             "pose_error_median_m": round(statistics.median(errors), 3) if errors else None,
-            "pose_error_p90_m": round(errors[min(len(errors) - 1, int(0.9 * len(errors)))], 3) if errors else None,
+            "pose_error_p90_m": _p90(errors),
+            "walked_400m": len(walked),
+            "estimate_error_median_m": round(statistics.median(walked), 3) if walked else None,
+            "estimate_error_p90_m": _p90(walked),
             "complete": sum(row["report"]["complete"] for row in rows),
             "sim_s_mean": round(statistics.fmean(row["report"]["mission_duration_s"] for row in rows), 1)
             if rows else None}
+
+
+def _p90(ordered: list[float]) -> float | None:
+    return round(ordered[min(len(ordered) - 1, int(0.9 * len(ordered)))], 3) if ordered else None
 
 
 def aggregate(results: list[dict]) -> dict:
@@ -169,7 +193,7 @@ def _fmt(value, spec: str = "") -> str:
 
 def print_table(agg: dict) -> None:
     head = (f"{'class':<24}{'missions':>9}{'rovers':>8}{'reach':>8}{'sent':>8}{'coll/m':>8}{'stuck':>7}{'eff':>7}"
-            f"{'err p50':>9}{'err p90':>9}{'complete':>10}")
+            f"{'err p50':>9}{'err p90':>9}{'est p50':>9}{'est p90':>9}{'complete':>10}")
     print(head)
     print("-" * len(head))
     rows = {"all": agg["overall"], **agg["by_class"], **{f"role={k}": v for k, v in agg["by_role"].items()}}
@@ -181,7 +205,10 @@ def print_table(agg: dict) -> None:
               f"{_fmt(s['reach_sent'], '.1%'):>8}"
               f"{_fmt(s['collisions_per_mission'], '.2f'):>8}{s['stuck']:>7}{_fmt(s['efficiency_reached'], '.2f'):>7}"
               f"{_fmt(s['pose_error_median_m'], '.1f'):>9}{_fmt(s['pose_error_p90_m'], '.1f'):>9}"
+              f"{_fmt(s['estimate_error_median_m'], '.1f'):>9}{_fmt(s['estimate_error_p90_m'], '.1f'):>9}"
               f"{s['complete']:>6}/{s['missions']:<3}")
+    print(f"err: distance from the final goal at the end; est: distance of each rover's own estimate from the truth "
+          f"at the end, over the {agg['overall']['walked_400m']} rovers that walked {LOCALISED_AFTER_M:.0f} m or more")
 
 
 def print_failures(agg: dict, shown: int) -> None:

@@ -22,19 +22,26 @@ from schemas.mission import calibration
 from schemas.scenario import Scenario
 from world_service.sim import World
 
-__all__ = ["Drop", "answer", "rover_agents", "run_mission"]
+__all__ = ["Drop", "answer", "rover_agents", "run_mission", "run_mission_agents"]
 
 
 def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None,
                 behaviour: type[BaseBehaviour] | None = None, map_folder: Path | None = None,
                 drop: Drop | None = None) -> World:
     """The world at the end; with ``map_folder``, the lander's traverse map is written there as it ends."""
+    return run_mission_agents(scenario, max_sim_time, archive, behaviour, map_folder, drop)[0]
+
+
+def run_mission_agents(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None,
+                       behaviour: type[BaseBehaviour] | None = None, map_folder: Path | None = None,
+                       drop: Drop | None = None) -> tuple[World, dict[int, RoverAgent]]:
+    """The world and the rover agents at the end: what each rover believed (its pose estimate) beside the truth."""
     rounds = Rounds(scenario, max_sim_time, archive, map_folder, drop, strict=True)
     agents = rover_agents(scenario, rounds.keys, rounds.rover_ids, behaviour)
     heard = rounds.advance({})
     while heard:
         heard = rounds.advance({rid: answer(agents[rid], samples) for rid, samples in heard.items()})
-    return rounds.finish()
+    return rounds.finish(), agents
 
 
 def rover_agents(scenario: Scenario, keys: ks.Keyspace, rover_ids: list[int],

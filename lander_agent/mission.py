@@ -13,7 +13,7 @@ from collections import defaultdict
 from collections.abc import Callable
 
 from lander_agent.daisy_chain import Chain, plan_chain
-from lander_agent.stations import fitted_offsets, pick_station
+from lander_agent.stations import fitted_offsets, pick_rim_station, pick_station, rim_offsets
 from schemas import messages as m
 from schemas.frames import bearing_deg
 from schemas.mission import RoverMissions, calibration
@@ -51,7 +51,7 @@ class MissionPlan:
         chain = self.chains.get(index)
         if chain and rover_id in chain.spots:
             (x, z), kind = chain.spots[rover_id], "relay"
-        shared = kind == "waypoint" and len(self._team(rover_id, index)) > 1
+        shared = kind in ("waypoint", "crater") and len(self._team(rover_id, index)) > 1
         relayed = chain is not None and kind != "relay"
         station = self.stations.get((index, goal), {}).get(rover_id) if shared else None
         return m.MissionDirection(goal_index=index, goals_total=self.missions.final_index(rover_id) + 1,
@@ -60,16 +60,18 @@ class MissionPlan:
                                   relayed=relayed)
 
     def _team(self, rover_id: int, index: int) -> list[int]:
-        """The rovers that share this rover's waypoint ``index`` and stand in formation there (none: the
-        report's rule, every rover stops once the waypoint is in view)."""
+        """The rovers that share this rover's goal ``index`` and stand at stations there, in formation at a
+        waypoint, round the crest at a crater (none: the report's rule, every rover stops once the waypoint is in
+        view, or on the crest wherever it meets it)."""
         goal = self.missions.goal(rover_id, index)
-        if goal.kind != "waypoint" or self.scenario.formation.shape == "none":
+        if goal.kind not in ("waypoint", "crater") or self.scenario.formation.shape == "none":
             return []
         return [rid for rid, goals in self.missions.goals.items() if len(goals) > index and goals[index] == goal]
 
     def request_station(self, rover_id: int, request: StationRequest) -> bool:
-        """A rover near a shared waypoint asks for its station, so stations go out in the order rovers arrive
-        (``stations.pick_station``). False: nothing to send (a stale request, or no formation here)."""
+        """A rover near a shared goal asks for its station, so stations go out in the order rovers arrive
+        (``stations.pick_station``, ``stations.pick_rim_station``). False: nothing to send (a stale request, or no
+        formation here)."""
         index = request.goal_index
         if self.goal_of.get(rover_id) != index or rover_id in self.outcome:
             return False
@@ -78,14 +80,25 @@ class MissionPlan:
             return False
         goal = self.missions.goal(rover_id, index)
         taken = self.stations.setdefault((index, goal), {})
-        if rover_id not in taken:
-            formation, params = self.scenario.formation, self.scenario.rover_params
+        lx, lz = self.scenario.lander.x, self.scenario.lander.z
+        near = (request.x - (goal.x - lx), request.z - (goal.z - lz))
+        crater = self.scenario.crater_of(goal) if goal.kind == "crater" else None
+        if goal.kind == "crater" and crater is None:
+            return False
+        if rover_id in taken:
+            return True
+        params = self.scenario.rover_params
+        least = 2 * params.behaviour.rover_radius + STATION_GAP_M
+        if crater is not None:  # offsets from the goal, which need not be the crater's centre
+            cx, cz = crater.x - goal.x, crater.z - goal.z
+            crest, _ = rim_offsets(len(team), crater.radius_m, self.scenario.formation.spacing_m, least)
+            crest = [(round(cx + x, 3), round(cz + z, 3)) for x, z in crest]
+            taken[rover_id] = pick_rim_station(crest, taken.values(), near)
+        else:
+            formation = self.scenario.formation
             offsets, spacing = fitted_offsets(len(team), formation.spacing_m, self._travel_bearing(rover_id, index),
-                                              formation.shape, params.perception.perception_radius,
-                                              2 * params.behaviour.rover_radius + STATION_GAP_M,
+                                              formation.shape, params.perception.perception_radius, least,
                                               self._clear_of_lander(goal))
-            lx, lz = self.scenario.lander.x, self.scenario.lander.z
-            near = (request.x - (goal.x - lx), request.z - (goal.z - lz))
             taken[rover_id] = pick_station(offsets, taken.values(), near, spacing)
         return True
 

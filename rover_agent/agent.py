@@ -285,7 +285,7 @@ class RoverAgent(NavigationFeedback, Localising):
             self._localise(msg.stamp, hits)
             self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
         # answered with perception, which the lockstep world always waits for
-        ask = self._ask_station() + self._share_estimate()
+        ask = self._ask_station(hits) + self._share_estimate()
         if self.in_flight is not None:
             return ask + self._watch(hits)
         heading_out = (self.goal is not None and self.finished_goal is None) or self._seek_contact()
@@ -313,13 +313,18 @@ class RoverAgent(NavigationFeedback, Localising):
             self.behaviour.start_goal(goal)
         return goal is not None
 
-    def _ask_station(self) -> list[Out]:
-        """Near a waypoint the team shares and with no station yet: ask the lander for one, again every
-        ``STATION_ASK_RETRY_S`` until it comes (a lost request, or a lander out of reach for now)."""
+    def _ask_station(self, hits: tuple[Hit, ...]) -> list[Out]:
+        """Near a goal the team shares and with no station yet: ask the lander for one, again every
+        ``STATION_ASK_RETRY_S`` until it comes (a lost request, or a lander out of reach for now). Near is
+        ``STATION_ASK_M`` from a waypoint; for a crater, whose size the rover does not know, once its terrain is
+        in view, some metres before the rim."""
         goal, pose = self.goal, self.pose
         if (goal is None or pose is None or not goal.shared or goal.station is not None or self.finished_goal
-                or self.fix.active or self.now - self._last_station_ask < STATION_ASK_RETRY_S
-                or math.hypot(goal.x - pose.x, goal.z - pose.z) > STATION_ASK_M):
+                or self.fix.active or self.now - self._last_station_ask < STATION_ASK_RETRY_S):
+            return []
+        near = (any(h.kind == "crater_terrain" for h in hits) if goal.kind == "crater"
+                else math.hypot(goal.x - pose.x, goal.z - pose.z) <= STATION_ASK_M)
+        if not near:
             return []
         self._last_station_ask = self.now
         return [self._radio([ks.LANDER_ID], radio.StationRequest(goal_index=goal.index, x=round(pose.x, 3),

@@ -1,16 +1,15 @@
 """Rover behaviour: a pure state machine from what the rover senses to the next action.
 
-It follows report section 6: head for the goal, scan the perception hits for a free direction
-(trying directions nearest the goal first, right before left as the report turns right), walk to the
-edge of what is known to be free, and rotate 60 degrees when everything in view is blocked. From the
-first such block on, it aims along a route planned on its own map of the obstacles it has seen
-(``planner``), which leads out of dead ends. For a crater goal it climbs the rim with the gyroscope and
-stops on the crest only after having climbed and walked at least the perception radius since first
-seeing crater terrain (the report's 7.2.2 fix for stopping on a local optimum; a step over the crest is
-taken back off the bowl's wall), then photographs the crater once round, or from where rovers on the crest
-long hold it up. A waypoint is reached once close, or in view with rovers crowding it (6.6); a relay
-spot of the daisy chain once the rover stands on it; a station (the rover's own spot at a waypoint the
-team shares, from the lander) once on it, in short steps with close-quarters gaps.
+It follows report section 6: head for the goal, scan the perception hits for a free direction (nearest
+the goal first, right before left as the report turns right), walk to the edge of what is known to be
+free, and rotate 60 degrees when everything in view is blocked; from the first such block on, aim along a
+route planned on its own map of the obstacles seen (``planner``), which leads out of dead ends. For a
+crater goal it climbs the rim with the gyroscope and stops on the crest only after having climbed and
+walked at least the perception radius since first seeing crater terrain (the report's 7.2.2 fix for a
+local optimum; a step over the crest is taken back off the bowl's wall), or along the spoke of its station
+on the crest (``rim``), then photographs the crater once round. A waypoint is reached once close, or in
+view with rovers crowding it (6.6); a relay spot once stood on; a station (the rover's own spot at a goal
+the team shares, from the lander) once on it, in short steps with close-quarters gaps.
 
 Among rovers it follows the report's traffic rule (7.2.1: traffic to the right has right of way), waits
 when only rovers block the way (they move on; rocks do not), stops for rovers on a collision course,
@@ -28,7 +27,7 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
-from rover_agent import free_space
+from rover_agent import free_space, rim
 from rover_agent.crossing import CrossingWatch
 from rover_agent.decisions import (
     BaseBehaviour,
@@ -42,7 +41,7 @@ from rover_agent.decisions import (
     TakePhoto,
     View,
 )
-from rover_agent.free_space import OBSTACLE_MARGIN, ROVER_GAP_CLOSE, ray_angles
+from rover_agent.free_space import OBSTACLE_MARGIN, ROVER_GAP_CLOSE
 from rover_agent.planner import OccupancyGrid, next_waypoint
 from rover_agent.sunlight import CHARGE, SunSeeker
 from rover_agent.tuning import (
@@ -88,6 +87,7 @@ class DefaultBehaviour(BaseBehaviour):
     _closest: tuple[float, float] = (math.inf, 0.0)  # (nearest the goal has been, odometer then)
     _crest_looks: int = 0
     _backs: int = 0  # steps back out of the crater's bowl onto the crest
+    _on_spoke: bool = False  # at the foot of its crest station's spoke, or past it (``rim``)
     _backing: bool = False  # turned away from the bowl, to step out of it next
     _rejected: list[float] = field(default_factory=list)
     _hold_until: float = 0.0
@@ -115,6 +115,7 @@ class DefaultBehaviour(BaseBehaviour):
         self._parking = False
         self._closest = (math.inf, self._odometer)
         self._crest_looks, self._backs, self._backing = 0, 0, False
+        self._on_spoke = False
         self._rejected.clear()
 
     def moved(self, distance: float) -> None:
@@ -181,7 +182,7 @@ class DefaultBehaviour(BaseBehaviour):
         if goal.kind == "relay" and distance <= RELAY_CLOSE_M:
             return Finish("relay")
         if goal.kind == "crater":
-            decision = self._climb(view)
+            decision = self._to_spoke(view) or self._climb(view)
             if decision == Finish("reached"):
                 self.state = "observing"
                 return self._observe(goal)
@@ -270,6 +271,20 @@ class DefaultBehaviour(BaseBehaviour):
         self._photo_due = True
         return Rotate(step)
 
+    def _to_spoke(self, view: View) -> Decision | None:
+        """With a station on the crest: walk to the foot of its spoke first (``rim``); None from there on, or
+        where the way to the foot stops getting shorter (the climb then starts where the rover stands)."""
+        goal, pose = view.goal, view.pose
+        if goal.station is None or self._on_spoke:
+            return None
+        fx, fz = rim.foot(goal)
+        gap = math.hypot(fx - pose.x, fz - pose.z)
+        if gap > STATION_CLOSE_M and not self._pacing(gap, NO_PROGRESS_ROUTE_M):
+            return self._head_for(replace(view, goal=Goal(goal.index, goal.total, "waypoint", fx, fz)), gap, None)
+        self._on_spoke, self._routing, self._closest = True, False, (math.inf, self._odometer)
+        self._crater_seen_at, self.state = self._odometer, "climbing"
+        return None
+
     def _climb(self, view: View) -> Finish | Rotate | MoveTo | None:
         if self._crater_seen_at is None and any(h.kind == "crater_terrain" for h in view.hits):
             self._crater_seen_at = self._odometer
@@ -279,10 +294,12 @@ class DefaultBehaviour(BaseBehaviour):
         pose, goal = view.pose, view.goal
         to_crater = wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading)
         facing = abs(to_crater) <= CREST_FACING
-        if facing:
+        if facing or (self._on_spoke and rim.facing_station(goal, pose)):
             self._max_pitch = max(self._max_pitch, view.pitch_deg)
         walked = self._odometer - self._crater_seen_at
-        climbed = self._max_pitch >= CLIMB_PITCH
+        # At its crest station by its own estimate the rover has climbed, whichever way it came up the rim.
+        at_station = self._on_spoke and math.dist(goal.target, (pose.x, pose.z)) <= STATION_CLOSE_M
+        climbed = self._max_pitch >= CLIMB_PITCH or at_station
         if self._backing:
             self._backing = False
             step = self.params.behaviour.min_move_size / 2
@@ -298,7 +315,8 @@ class DefaultBehaviour(BaseBehaviour):
             # Up the rim, facing the crater, long held up by rovers ahead that leave no step towards it: they
             # stand on the crest a body or two ahead (the crater's counterpart of a waypoint crowded in view).
             return Finish("reached")
-        if not (climbed and (self._backs or walked >= self.params.perception.perception_radius)):
+        after = rim.crest_after_m(goal) if self._on_spoke else self.params.perception.perception_radius
+        if not (climbed and (self._backs or walked >= after or at_station)):
             return None
         if view.pitch_deg > CREST_PITCH and not self._backs:
             return None
@@ -309,21 +327,10 @@ class DefaultBehaviour(BaseBehaviour):
         self._crest_looks += 1
         return Rotate(round(to_crater, 3))
 
-    def _remember(self, view: View) -> None:
-        """Add what is in view to the rover's map: static obstacles where rays hit, free ground where not."""
-        p = self.params
-        rays = ray_angles(p.perception.field_of_view_degrees, p.perception.perception_granularity)
-        seen = {round(h.angle_deg, 3) for h in view.hits}
-        free = [a for a in rays if round(a, 3) not in seen]
-        self._map.observe(view.pose, view.hits, p.perception.perception_radius, free)
-
     def _route_point(self, view: View) -> tuple[float, float] | None:
-        """Once routing: the next corner of the shortest route to the goal around every obstacle seen so far.
-
-        The report's rules (6.1.2) steer until the rover is first blocked everywhere in view; from then on,
-        for this goal, the scan aims along a route planned on the rover's own map, so dead ends it has seen
-        (a maze's) are left behind rather than walked into again.
-        """
+        """Once routing: the next corner of the shortest route to the goal round every obstacle seen so far, so
+        dead ends it has seen (a maze's) are left behind rather than walked into again (report 6.1.2 steers
+        only until the rover is first blocked everywhere in view)."""
         if not self._routing:
             return None
         p = self.params
@@ -334,7 +341,8 @@ class DefaultBehaviour(BaseBehaviour):
     def _head_for(self, view: View, distance: float, step: float | None) -> Decision:
         p = self.params
         pose, goal = view.pose, view.goal
-        self._remember(view)
+        free = free_space.free_rays(view.hits, p.perception)  # map what is in view: obstacles hit, ground free
+        self._map.observe(pose, view.hits, p.perception.perception_radius, free)
         tx, tz = self._route_point(view) or goal.target
         to_goal = wrap_deg(bearing_deg(tx - pose.x, tz - pose.z) - pose.heading)
         window = min(p.perception.field_of_view_degrees / 2 - 5, p.behaviour.scanner_field_of_view / 2)
@@ -389,12 +397,3 @@ class DefaultBehaviour(BaseBehaviour):
     def _free_distance(self, angle: float, hits: tuple[Hit, ...]) -> float:
         gap = ROVER_GAP_CLOSE if self._close_quarters else self.params.behaviour.extra_distance_between_rovers
         return free_space.free_distance(angle, hits, self.params, gap)
-
-
-class SunIgnoring(DefaultBehaviour):
-    """The default behaviour blind to its power sensors: it walks into shadow whatever its charge (the
-    comparison of ``scenarios/polar_night_edge.yaml``)."""
-
-    name = "sun_ignoring"
-    uses_sunlight: ClassVar[bool] = False
-

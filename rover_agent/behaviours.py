@@ -14,7 +14,7 @@ from rover_agent.decisions import BaseBehaviour
 BUILT_IN = {
     "default": "rover_agent.behaviour:DefaultBehaviour",
     "straight": "rover_agent.examples:StraightLine",
-    "sun_ignoring": "rover_agent.behaviour:SunIgnoring",
+    "sun_ignoring": "rover_agent.examples:SunIgnoring",
 }
 ENTRY_POINT_GROUP = "lunarsim.behaviours"
 

@@ -26,8 +26,8 @@ class Goal:
     kind: str
     x: float  # lander frame
     z: float
-    station: tuple[float, float] | None = None  # this rover's spot at a shared waypoint, offset from it
-    shared: bool = False  # a waypoint the team shares: the lander gives out stations on request
+    station: tuple[float, float] | None = None  # this rover's spot at a shared goal, offset from it
+    shared: bool = False  # a waypoint or crater the team shares: the lander gives out stations on request
     relayed: bool = False  # a daisy chain stands for this goal: the radio route runs through relays before it
 
     @property

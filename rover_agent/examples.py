@@ -4,12 +4,16 @@
 clear, and when it is not, turns 45 degrees right and walks a few metres before aiming again. It finishes
 when the goal is within half its perception radius, and never observes craters. Select it with
 ``behaviour: straight`` in a scenario, or ``--behaviour straight``.
+
+``SunIgnoring`` shows the other way to write one: a subclass of the default behaviour changing one trait.
 """
 
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
+from rover_agent.behaviour import DefaultBehaviour
 from rover_agent.decisions import BaseBehaviour, Decision, Finish, MoveTo, Rotate, View
 from schemas.frames import bearing_deg, wrap_deg
 
@@ -46,3 +50,11 @@ class StraightLine(BaseBehaviour):
         """Metres straight ahead before something solid (keeping 1.5 m from it)."""
         ahead = [h.distance_m - 1.5 for h in view.hits if abs(h.angle_deg) < 15 and h.kind != "crater_terrain"]
         return min([10.0, *ahead])
+
+
+class SunIgnoring(DefaultBehaviour):
+    """The default behaviour blind to its power sensors: it walks into shadow whatever its charge (the
+    comparison of ``scenarios/polar_night_edge.yaml``)."""
+
+    name = "sun_ignoring"
+    uses_sunlight: ClassVar[bool] = False

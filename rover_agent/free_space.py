@@ -7,7 +7,7 @@ import math
 from collections.abc import Iterable
 
 from rover_agent.decisions import Hit
-from schemas.params import RoverParams
+from schemas.params import PerceptionParams, RoverParams
 
 SOLID_KINDS = frozenset({"rover", "obstacle", "lander", "terrain"})
 OBSTACLE_MARGIN = 0.6
@@ -44,3 +44,10 @@ def free_distance(angle: float, hits: tuple[Hit, ...], params: RoverParams, rove
 def ray_angles(fov_deg: float, count: int) -> list[float]:
     """The perception's ray angles, as the world casts them (evenly over the field of view)."""
     return [-fov_deg / 2 + fov_deg * i / (count - 1) for i in range(count)]
+
+
+def free_rays(hits: Iterable[Hit], perception: PerceptionParams) -> list[float]:
+    """The angles of the rays that hit nothing within the perception radius: free ground for the rover's map."""
+    seen = {round(h.angle_deg, 3) for h in hits}
+    rays = ray_angles(perception.field_of_view_degrees, perception.perception_granularity)
+    return [a for a in rays if round(a, 3) not in seen]

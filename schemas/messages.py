@@ -165,8 +165,9 @@ class MissionDirection(Message):
     """Where the lander sends a rover now: bearing and distance from the lander (report 10.4.3).
 
     Usually the rover's current mission goal; ``kind == "relay"`` sends it to hold a daisy-chain spot. At a
-    waypoint the team shares (``shared``), the rover asks for its own spot there when it comes near
-    (``radio.StationRequest``), and the lander's answer carries it in ``station`` (``lander_agent.stations``).
+    waypoint or crater the team shares (``shared``), the rover asks for its own spot there when it comes near
+    (``radio.StationRequest``), and the lander's answer carries it in ``station`` (``lander_agent.stations``):
+    in formation round a waypoint, on the crest round a crater.
     """
 
     goal_index: int = Field(ge=0)
@@ -175,8 +176,9 @@ class MissionDirection(Message):
     bearing_deg: float
     distance_m: float = Field(ge=0)
     station: tuple[float, float] | None = Field(
-        None, description="offset (x, z) in metres from the waypoint, lander axes, of this rover's spot at it")
-    shared: bool = Field(False, description="a waypoint the team shares: ask the lander for a station near it")
+        None, description="offset (x, z) in metres from the goal, lander axes, of this rover's spot at it")
+    shared: bool = Field(False, description="a waypoint or crater the team shares: ask the lander for a station "
+                         "near it")
     relayed: bool = Field(False, description="a daisy chain stands for this goal: the rover's radio route to the "
                           "lander runs through relays holding on the way to it")
 

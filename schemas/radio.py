@@ -95,10 +95,11 @@ class MapAck(Message):
 
 
 class StationRequest(Message):
-    """A rover near a waypoint its team shares asks the lander for its station there (need N7).
+    """A rover near a waypoint or crater its team shares asks the lander for its station there (need N7).
 
-    Stations go out in the order rovers ask, from the inside of the formation out, each on the asking rover's
-    side, so no rover has to squeeze between others already standing (``lander_agent.stations``). ``x``, ``z``:
+    Stations go out in the order rovers ask, each on the asking rover's side: at a waypoint from the inside of
+    the formation out, on a crater's crest outwards from where the rover comes, so no rover has to squeeze
+    between others already standing (``lander_agent.stations``). ``x``, ``z``:
     the rover's dead-reckoned position in the lander's frame.
     """
 

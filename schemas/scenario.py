@@ -139,16 +139,17 @@ class Goal(Spec):
 
 
 class Formation(Spec):
-    """How a team stands at a waypoint it shares (need N7): each rover gets its own station.
+    """How a team stands at a waypoint or crater it shares (need N7): each rover gets its own station, in
+    ``shape`` round a waypoint, all round the crest of a crater.
 
-    ``none`` is the report's rule (every rover heads for the waypoint and stops once it is in view),
-    which crowds the goal with more than a handful of rovers.
+    ``none`` is the report's rule (every rover heads for the goal and stops once a waypoint is in view, or on
+    the crest wherever it meets it), which crowds the goal with more than a handful of rovers.
     """
 
     shape: Literal["disc", "line", "none"] = "disc"
     spacing_m: float = Field(3.2, gt=0, description="between neighbouring stations; drawn closer, to no less than "
                              "a 1 m gap between bodies, where a large team would otherwise stand farther than 60% "
-                             "of the perception radius from the waypoint")
+                             "of the perception radius from the waypoint, or not fit round the crater's crest")
 
 
 class SunSpec(Spec):

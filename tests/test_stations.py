@@ -10,7 +10,7 @@ import pytest
 
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import Lander
-from lander_agent.stations import WITHIN, fitted_offsets, pick_station, station_offsets
+from lander_agent.stations import WITHIN, fitted_offsets, pick_rim_station, pick_station, rim_offsets, station_offsets
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -67,9 +67,7 @@ def _ask_all(plan: MissionPlan) -> None:
 
 def test_the_lander_gives_each_rover_of_a_team_its_own_station_at_a_shared_waypoint_when_it_asks():
     plan = MissionPlan(_twenty_rover_return())
-    assert not any(plan.direction_for(r).shared for r in plan.rover_ids)  # a crater goal first
-    assert not plan.request_station(1, StationRequest(goal_index=0, x=0.0, z=0.0))
-    for rid in plan.rover_ids:
+    for rid in plan.rover_ids:  # the crater first
         plan.on_report(rid, GoalReport(goal_index=0, outcome="reached"))
     assert all(plan.direction_for(r).shared and plan.direction_for(r).station is None for r in plan.rover_ids)
     assert not plan.request_station(1, StationRequest(goal_index=0, x=0.0, z=0.0))  # a stale request
@@ -141,3 +139,43 @@ def test_a_small_team_keeps_its_formation_and_the_least_spacing_holds():
     assert fitted_offsets(5, 3.2, 30.0, "disc", 10.0, 2.0) == (station_offsets(5, 3.2, 30.0), 3.2)
     offsets, spacing = fitted_offsets(60, 3.2, 0.0, "disc", 10.0, 2.0)  # too many to fit: no closer than 2 m
     assert spacing == 2.0 and min(math.dist(a, b) for a, b in itertools.combinations(offsets, 2)) >= 2.0 - 1e-3
+
+
+def test_crest_stations_stand_all_round_the_crest_spacing_apart():
+    offsets, spacing = rim_offsets(5, 12.0, 3.2, 1.6)
+    assert spacing == 3.2 and len(offsets) == math.floor(2 * math.pi * 12.0 / 3.2)
+    assert all(abs(math.hypot(*o) - 12.0) < 1e-3 for o in offsets)
+    assert min(math.dist(a, b) for a, b in itertools.combinations(offsets, 2)) >= 3.2 - 1e-2
+    crowded, closer = rim_offsets(40, 12.0, 3.2, 1.6)  # 40 do not fit 3.2 m apart round 75 m of crest
+    assert 1.6 <= closer < 3.2 and len(crowded) >= 40
+    assert len(rim_offsets(100, 12.0, 3.2, 1.6)[0]) < 100  # nor at the least spacing: some share
+
+
+def test_rovers_arriving_from_one_side_fill_the_crest_outwards_from_where_they_come():
+    offsets, _ = rim_offsets(8, 10.0, 3.0, 1.6)
+    taken: list[tuple[float, float]] = []
+    for _ in range(5):  # five rovers asking in turn from 20 m south of the crater
+        taken.append(pick_rim_station(offsets, taken, (0.0, -20.0)))
+    assert len(set(taken)) == 5
+    bearings = sorted(abs(math.degrees(math.atan2(x, -z))) for x, z in taken)  # 0: due south
+    assert bearings[0] < 1e-6 and bearings[-1] < 60.0  # the nearest stretch of crest, none across the crater
+
+
+def test_the_lander_gives_each_rover_of_a_team_its_own_station_on_a_shared_craters_crest():
+    scenario = _twenty_rover_return()
+    plan = MissionPlan(scenario)
+    assert all(plan.direction_for(r).shared and plan.direction_for(r).station is None for r in plan.rover_ids)
+    goal = plan.missions.goal(1, 0)
+    crater = scenario.crater_of(goal)
+    lx, lz = scenario.lander.x, scenario.lander.z
+    for rid in plan.rover_ids:  # each asks from where it stands, at its start
+        start = plan.calibration[rid]
+        assert plan.request_station(rid, StationRequest(goal_index=0, x=start.x, z=start.z))
+    stations = [plan.direction_for(r).station for r in plan.rover_ids]
+    assert None not in stations and len(set(stations)) == 20
+    for sx, sz in stations:  # offsets from the goal, each on the crest
+        assert abs(math.hypot(goal.x + sx - crater.x, goal.z + sz - crater.z) - crater.radius_m) < 0.01
+    first = plan.calibration[1]
+    nearest = min(((goal.x - lx + sx, goal.z - lz + sz) for sx, sz in stations),
+                  key=lambda p: math.dist(p, (first.x, first.z)))
+    assert nearest == (goal.x - lx + stations[0][0], goal.z - lz + stations[0][1])  # the first asks, the nearest

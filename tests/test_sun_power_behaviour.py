@@ -9,9 +9,10 @@ from procs import SCENARIOS
 
 from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
-from rover_agent.behaviour import DefaultBehaviour, Goal, Hold, MoveTo, Rotate, SunIgnoring, View
+from rover_agent.behaviour import DefaultBehaviour, Goal, Hold, MoveTo, Rotate, View
 from rover_agent.behaviours import load_behaviour
 from rover_agent.dead_reckoning import Pose
+from rover_agent.examples import SunIgnoring
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m

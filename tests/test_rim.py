@@ -1,0 +1,140 @@
+"""Crest stations at a crater goal the team shares: the rover walks to its spoke's foot, then climbs along it
+(``rover_agent.rim``), and asks the lander for its station once the crater is in view."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from rover_agent import rim
+from rover_agent.agent import RoverAgent
+from rover_agent.behaviour import DefaultBehaviour, Finish, Goal, Hit, MoveTo, Rotate, TakePhoto, View
+from rover_agent.dead_reckoning import Pose
+from schemas import codec, radio
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.params import RoverParams
+
+PARAMS = RoverParams()
+KEYS = ks.Keyspace("w")
+# a crater goal 60 m north; this rover's station is on the crest 10 m east of the goal
+CRATER = Goal(0, 1, "crater", 0.0, 60.0, station=(10.0, 0.0), shared=True)
+CRATER_AHEAD = (Hit(0.0, 8.0, "crater_terrain"),)
+
+
+def _bearing(pose: Pose, move: MoveTo) -> float:
+    """The compass bearing of a move (the rover's frame: z ahead, x to the right)."""
+    return (pose.heading + math.degrees(math.atan2(move.x, move.z))) % 360
+
+
+@pytest.mark.parametrize("station", [(10.0, 0.0), (-3.0, 4.0), (0.0, -25.0)])
+def test_the_foot_stands_outside_the_station_on_the_line_from_the_goal(station):
+    goal = Goal(0, 1, "crater", 5.0, -7.0, station=station)
+    fx, fz = rim.foot(goal)
+    reach = math.hypot(*station)
+    out = math.hypot(fx - goal.x, fz - goal.z) - reach
+    assert out == pytest.approx(max(rim.FOOT_LEAST_M, rim.FOOT_OUT * reach))
+    cross = (fx - goal.x) * station[1] - (fz - goal.z) * station[0]  # on the spoke: no sideways part
+    assert cross == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_rover_with_a_crest_station_walks_to_the_foot_first_not_at_the_crater():
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    pose = Pose(0.0, 0.0, 0.0)
+    move = b.decide(View(0.0, pose, CRATER, CRATER_AHEAD, 0.0))
+    fx, fz = rim.foot(CRATER)
+    assert isinstance(move, MoveTo)
+    assert _bearing(pose, move) == pytest.approx(math.degrees(math.atan2(fx, fz)), abs=6.0)
+    assert b.state != "climbing"  # crater terrain in view, but the climb starts at the foot
+
+
+def test_from_the_foot_the_rover_climbs_along_the_spoke_and_tells_the_crest_sooner():
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    fx, fz = rim.foot(CRATER)
+    facing_in = Pose(fx, fz, 270.0)  # at the foot, facing west: up the spoke to the crest and the goal
+    up = b.decide(View(0.0, facing_in, CRATER, CRATER_AHEAD, 0.0))
+    assert b.state == "climbing" and isinstance(up, MoveTo)
+    assert _bearing(facing_in, up) == pytest.approx(270.0, abs=6.0)
+    b.moved(2.0)
+    b.decide(View(1.0, facing_in, CRATER, (), 6.0))  # up the outer slope
+    b.moved(rim.crest_after_m(CRATER) - 2.0)
+    assert rim.crest_after_m(CRATER) < PARAMS.perception.perception_radius
+    first = b.decide(View(2.0, facing_in, CRATER, (), 0.5))  # level: the crest
+    assert isinstance(first, TakePhoto) and b.state == "observing"
+
+
+def test_a_rover_that_cannot_get_nearer_the_foot_climbs_from_where_it_stands():
+    """A foot behind rocks or other rovers does not hold the rover off the crater for ever."""
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    pose = Pose(0.0, 40.0, 0.0)
+    decisions = []
+    for step in range(40):
+        decisions.append(b.decide(View(float(step), pose, CRATER, CRATER_AHEAD, 0.0)))
+        if b.state == "climbing":
+            break
+        b.moved(1.0)  # walking, but standing where it was: no nearer the foot
+    assert b.state == "climbing"
+    assert Finish("stuck") not in decisions
+
+
+def _requests(out) -> list[radio.StationRequest]:
+    messages = [radio.unpack(msg.payload) for key, msg in out if key == KEYS.rover(1, ks.COMM_OUT)]
+    return [msg for msg in messages if isinstance(msg, radio.StationRequest)]
+
+
+def test_the_agent_asks_for_a_crest_station_once_crater_terrain_is_in_view():
+    """The rover does not know the crater's size, so no distance from its centre says it is near."""
+    agent = RoverAgent(1, KEYS, PARAMS)
+    _send(agent, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
+    _send(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="crater", bearing_deg=0.0, distance_m=60.0,
+                                    shared=True))
+    agent.pose = Pose(0.0, 55.0, 0.0)  # 5 m from the goal, but nothing of the crater in view
+    assert _requests(_send(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))) == []
+    agent.pose = Pose(0.0, 30.0, 0.0)  # 30 m out, the crater's terrain 8 m ahead
+    seen = m.Perception(stamp=0.4, angles_deg=[0.0], distances_m=[8.0], kinds=["crater_terrain"])
+    assert _requests(_send(agent, seen)) == [radio.StationRequest(goal_index=0, x=0.0, z=30.0)]
+
+
+def _topic(model: type) -> str:
+    return next(t for t, each in m.TOPIC_MODELS.items() if each is model)
+
+
+def _send(agent: RoverAgent, message):
+    return agent.handle(_topic(type(message)), codec.encode(message))
+
+
+def _on_the_spoke(b: DefaultBehaviour) -> None:
+    """Past the foot of its spoke, climbing (``_to_spoke`` leaves a rover that gives up on the foot the same)."""
+    b.decide(View(0.0, Pose(*rim.foot(CRATER), 270.0), CRATER, CRATER_AHEAD, 0.0))
+    assert b.state == "climbing"
+
+
+def test_a_rover_come_slantwise_up_the_rim_to_its_station_settles_there_facing_the_crater():
+    """One that gave up on the foot (a detour round rocks) climbs towards its station, not the crater's centre:
+    the climb still counts, and at the station it turns to the crater and observes instead of pacing over the
+    crest for ever."""
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    _on_the_spoke(b)
+    station = CRATER.target  # (10, 60)
+    slantwise = Pose(station[0] + 3.0, station[1] - 3.0, 315.0)  # 45 degrees off the crater's centre, at the station
+    assert not rim.facing_station(CRATER, Pose(slantwise.x, slantwise.z, 270.0))
+    assert rim.facing_station(CRATER, slantwise)
+    b.decide(View(0.0, slantwise, CRATER, (), 8.0))  # up the outer slope, towards the station
+    at = Pose(station[0] + 0.5, station[1], 20.0)  # at the station, but turned away from the crater
+    decisions = [b.decide(View(1.0 + k, at if k == 0 else Pose(at.x, at.z, 270.0), CRATER, (), 0.2)) for k in range(2)]
+    assert isinstance(decisions[0], Rotate)  # turns to the crater...
+    assert isinstance(decisions[1], TakePhoto) and b.state == "observing"  # ...and, level there, observes
+
+
+def test_at_its_station_a_rover_that_never_felt_the_climb_still_observes():
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    _on_the_spoke(b)
+    station = CRATER.target
+    first = b.decide(View(0.0, Pose(station[0] + 0.5, station[1], 270.0), CRATER, (), 0.0))
+    assert isinstance(first, TakePhoto) and b.state == "observing"
