@@ -15,7 +15,7 @@ from rover_agent.behaviour import DefaultBehaviour
 from rover_agent.contact import ContactSearch
 from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import BaseBehaviour, Finish, Goal, Hit, Hold, MoveTo, TakePhoto, View
-from rover_agent.in_flight import ActionIds, InFlight
+from rover_agent.in_flight import ActionIds, InFlight, Pace
 from rover_agent.localising import Localising
 from rover_agent.map_report import MapRecorder
 from rover_agent.navigation_feedback import NavigationFeedback
@@ -71,10 +71,11 @@ class RoverAgent(NavigationFeedback, Localising):
         self.now = 0.0
         self.pitch = (0.0, -1.0)  # (degrees, stamp)
         self.in_flight: InFlight | None = None
+        self.pace = Pace()  # the speed level sent with moves
         self.settled_at = 0.0
         self.finished_goal: tuple[int, str] | None = None  # (index, outcome) reported but not yet followed up
-        self._last_report = -math.inf
-        self._last_status = -math.inf
+        self.stuck_why = ""  # what stopped it, from the behaviour (``Finish.why``), shown in its status
+        self._last_report = self._last_status = -math.inf
         self.rejected = 0
         self.partners: list[int] = []
         self.photo_outbox: dict[str, radio.PhotoReport] = {}
@@ -320,11 +321,9 @@ class RoverAgent(NavigationFeedback, Localising):
         in view, some metres before the rim."""
         goal, pose = self.goal, self.pose
         if (goal is None or pose is None or not goal.shared or goal.station is not None or self.finished_goal
-                or self.fix.active or self.now - self._last_station_ask < STATION_ASK_RETRY_S):
-            return []
-        near = (any(h.kind == "crater_terrain" for h in hits) if goal.kind == "crater"
-                else math.hypot(goal.x - pose.x, goal.z - pose.z) <= STATION_ASK_M)
-        if not near:
+                or self.fix.active or self.now - self._last_station_ask < STATION_ASK_RETRY_S
+                or not (any(h.kind == "crater_terrain" for h in hits) if goal.kind == "crater"
+                        else math.hypot(goal.x - pose.x, goal.z - pose.z) <= STATION_ASK_M)):
             return []
         self._last_station_ask = self.now
         return [self._radio([ks.LANDER_ID], radio.StationRequest(goal_index=goal.index, x=round(pose.x, 3),
@@ -343,19 +342,19 @@ class RoverAgent(NavigationFeedback, Localising):
         if isinstance(decision, Hold):
             return []
         if isinstance(decision, Finish):
-            return self._finish(decision.outcome)
+            return self._finish(decision.outcome, decision.why)
         self.in_flight = InFlight(decision, self.pose, self.ids.take(self.now), sent_at=self.now, heard_at=self.now)
         self._save()
-        return [self.in_flight.request(self.keys, self.id)]
+        return [*self.pace.speed(decision, self.now, self.keys, self.id), self.in_flight.request(self.keys, self.id)]
 
-    def _finish(self, outcome: str) -> list[Out]:
+    def _finish(self, outcome: str, why: str = "") -> list[Out]:
         if self.contact.seeking:  # at the lander's estimated spot, or stuck on the way: wait there for its word
             self.contact.arrive(self.now, blocked=outcome == "stuck")
             self.behaviour.state = "waiting"
             return [self._status()]
         if self.fix.active:
             return self._fix_arrived(outcome)
-        goal = self.goal
+        goal, self.stuck_why = self.goal, why
         self.finished_goal = (goal.index, outcome)
         if outcome in ("stuck", "relay"):
             self.behaviour.state = outcome
@@ -378,6 +377,8 @@ class RoverAgent(NavigationFeedback, Localising):
         self._last_status = self.now
         index = self.goal.index if self.goal else -1
         detail = "another rover found the crater" if index in self.craters_found else ""
+        if self.state == "stuck":
+            detail = self.stuck_why
         if self.powered_off:
             detail = "off: battery empty" if self.battery and self.battery.empty else "off: too cold"
         if self.lost:

@@ -9,16 +9,15 @@ walked at least the perception radius since first seeing crater terrain (the rep
 local optimum; a step over the crest is taken back off the bowl's wall), or along the spoke of its station
 on the crest (``rim``), then photographs the crater once round. A waypoint is reached once close, or in
 view with rovers crowding it (6.6); a relay spot once stood on; a station (the rover's own spot at a goal
-the team shares, from the lander) once on it, in short steps with close-quarters gaps.
+the team shares, from the lander) once on it, in short, slow steps with close-quarters gaps.
 
 Among rovers it follows the report's traffic rule (7.2.1: traffic to the right has right of way), waits
 when only rovers block the way (they move on; rocks do not), stops for rovers on a collision course,
-squeezes by with small gaps when a jam lasts, and gives up only after a long time. A rover that walks on
-without getting any closer to its goal (pacing along a wall) switches to routing, and in the end gives up.
+squeezes by, slowly and with small gaps, when a jam lasts, and gives up only after a long time. A rover
+walking on without getting closer to its goal (pacing along a wall) switches to routing, then gives up.
 
-No I/O here: the runtime feeds a ``View`` and sends what ``decide`` returns, so this is tested with
-scripted sensor data and no router. The interface every behaviour shares (``View``, the decisions,
-``BaseBehaviour``) is in ``rover_agent.decisions``, importable from here too.
+No I/O here: the runtime feeds a ``View`` and sends what ``decide`` returns, so this is tested with scripted
+sensor data and no router. The interface every behaviour shares is in ``rover_agent.decisions``.
 """
 
 from __future__ import annotations
@@ -68,6 +67,7 @@ from rover_agent.tuning import (
 from schemas.frames import bearing_deg, wrap_deg
 from schemas.params import RoverParams
 
+BLOCKED_WHY = f"blocked everywhere in view by rocks {MAX_BLOCKED_ROTATIONS} times in a row"
 
 @dataclass
 class DefaultBehaviour(BaseBehaviour):
@@ -108,14 +108,10 @@ class DefaultBehaviour(BaseBehaviour):
     def start_goal(self, goal: Goal) -> None:
         self.state = "migration"
         self._photos_taken, self._photo_due = 0, True
-        self._crater_seen_at = None
-        self._max_pitch = -90.0
-        self._blocked_rotations = 0
-        self._crowd_since, self._crowd_waits = None, 0
-        self._parking = False
+        self._crater_seen_at, self._max_pitch, self._blocked_rotations = None, -90.0, 0
+        self._crowd_since, self._crowd_waits, self._parking = None, 0, False
         self._closest = (math.inf, self._odometer)
-        self._crest_looks, self._backs, self._backing = 0, 0, False
-        self._on_spoke = False
+        self._crest_looks, self._backs, self._backing, self._on_spoke = 0, 0, False, False
         self._rejected.clear()
 
     def moved(self, distance: float) -> None:
@@ -190,7 +186,7 @@ class DefaultBehaviour(BaseBehaviour):
                 return decision
         self._parking = goal.station is not None and distance <= self.params.perception.perception_radius
         if self._pacing(distance, NO_PROGRESS_WALK_M):
-            return Finish("stuck")
+            return Finish("stuck", f"walked {NO_PROGRESS_WALK_M:.0f} m without getting closer to the goal")
         if not self._routing and self._pacing(distance, NO_PROGRESS_ROUTE_M):
             self._routing = True
         return self._head_for(view, distance, self._short_step(view))
@@ -350,7 +346,7 @@ class DefaultBehaviour(BaseBehaviour):
             if self._crowd_since is None:  # turning without getting anywhere counts toward giving up...
                 self._blocked_rotations += 1  # ...except when waiting for rovers, which has its own limit
             if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
-                return Finish("stuck")
+                return Finish("stuck", BLOCKED_WHY)
             return Rotate(round(to_goal, 3))
         on_route = (tx, tz) != goal.target  # a corner of the route: walk to it, not past it
         want = min(0.9 * p.perception.perception_radius, step or math.inf,
@@ -360,12 +356,12 @@ class DefaultBehaviour(BaseBehaviour):
             if free >= min(want, p.behaviour.min_move_size):
                 length = min(free, want)
                 rad = math.radians(angle)
-                return MoveTo(round(length * math.sin(rad), 4), round(length * math.cos(rad), 4))
+                return MoveTo(round(length * math.sin(rad), 4), round(length * math.cos(rad), 4), self._slow(view))
         if self._blocked_by_rovers(view, to_goal, window, want):
             return self._wait_in_crowd(view)
         self._blocked_rotations += 1
         if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
-            return Finish("stuck")
+            return Finish("stuck", BLOCKED_WHY)
         self._rejected.clear()
         self._routing = True
         return Rotate(p.behaviour.rotate_action)
@@ -383,7 +379,7 @@ class DefaultBehaviour(BaseBehaviour):
         if self._crowd_since is None:
             self._crowd_since = view.time
         if view.time - self._crowd_since > MAX_CROWD_WAIT_S:
-            return Finish("stuck")
+            return Finish("stuck", f"held up by other rovers for {MAX_CROWD_WAIT_S:.0f} s")
         self._crowd_waits += 1
         if self._crowd_waits % CROWD_LOOKS == 0:
             self._rejected.clear()
@@ -393,6 +389,11 @@ class DefaultBehaviour(BaseBehaviour):
 
     def _candidates(self, to_goal: float, window: float) -> list[float]:
         return free_space.candidates(to_goal, window, self.params.behaviour.scan_angle, self._rejected)
+
+    def _slow(self, view: View) -> bool:
+        """Close-quarters stops come at a body's gap: too late for two rovers stepping into one gap at full speed."""
+        danger = self.params.behaviour.collision_danger_dist
+        return self._close_quarters and any(h.kind == "rover" and h.distance_m < danger for h in view.hits)
 
     def _free_distance(self, angle: float, hits: tuple[Hit, ...]) -> float:
         gap = ROVER_GAP_CLOSE if self._close_quarters else self.params.behaviour.extra_distance_between_rovers

@@ -6,7 +6,7 @@ interface alone (report 4.4: any behaviour that keeps the interface will do).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from rover_agent.dead_reckoning import Pose
 from schemas.params import RoverParams
@@ -57,6 +57,7 @@ class View:
 class MoveTo:
     x: float
     z: float
+    slow: bool = False  # at the lowest speed level: among rovers at close quarters, so a stop comes in time
 
 
 @dataclass(frozen=True)
@@ -72,6 +73,7 @@ class Hold:
 @dataclass(frozen=True)
 class Finish:
     outcome: str  # "reached" | "stuck" | "relay" (holding a daisy-chain spot)
+    why: str = field(default="", compare=False)  # for "stuck": what stopped it, shown in the rover's status
 
 
 @dataclass(frozen=True)

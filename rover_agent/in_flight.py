@@ -17,6 +17,12 @@ from rover_agent.saved_state import SavedFlight
 from schemas import keyspace as ks
 from schemas import messages as m
 
+SLOW_LEVEL, FULL_LEVEL = 1, 3
+"""``SpeedAction`` levels (report 10): 1.5 and 3.5 m/s with the default parameters; the world starts at full."""
+FULL_AGAIN_S = 10.0
+"""After its last slow move the rover sends the full level with every move for this long, so one lost message
+does not leave it slow for the rest of the mission."""
+
 Out = tuple[str, m.Message]
 ACTION_QUERY_S = 2.0
 """Silence after which the agent asks again: ten navigation status periods at the report's 5 Hz."""
@@ -93,3 +99,21 @@ class ActionIds:
             self.next_id = max(0, int(now * 1000)) * ID_STRIDE + 1
         action_id, self.next_id = self.next_id, self.next_id + 1
         return action_id
+
+
+@dataclass
+class Pace:
+    """The speed level that goes with each move (``MoveTo.slow``). Away from other rovers nothing is sent and the
+    world keeps its full speed; every slow move says so, as does every move for ``FULL_AGAIN_S`` after the last."""
+
+    slow_at: float = -math.inf
+
+    def speed(self, decision: object, now: float, keys: ks.Keyspace, rover_id: int) -> list[Out]:
+        if not isinstance(decision, MoveTo):
+            return []
+        if decision.slow:
+            self.slow_at = now
+        elif now - self.slow_at > FULL_AGAIN_S:
+            return []
+        level = SLOW_LEVEL if decision.slow else FULL_LEVEL
+        return [(keys.rover(rover_id, ks.SPEED_ACTION), m.SpeedAction(level=level))]

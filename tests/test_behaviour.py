@@ -174,7 +174,7 @@ def _decisions_until_stuck(b, limit=60):
 def test_obstacles_everywhere_rotate_sixty_then_turn_to_the_route_and_give_up_in_time():
     decisions = _decisions_until_stuck(_behaviour())
     assert decisions[0] == Rotate(60.0)  # the report's rotation when blocked everywhere in view
-    assert decisions[-1] == Finish("stuck")
+    assert decisions[-1] == Finish("stuck") and "blocked everywhere in view" in decisions[-1].why
     assert all(isinstance(d, Rotate) for d in decisions[:-1])  # never a move into the obstacles
     assert MAX_BLOCKED_ROTATIONS < len(decisions) <= 2 * MAX_BLOCKED_ROTATIONS + 2
     assert any(d.degrees != 60.0 for d in decisions[:-1])  # routing: it turns to face the planned way out
@@ -241,7 +241,8 @@ def test_blocked_by_rovers_the_rover_waits_and_looks_about_rather_than_giving_up
     decisions = [b.decide(_view(hits=RINGED_BY_ROVERS, time=t)) for t in range(60)]
     assert Finish("stuck") not in decisions
     assert any(isinstance(d, Hold) for d in decisions) and any(isinstance(d, Rotate) for d in decisions)
-    assert b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) == Finish("stuck")
+    stuck = b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
+    assert stuck == Finish("stuck") and stuck.why == "held up by other rovers for 90 s"
 
 
 def test_progress_resets_the_wait_in_a_crowd():
@@ -262,7 +263,7 @@ def test_a_rover_pacing_without_getting_closer_gives_up():
         decision = b.decide(_view(pose=pose))
         if walked <= NO_PROGRESS_WALK_M:
             assert decision != Finish("stuck")
-    assert decision == Finish("stuck")
+    assert decision == Finish("stuck") and "without getting closer" in decision.why
 
 
 def test_a_rover_pacing_along_a_wall_starts_routing_before_it_gives_up():
@@ -601,3 +602,21 @@ def test_near_a_shared_waypoint_the_agent_asks_for_its_station_until_it_comes():
     _feed(agent, m.MissionDirection(**shared, station=(3.2, 0.0)))
     assert agent.goal.target == (3.2, 40.0)
     assert perceive(10.0) == []
+
+
+def test_a_stuck_rover_says_why_in_its_status():
+    agent = _ready_agent()
+    statuses = []
+    for k in range(3 * MAX_BLOCKED_ROTATIONS):
+        t = 1.0 + k
+        _feed(agent, m.Gyroscope(stamp=t, pitch_deg=0.0))
+        out = _feed(agent, m.Perception(stamp=t + 0.05, angles_deg=[h.angle_deg for h in BOXED_IN],
+                                        distances_m=[h.distance_m for h in BOXED_IN], kinds=[h.kind for h in BOXED_IN]))
+        statuses += [msg for key, msg in out if key == KEYS.rover(1, ks.STATUS)]
+        if agent.state == "stuck":
+            break
+        assert agent.in_flight is not None  # a rotation: the world says it is done
+        _feed(agent, m.NavigationStatus(stamp=t + 0.1, action="rotate", remaining=0.0, outcome="completed",
+                                        action_id=agent.in_flight.action_id))
+    assert statuses and statuses[-1].state == "stuck"
+    assert statuses[-1].detail.startswith("blocked everywhere in view")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -59,6 +60,21 @@ def test_ten_rovers_complete_without_collisions(ten_rover_run):
 
 def test_ten_rovers_all_reach_the_rim(ten_rover_run):
     assert ten_rover_run.report().rovers_reached_final_goal == 10
+
+
+def test_a_team_too_large_for_the_near_side_of_a_small_crater_meets_its_crest_spread_round(crater_observation):
+    """Sixteen rovers to a 12 m crater: heading for the crest point nearest where they come from, the later ones
+    were held off it behind the first (or slid into the bowl). With stations all round the crest each has its own
+    stretch of it."""
+    crater = crater_observation.craters[0]
+    small = crater_observation.with_overrides(rovers=16).model_copy(
+        update={"craters": [crater.model_copy(update={"radius_m": 12.0})]})
+    world = run_mission(small, 400.0)
+    report = world.report()
+    assert report.complete and report.rovers_reached_final_goal == 16, report
+    assert report.rover_collisions == 0, report
+    off_crest = [abs(math.hypot(r.x - crater.x, r.z - crater.z) - 12.0) for r in world.world_state().rovers]
+    assert max(off_crest) < 2.5, off_crest
 
 
 def test_crater_photos_reach_the_lander_archive(tmp_path):

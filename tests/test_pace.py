@@ -1,0 +1,52 @@
+"""Slow moves among rovers at close quarters: the behaviour asks for them (``MoveTo.slow``), the agent sends the
+speed level with them (``in_flight.Pace``)."""
+
+from __future__ import annotations
+
+from rover_agent.behaviour import DefaultBehaviour, Goal, Hit, MoveTo, View
+from rover_agent.dead_reckoning import Pose
+from rover_agent.in_flight import FULL_AGAIN_S, FULL_LEVEL, SLOW_LEVEL, Pace
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.params import RoverParams
+
+PARAMS = RoverParams()
+KEYS = ks.Keyspace("w")
+STATION = Goal(0, 1, "waypoint", 0.0, 8.0, station=(0.0, 0.0), shared=True)  # 8 m ahead: parking
+ROVER_NEAR = (Hit(-90.0, 3.0, "rover"),)  # to the left, clear of the way ahead
+ROVER_FAR = (Hit(-90.0, 6.0, "rover"),)
+
+
+def _move(goal: Goal, hits: tuple[Hit, ...]) -> MoveTo:
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(goal)
+    move = b.decide(View(0.0, Pose(0.0, 0.0, 0.0), goal, hits, 0.0))
+    assert isinstance(move, MoveTo)
+    return move
+
+
+def test_parking_near_another_rover_the_step_is_slow():
+    assert _move(STATION, ROVER_NEAR).slow
+
+
+def test_parking_with_no_rover_near_or_walking_in_the_open_the_step_is_not():
+    assert not _move(STATION, ()).slow
+    assert not _move(STATION, ROVER_FAR).slow  # beyond the danger distance
+    open_ground = Goal(0, 1, "waypoint", 0.0, 60.0)  # no station, far from the goal: not close quarters
+    assert not _move(open_ground, ROVER_NEAR).slow
+
+
+def _speeds(out) -> list[int]:
+    return [msg.level for key, msg in out if key == KEYS.rover(1, ks.SPEED_ACTION) and isinstance(msg, m.SpeedAction)]
+
+
+def test_the_agent_sends_the_slow_level_with_every_slow_move_and_the_full_one_for_a_while_after():
+    pace = Pace()
+    fast, slow = MoveTo(0.0, 2.0), MoveTo(0.0, 2.0, slow=True)
+    assert _speeds(pace.speed(fast, 0.0, KEYS, 1)) == []  # the world starts at full speed: nothing to say
+    assert _speeds(pace.speed(slow, 1.0, KEYS, 1)) == [SLOW_LEVEL]
+    assert _speeds(pace.speed(slow, 2.0, KEYS, 1)) == [SLOW_LEVEL]  # again: a lost one costs one move
+    assert _speeds(pace.speed(fast, 3.0, KEYS, 1)) == [FULL_LEVEL]
+    assert _speeds(pace.speed(fast, 2.0 + FULL_AGAIN_S, KEYS, 1)) == [FULL_LEVEL]  # one lost is not the last
+    assert _speeds(pace.speed(fast, 2.1 + FULL_AGAIN_S, KEYS, 1)) == []
+    assert pace.speed(m.RotateAction(degrees=10.0), 3.0, KEYS, 1) == []  # only moves have a speed
