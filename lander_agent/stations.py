@@ -104,7 +104,8 @@ def rim_offsets(count: int, radius: float, spacing: float, least_spacing: float)
 
 
 def pick_rim_station(offsets: list[Offset], taken: Collection[Offset], near: Offset) -> Offset:
-    """The free crest station nearest the asking rover (``near``, an offset from the crater's centre): rovers
-    arriving from one side fill the crest outwards from where they come, each walking the least way round."""
+    """The free crest station nearest the asking rover (``near``, from the same point as ``offsets``): rovers
+    arriving from one side fill the crest outwards from where they come, each walking the least way round. A
+    team larger than the crest holds (``rim_offsets`` at its least spacing) shares stations."""
     free = [o for o in offsets if o not in taken] or offsets
     return min(free, key=lambda o: (round(math.dist(o, near), 6), o))

@@ -67,7 +67,7 @@ from rover_agent.tuning import (
 from schemas.frames import bearing_deg, wrap_deg
 from schemas.params import RoverParams
 
-BLOCKED_WHY = f"blocked everywhere in view by rocks {MAX_BLOCKED_ROTATIONS} times in a row"
+BLOCKED_WHY = f"turned {MAX_BLOCKED_ROTATIONS} times in a row without finding a free way"
 
 @dataclass
 class DefaultBehaviour(BaseBehaviour):
@@ -356,7 +356,9 @@ class DefaultBehaviour(BaseBehaviour):
             if free >= min(want, p.behaviour.min_move_size):
                 length = min(free, want)
                 rad = math.radians(angle)
-                return MoveTo(round(length * math.sin(rad), 4), round(length * math.cos(rad), 4), self._slow(view))
+                # close-quarters stops come at a body's gap: too late at full speed (``free_space.rover_towards``)
+                slow = self._close_quarters and free_space.rover_towards(angle, view.hits, p.behaviour)
+                return MoveTo(round(length * math.sin(rad), 4), round(length * math.cos(rad), 4), slow)
         if self._blocked_by_rovers(view, to_goal, window, want):
             return self._wait_in_crowd(view)
         self._blocked_rotations += 1
@@ -389,11 +391,6 @@ class DefaultBehaviour(BaseBehaviour):
 
     def _candidates(self, to_goal: float, window: float) -> list[float]:
         return free_space.candidates(to_goal, window, self.params.behaviour.scan_angle, self._rejected)
-
-    def _slow(self, view: View) -> bool:
-        """Close-quarters stops come at a body's gap: too late for two rovers stepping into one gap at full speed."""
-        danger = self.params.behaviour.collision_danger_dist
-        return self._close_quarters and any(h.kind == "rover" and h.distance_m < danger for h in view.hits)
 
     def _free_distance(self, angle: float, hits: tuple[Hit, ...]) -> float:
         gap = ROVER_GAP_CLOSE if self._close_quarters else self.params.behaviour.extra_distance_between_rovers

@@ -7,7 +7,7 @@ import math
 from collections.abc import Iterable
 
 from rover_agent.decisions import Hit
-from schemas.params import PerceptionParams, RoverParams
+from schemas.params import BehaviourParams, PerceptionParams, RoverParams
 
 SOLID_KINDS = frozenset({"rover", "obstacle", "lander", "terrain"})
 OBSTACLE_MARGIN = 0.6
@@ -51,3 +51,11 @@ def free_rays(hits: Iterable[Hit], perception: PerceptionParams) -> list[float]:
     seen = {round(h.angle_deg, 3) for h in hits}
     rays = ray_angles(perception.field_of_view_degrees, perception.perception_granularity)
     return [a for a in rays if round(a, 3) not in seen]
+
+
+def rover_towards(angle: float, hits: Iterable[Hit], behaviour: BehaviourParams) -> bool:
+    """A rover within ``collision_danger_dist`` on the side a move at ``angle`` heads: two rovers stepping into
+    one gap at full speed close by more between two scans than a close-quarters stop leaves, so the move goes
+    slowly. One behind does not count: slowed by those behind it, a queue's head would hold the whole queue up."""
+    return any(h.kind == "rover" and h.distance_m < behaviour.collision_danger_dist and abs(h.angle_deg - angle) < 90
+               for h in hits)

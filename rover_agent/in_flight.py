@@ -104,7 +104,9 @@ class ActionIds:
 @dataclass
 class Pace:
     """The speed level that goes with each move (``MoveTo.slow``). Away from other rovers nothing is sent and the
-    world keeps its full speed; every slow move says so, as does every move for ``FULL_AGAIN_S`` after the last."""
+    world keeps its full speed; every slow move says so, as does every move for ``FULL_AGAIN_S`` after the last.
+    An agent restarted in between starts with nothing to resend: its rover walks slowly until its next slow move
+    (the safe side)."""
 
     slow_at: float = -math.inf
 

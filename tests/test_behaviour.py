@@ -174,7 +174,7 @@ def _decisions_until_stuck(b, limit=60):
 def test_obstacles_everywhere_rotate_sixty_then_turn_to_the_route_and_give_up_in_time():
     decisions = _decisions_until_stuck(_behaviour())
     assert decisions[0] == Rotate(60.0)  # the report's rotation when blocked everywhere in view
-    assert decisions[-1] == Finish("stuck") and "blocked everywhere in view" in decisions[-1].why
+    assert decisions[-1] == Finish("stuck") and "without finding a free way" in decisions[-1].why
     assert all(isinstance(d, Rotate) for d in decisions[:-1])  # never a move into the obstacles
     assert MAX_BLOCKED_ROTATIONS < len(decisions) <= 2 * MAX_BLOCKED_ROTATIONS + 2
     assert any(d.degrees != 60.0 for d in decisions[:-1])  # routing: it turns to face the planned way out
@@ -619,4 +619,17 @@ def test_a_stuck_rover_says_why_in_its_status():
         _feed(agent, m.NavigationStatus(stamp=t + 0.1, action="rotate", remaining=0.0, outcome="completed",
                                         action_id=agent.in_flight.action_id))
     assert statuses and statuses[-1].state == "stuck"
-    assert statuses[-1].detail.startswith("blocked everywhere in view")
+    assert statuses[-1].detail.endswith("without finding a free way")
+
+
+def test_the_agent_asks_for_a_crest_station_once_crater_terrain_is_in_view():
+    """The rover does not know the crater's size, so no distance from its centre says it is near."""
+    agent = RoverAgent(1, KEYS, PARAMS)
+    _feed(agent, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
+    _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="crater", bearing_deg=0.0, distance_m=60.0,
+                                    shared=True))
+    agent.pose = Pose(0.0, 55.0, 0.0)  # 5 m from the goal, but nothing of the crater in view
+    assert _station_requests(_feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))) == []
+    agent.pose = Pose(0.0, 30.0, 0.0)  # 30 m out, the crater's terrain 8 m ahead
+    seen = m.Perception(stamp=0.4, angles_deg=[0.0], distances_m=[8.0], kinds=["crater_terrain"])
+    assert _station_requests(_feed(agent, seen)) == [radio.StationRequest(goal_index=0, x=0.0, z=30.0)]

@@ -12,9 +12,10 @@ from schemas.params import RoverParams
 
 PARAMS = RoverParams()
 KEYS = ks.Keyspace("w")
-STATION = Goal(0, 1, "waypoint", 0.0, 8.0, station=(0.0, 0.0), shared=True)  # 8 m ahead: parking
-ROVER_NEAR = (Hit(-90.0, 3.0, "rover"),)  # to the left, clear of the way ahead
-ROVER_FAR = (Hit(-90.0, 6.0, "rover"),)
+STATION = Goal(0, 1, "waypoint", 0.0, 9.5, station=(0.0, -1.0), shared=True)  # 8.5 m ahead: parking
+ROVER_NEAR = (Hit(-60.0, 3.0, "rover"),)  # ahead-left, clear of the way ahead
+ROVER_FAR = (Hit(-60.0, 6.0, "rover"),)
+ROVER_BEHIND = (Hit(100.0, 3.0, "rover"),)
 
 
 def _move(goal: Goal, hits: tuple[Hit, ...]) -> MoveTo:
@@ -32,6 +33,7 @@ def test_parking_near_another_rover_the_step_is_slow():
 def test_parking_with_no_rover_near_or_walking_in_the_open_the_step_is_not():
     assert not _move(STATION, ()).slow
     assert not _move(STATION, ROVER_FAR).slow  # beyond the danger distance
+    assert not _move(STATION, ROVER_BEHIND).slow  # behind: the move leaves it
     open_ground = Goal(0, 1, "waypoint", 0.0, 60.0)  # no station, far from the goal: not close quarters
     assert not _move(open_ground, ROVER_NEAR).slow
 

@@ -1,5 +1,5 @@
 """Crest stations at a crater goal the team shares: the rover walks to its spoke's foot, then climbs along it
-(``rover_agent.rim``), and asks the lander for its station once the crater is in view."""
+(``rover_agent.rim``)."""
 
 from __future__ import annotations
 
@@ -8,16 +8,11 @@ import math
 import pytest
 
 from rover_agent import rim
-from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import DefaultBehaviour, Finish, Goal, Hit, MoveTo, Rotate, TakePhoto, View
 from rover_agent.dead_reckoning import Pose
-from schemas import codec, radio
-from schemas import keyspace as ks
-from schemas import messages as m
 from schemas.params import RoverParams
 
 PARAMS = RoverParams()
-KEYS = ks.Keyspace("w")
 # a crater goal 60 m north; this rover's station is on the crest 10 m east of the goal
 CRATER = Goal(0, 1, "crater", 0.0, 60.0, station=(10.0, 0.0), shared=True)
 CRATER_AHEAD = (Hit(0.0, 8.0, "crater_terrain"),)
@@ -79,32 +74,6 @@ def test_a_rover_that_cannot_get_nearer_the_foot_climbs_from_where_it_stands():
         b.moved(1.0)  # walking, but standing where it was: no nearer the foot
     assert b.state == "climbing"
     assert Finish("stuck") not in decisions
-
-
-def _requests(out) -> list[radio.StationRequest]:
-    messages = [radio.unpack(msg.payload) for key, msg in out if key == KEYS.rover(1, ks.COMM_OUT)]
-    return [msg for msg in messages if isinstance(msg, radio.StationRequest)]
-
-
-def test_the_agent_asks_for_a_crest_station_once_crater_terrain_is_in_view():
-    """The rover does not know the crater's size, so no distance from its centre says it is near."""
-    agent = RoverAgent(1, KEYS, PARAMS)
-    _send(agent, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
-    _send(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="crater", bearing_deg=0.0, distance_m=60.0,
-                                    shared=True))
-    agent.pose = Pose(0.0, 55.0, 0.0)  # 5 m from the goal, but nothing of the crater in view
-    assert _requests(_send(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))) == []
-    agent.pose = Pose(0.0, 30.0, 0.0)  # 30 m out, the crater's terrain 8 m ahead
-    seen = m.Perception(stamp=0.4, angles_deg=[0.0], distances_m=[8.0], kinds=["crater_terrain"])
-    assert _requests(_send(agent, seen)) == [radio.StationRequest(goal_index=0, x=0.0, z=30.0)]
-
-
-def _topic(model: type) -> str:
-    return next(t for t, each in m.TOPIC_MODELS.items() if each is model)
-
-
-def _send(agent: RoverAgent, message):
-    return agent.handle(_topic(type(message)), codec.encode(message))
 
 
 def _on_the_spoke(b: DefaultBehaviour) -> None:
