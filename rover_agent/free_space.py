@@ -53,9 +53,8 @@ def free_rays(hits: Iterable[Hit], perception: PerceptionParams) -> list[float]:
     return [a for a in rays if round(a, 3) not in seen]
 
 
-def rover_towards(angle: float, hits: Iterable[Hit], behaviour: BehaviourParams) -> bool:
-    """A rover within ``collision_danger_dist`` on the side a move at ``angle`` heads: two rovers stepping into
-    one gap at full speed close by more between two scans than a close-quarters stop leaves, so the move goes
-    slowly. One behind does not count: slowed by those behind it, a queue's head would hold the whole queue up."""
-    return any(h.kind == "rover" and h.distance_m < behaviour.collision_danger_dist and abs(h.angle_deg - angle) < 90
-               for h in hits)
+def rover_near(hits: Iterable[Hit], behaviour: BehaviourParams) -> bool:
+    """A rover within ``collision_danger_dist``: two rovers stepping into one gap at full speed close by more
+    between two scans than a close-quarters stop leaves, so the move goes slowly. On any side: rovers at close
+    quarters turn before they step, so one beside or behind may be stepping into the same gap."""
+    return any(h.kind == "rover" and h.distance_m < behaviour.collision_danger_dist for h in hits)
