@@ -20,8 +20,8 @@ from schemas import messages as m
 SLOW_LEVEL, FULL_LEVEL = 1, 3
 """``SpeedAction`` levels (report 10): 1.5 and 3.5 m/s with the default parameters; the world starts at full."""
 FULL_AGAIN_S = 10.0
-"""After its last slow move the rover sends the full level with every move for this long, so one lost message
-does not leave it slow for the rest of the mission."""
+"""Back at full speed after slow moves, the rover sends the full level with every move for this long, so one
+lost message does not leave it slow for the rest of the mission."""
 
 Out = tuple[str, m.Message]
 ACTION_QUERY_S = 2.0
@@ -104,18 +104,19 @@ class ActionIds:
 @dataclass
 class Pace:
     """The speed level that goes with each move (``MoveTo.slow``). Away from other rovers nothing is sent and the
-    world keeps its full speed; every slow move says so, as does every move for ``FULL_AGAIN_S`` after the last.
-    An agent restarted in between starts with nothing to resend: its rover walks slowly until its next slow move
-    (the safe side)."""
+    world keeps its full speed; every slow move says so, and so does every move for ``FULL_AGAIN_S`` from the
+    first back at full speed, however long after the last slow one it comes. An agent restarted in between
+    starts with nothing to resend: its rover walks slowly until its next slow move (the safe side)."""
 
-    slow_at: float = -math.inf
+    level: int = FULL_LEVEL  # the level the moves have asked for lately
+    since: float = -math.inf  # when they began to
 
     def speed(self, decision: object, now: float, keys: ks.Keyspace, rover_id: int) -> list[Out]:
         if not isinstance(decision, MoveTo):
             return []
-        if decision.slow:
-            self.slow_at = now
-        elif now - self.slow_at > FULL_AGAIN_S:
-            return []
         level = SLOW_LEVEL if decision.slow else FULL_LEVEL
+        if level != self.level:
+            self.level, self.since = level, now
+        if level == FULL_LEVEL and now - self.since > FULL_AGAIN_S:
+            return []
         return [(keys.rover(rover_id, ks.SPEED_ACTION), m.SpeedAction(level=level))]

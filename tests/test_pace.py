@@ -49,6 +49,13 @@ def test_the_agent_sends_the_slow_level_with_every_slow_move_and_the_full_one_fo
     assert _speeds(pace.speed(slow, 1.0, KEYS, 1)) == [SLOW_LEVEL]
     assert _speeds(pace.speed(slow, 2.0, KEYS, 1)) == [SLOW_LEVEL]  # again: a lost one costs one move
     assert _speeds(pace.speed(fast, 3.0, KEYS, 1)) == [FULL_LEVEL]
-    assert _speeds(pace.speed(fast, 2.0 + FULL_AGAIN_S, KEYS, 1)) == [FULL_LEVEL]  # one lost is not the last
-    assert _speeds(pace.speed(fast, 2.1 + FULL_AGAIN_S, KEYS, 1)) == []
+    assert _speeds(pace.speed(fast, 3.0 + FULL_AGAIN_S, KEYS, 1)) == [FULL_LEVEL]  # one lost is not the last
+    assert _speeds(pace.speed(fast, 3.1 + FULL_AGAIN_S, KEYS, 1)) == []
     assert pace.speed(m.RotateAction(degrees=10.0), 3.0, KEYS, 1) == []  # only moves have a speed
+
+
+def test_back_to_full_speed_long_after_the_last_slow_move_is_still_said():
+    """A rover held long in a jam after its last slow step: its next move, at full speed, must say so."""
+    pace = Pace()
+    assert _speeds(pace.speed(MoveTo(0.0, 2.0, slow=True), 0.0, KEYS, 1)) == [SLOW_LEVEL]
+    assert _speeds(pace.speed(MoveTo(0.0, 9.0), 10 * FULL_AGAIN_S, KEYS, 1)) == [FULL_LEVEL]
