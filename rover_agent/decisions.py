@@ -57,7 +57,7 @@ class View:
 class MoveTo:
     x: float
     z: float
-    slow: bool = False  # at the lowest speed level: among rovers at close quarters, so a stop comes in time
+    slow: bool = field(default=False, repr=False)  # at the lowest speed level: among rovers at close quarters
 
 
 @dataclass(frozen=True)
