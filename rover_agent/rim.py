@@ -1,10 +1,11 @@
 """A crater goal with a station on the crest (``lander_agent.stations.rim_offsets``): the way to it.
 
-The rover first walks to the foot of its station's spoke, a point outside the rim on the line from the crater
-through the station, and only then climbs, along the spoke. So a team meets the crest spread all round it, each
-rover on its own stretch, instead of all climbing to the crest point nearest where they came from, where the
-later ones are held off the crest behind the first. The climb itself is the default behaviour's (pitch and the
-crest), so a drifted estimate moves the spoke, not the finish.
+The rover first walks to the foot of its station's spoke, a point outside the rim on the line from the goal
+(within the bowl, near the crater's centre) through the station, and only then climbs, along the spoke. So a
+team meets the crest spread all round it, each rover on its own stretch, instead of all climbing to the crest
+point nearest where they came from, where the later ones are held off the crest behind the first. The climb
+itself is the default behaviour's: at its station by its own estimate a rover counts as up the rim, and pitch,
+facing the crater, still says whether it stands on the crest.
 """
 
 from __future__ import annotations
