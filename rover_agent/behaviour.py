@@ -28,6 +28,7 @@ from typing import ClassVar
 
 from rover_agent import free_space, rim
 from rover_agent.crossing import CrossingWatch
+from rover_agent.crowd import CrowdRules
 from rover_agent.decisions import (
     BaseBehaviour,
     Decision,
@@ -49,12 +50,9 @@ from rover_agent.tuning import (
     CLIMB_PITCH,
     CREST_FACING,
     CREST_PITCH,
-    CROWD_LOOKS,
-    CROWD_SQUEEZE_S,
     MAX_BACKS,
     MAX_BLOCKED_ROTATIONS,
     MAX_CREST_LOOKS,
-    MAX_CROWD_WAIT_S,
     NEAR_CREST_PITCH,
     NO_PROGRESS_ROUTE_M,
     NO_PROGRESS_WALK_M,
@@ -70,7 +68,7 @@ from schemas.params import RoverParams
 BLOCKED_WHY = f"turned {MAX_BLOCKED_ROTATIONS} times in a row without finding a free way"
 
 @dataclass
-class DefaultBehaviour(BaseBehaviour):
+class DefaultBehaviour(CrowdRules, BaseBehaviour):
     """The report's single- and multi-rover behaviour with crater climbing."""
 
     rover_id: int
@@ -83,6 +81,7 @@ class DefaultBehaviour(BaseBehaviour):
     _crowd_since: float | None = None  # when the rover last stopped making progress among rovers
     _crowd_waits: int = 0
     _parking: bool = False  # walking the last metres to this rover's station at a shared waypoint
+    _crowded_since: float | None = None  # when rovers first stood between it and its station, the goal in view
     _now: float = 0.0  # time of the latest view
     _closest: tuple[float, float] = (math.inf, 0.0)  # (nearest the goal has been, odometer then)
     _crest_looks: int = 0
@@ -109,7 +108,7 @@ class DefaultBehaviour(BaseBehaviour):
         self.state = "migration"
         self._photos_taken, self._photo_due = 0, True
         self._crater_seen_at, self._max_pitch, self._blocked_rotations = None, -90.0, 0
-        self._crowd_since, self._crowd_waits, self._parking = None, 0, False
+        self._crowd_since, self._crowd_waits, self._parking, self._crowded_since = None, 0, False, None
         self._closest = (math.inf, self._odometer)
         self._crest_looks, self._backs, self._backing, self._on_spoke = 0, 0, False, False
         self._rejected.clear()
@@ -135,10 +134,6 @@ class DefaultBehaviour(BaseBehaviour):
         self._hold_until = now + self._wait_time()
         if self._crowd_since is None:
             self._crowd_since = now
-
-    def _wait_time(self) -> float:
-        """Rovers wait for different times, so two that met do not set off again together."""
-        return self.params.behaviour.max_wait_time * (1 + self.rover_id % 3)
 
     # ---- decisions ----
 
@@ -223,10 +218,6 @@ class DefaultBehaviour(BaseBehaviour):
         only for imminent contact."""
         return self.state == "climbing" or self._parking or self._squeezing
 
-    @property
-    def _squeezing(self) -> bool:
-        return self._crowd_since is not None and self._now - self._crowd_since > CROWD_SQUEEZE_S
-
     def _short_step(self, view: View) -> float | None:
         """Short steps on the rim, shorter still near the top, so the rover stops on the crest, not past it;
         short steps too when parking among rovers standing at their stations."""
@@ -243,15 +234,9 @@ class DefaultBehaviour(BaseBehaviour):
         radius = self.params.perception.perception_radius
         pose, goal = view.pose, view.goal
         in_view = math.hypot(goal.x - pose.x, goal.z - pose.z) <= WAYPOINT_IN_VIEW * radius
-        close = STATION_CLOSE_M if goal.station is not None else WAYPOINT_CLOSE * radius
-        return distance <= close or (in_view and self._crowded(view))
-
-    def _crowded(self, view: View) -> bool:
-        """Rovers in view leave no room for a step towards the goal."""
-        pose, (tx, tz) = view.pose, view.goal.target
-        to_goal = wrap_deg(bearing_deg(tx - pose.x, tz - pose.z) - pose.heading)
-        rovers = tuple(h for h in view.hits if h.kind == "rover")
-        return bool(rovers) and self._free_distance(to_goal, rovers) < self.params.behaviour.min_move_size
+        if goal.station is None:
+            return distance <= WAYPOINT_CLOSE * radius or (in_view and self._crowded(view))
+        return distance <= STATION_CLOSE_M or (in_view and self._crowd_stood(view))
 
     def _observe(self, goal: Goal) -> Decision:
         """On the rim: a photo, a turn of ``photo_step_deg``, a photo... once round (report 10.5.3)."""
@@ -367,27 +352,6 @@ class DefaultBehaviour(BaseBehaviour):
         self._rejected.clear()
         self._routing = True
         return Rotate(p.behaviour.rotate_action)
-
-    def _blocked_by_rovers(self, view: View, to_goal: float, window: float, want: float) -> bool:
-        """Would the way be free if the rovers in view were not there?"""
-        still = tuple(h for h in view.hits if h.kind != "rover")
-        if len(still) == len(view.hits):
-            return False
-        need = min(want, self.params.behaviour.min_move_size)
-        return any(self._free_distance(a, still) >= need for a in self._candidates(to_goal, window))
-
-    def _wait_in_crowd(self, view: View) -> Decision:
-        """Rovers block the way: wait for them to move on, now and then turning to look for another way."""
-        if self._crowd_since is None:
-            self._crowd_since = view.time
-        if view.time - self._crowd_since > MAX_CROWD_WAIT_S:
-            return Finish("stuck", f"held up by other rovers for {MAX_CROWD_WAIT_S:.0f} s")
-        self._crowd_waits += 1
-        if self._crowd_waits % CROWD_LOOKS == 0:
-            self._rejected.clear()
-            return Rotate(self.params.behaviour.rotate_action)
-        self._hold_until = view.time + self._wait_time()
-        return Hold(self._hold_until)
 
     def _candidates(self, to_goal: float, window: float) -> list[float]:
         return free_space.candidates(to_goal, window, self.params.behaviour.scan_angle, self._rejected)

@@ -19,9 +19,9 @@ already there block the way."""
 RELAY_CLOSE_M = 1.5
 """A relay holds its spot within this distance: the chain's spacing margin is for drift, not for slack."""
 STATION_CLOSE_M = 1.5
-"""A station (the rover's own spot at a shared waypoint) is reached within ``STATION_CLOSE_M``; when the
-rovers standing at theirs leave no way in, wherever the waypoint is in view (the report's rule), but not
-short of the station with the waypoint out of view: that would not be at the goal."""
+"""A station (the rover's own spot at a shared waypoint) is reached within ``STATION_CLOSE_M``; when rovers
+have left no way in for ``CROWD_SQUEEZE_S`` (``rover_agent.crowd``), wherever the waypoint is in view (the
+report's rule), but not short of the station with the waypoint out of view: that would not be at the goal."""
 MAX_BLOCKED_ROTATIONS = 12
 """Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
 MAX_CROWD_WAIT_S = 90.0

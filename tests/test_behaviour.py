@@ -9,10 +9,8 @@ import pytest
 from rover_agent.agent import STATION_ASK_M, STATION_ASK_RETRY_S, RoverAgent
 from rover_agent.behaviour import (
     BOWL_PITCH,
-    CROWD_SQUEEZE_S,
     MAX_BACKS,
     MAX_BLOCKED_ROTATIONS,
-    MAX_CROWD_WAIT_S,
     NO_PROGRESS_ROUTE_M,
     NO_PROGRESS_WALK_M,
     STATION_CLOSE_M,
@@ -29,6 +27,7 @@ from rover_agent.behaviour import (
     View,
 )
 from rover_agent.dead_reckoning import Pose
+from rover_agent.tuning import CROWD_SQUEEZE_S, MAX_CROWD_WAIT_S
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -296,12 +295,33 @@ def test_the_station_is_reached_close_to_it_not_merely_in_view_of_the_waypoint()
     assert isinstance(_behaviour(goal).decide(_view(goal, pose=Pose(4.0, 15.0, 0.0))), MoveTo)
 
 
-def test_a_station_walled_in_by_rovers_counts_as_reached_with_the_waypoint_in_view():
+def test_a_station_walled_in_by_rovers_for_a_while_counts_as_reached_with_the_waypoint_in_view():
     goal = _station_goal()
     wall = [Hit(a, 1.6, "rover") for a in range(-60, 61, 5)]
-    assert _behaviour(goal).decide(_view(goal, pose=Pose(4.0, 14.0, 0.0), hits=wall)) == Finish("reached")
+    behaviour, here = _behaviour(goal), Pose(4.0, 14.0, 0.0)
+    assert behaviour.decide(_view(goal, pose=here, hits=wall)) != Finish("reached")  # they may be passing
+    assert behaviour.decide(_view(goal, pose=here, hits=wall, time=CROWD_SQUEEZE_S)) == Finish("reached")
     far = _station_goal((4.0, -15.0))  # the waypoint itself out of view: keep trying
-    assert _behaviour(far).decide(_view(far, pose=Pose(4.0, -3.0, 180.0), hits=wall)) != Finish("reached")
+    behaviour = _behaviour(far)
+    for t in (0.0, CROWD_SQUEEZE_S):
+        assert behaviour.decide(_view(far, pose=Pose(4.0, -3.0, 180.0), hits=wall, time=t)) != Finish("reached")
+
+
+def test_a_rover_crossing_the_way_to_a_station_does_not_end_the_walk_short_of_it():
+    """The mechanism of a 20-rover jam: rovers that stopped at the first rover across their way to a station
+    stood in a ring short of the formation and walled the later ones out. A crowd must stand in the way, on and
+    off, for a while; stepping round it meanwhile does not start the wait afresh."""
+    goal = _station_goal((0.0, 0.0))
+    behaviour, here = _behaviour(goal), Pose(0.0, 12.0, 0.0)
+    passing = (Hit(-5.0, 1.6, "rover"), Hit(0.0, 1.5, "rover"), Hit(5.0, 1.6, "rover"))
+    assert behaviour.decide(_view(goal, pose=here, hits=passing)) != Finish("reached")
+    assert isinstance(behaviour.decide(_view(goal, pose=here, time=1.0)), MoveTo)  # it has gone: on to the station
+    behaviour.moved(2.0)
+    later = Pose(0.0, 11.0, 0.0)
+    assert behaviour.decide(_view(goal, pose=later, hits=passing, time=CROWD_SQUEEZE_S - 1.0)) != Finish("reached")
+    assert behaviour.decide(_view(goal, pose=later, hits=passing, time=CROWD_SQUEEZE_S + 1.0)) == Finish("reached")
+    plain = _goal(0.0, 20.0)  # no station (the report's rule): in view and crowded is reached at once
+    assert _behaviour(plain).decide(_view(plain, pose=here, hits=passing)) == Finish("reached")
 
 
 # ---- crater climb ----

@@ -1,0 +1,70 @@
+"""Among rovers: when the way is blocked by rovers rather than rocks, and what the rover does about it.
+
+Rovers move on; rocks do not. So a rover blocked only by rovers waits for them (each rover for its own time, so
+two that met do not set off together again), turns now and then to look for another way, squeezes by with
+close-quarters gaps once a jam has lasted ``CROWD_SQUEEZE_S``, and gives up only after ``MAX_CROWD_WAIT_S``.
+
+At a shared waypoint the report stops a rover once the waypoint is in view and rovers leave it no step towards
+it (6.6). A rover walking to its own station there stops so only once such a crowd has stood in its way, on and
+off, for ``CROWD_SQUEEZE_S``: the rovers across its way may be walking to their own stations. With the report's
+rule for stations too, a 20-rover team's later arrivals stopped at the first rover crossing their way, in a ring
+5 to 8 m short of their stations, and walled the last ones out (held up for 90 s and given up, or stopped in
+view of the waypoint but truly beyond the perception radius).
+
+A mixin of ``DefaultBehaviour``, whose fields (``_crowd_since``, ``_crowded_since``, ``_hold_until``...) and
+scanning (``_free_distance``, ``_candidates``) it uses: kept apart so the behaviour's module stays about
+getting to a goal. Pure logic, no I/O.
+"""
+
+from __future__ import annotations
+
+from rover_agent.decisions import Decision, Finish, Hold, Rotate, View
+from rover_agent.tuning import CROWD_LOOKS, CROWD_SQUEEZE_S, MAX_CROWD_WAIT_S
+from schemas.frames import bearing_deg, wrap_deg
+
+
+class CrowdRules:
+    def _wait_time(self) -> float:
+        """Rovers wait for different times, so two that met do not set off again together."""
+        return self.params.behaviour.max_wait_time * (1 + self.rover_id % 3)
+
+    @property
+    def _squeezing(self) -> bool:
+        return self._crowd_since is not None and self._now - self._crowd_since > CROWD_SQUEEZE_S
+
+    def _crowded(self, view: View) -> bool:
+        """Rovers in view leave no room for a step towards the goal."""
+        pose, (tx, tz) = view.pose, view.goal.target
+        to_goal = wrap_deg(bearing_deg(tx - pose.x, tz - pose.z) - pose.heading)
+        rovers = tuple(h for h in view.hits if h.kind == "rover")
+        return bool(rovers) and self._free_distance(to_goal, rovers) < self.params.behaviour.min_move_size
+
+    def _crowd_stood(self, view: View) -> bool:
+        """Rovers crowd the way to this rover's station now, and first did so ``CROWD_SQUEEZE_S`` ago or more
+        (walking round them meanwhile does not start the wait afresh: ``start_goal`` does)."""
+        if not self._crowded(view):
+            return False
+        if self._crowded_since is None:
+            self._crowded_since = view.time
+        return view.time - self._crowded_since >= CROWD_SQUEEZE_S
+
+    def _blocked_by_rovers(self, view: View, to_goal: float, window: float, want: float) -> bool:
+        """Would the way be free if the rovers in view were not there?"""
+        still = tuple(h for h in view.hits if h.kind != "rover")
+        if len(still) == len(view.hits):
+            return False
+        need = min(want, self.params.behaviour.min_move_size)
+        return any(self._free_distance(a, still) >= need for a in self._candidates(to_goal, window))
+
+    def _wait_in_crowd(self, view: View) -> Decision:
+        """Rovers block the way: wait for them to move on, now and then turning to look for another way."""
+        if self._crowd_since is None:
+            self._crowd_since = view.time
+        if view.time - self._crowd_since > MAX_CROWD_WAIT_S:
+            return Finish("stuck", f"held up by other rovers for {MAX_CROWD_WAIT_S:.0f} s")
+        self._crowd_waits += 1
+        if self._crowd_waits % CROWD_LOOKS == 0:
+            self._rejected.clear()
+            return Rotate(self.params.behaviour.rotate_action)
+        self._hold_until = view.time + self._wait_time()
+        return Hold(self._hold_until)
