@@ -50,6 +50,7 @@ from rover_agent.tuning import (
     CLIMB_PITCH,
     CREST_FACING,
     CREST_PITCH,
+    GIVE_WAY_HOLD_S,
     MAX_BACKS,
     MAX_BLOCKED_ROTATIONS,
     MAX_CREST_LOOKS,
@@ -82,6 +83,9 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
     _crowd_waits: int = 0
     _parking: bool = False  # walking the last metres to this rover's station at a shared waypoint
     _crowded_since: float | None = None  # when rovers first stood between it and its station, the goal in view
+    _give_way_tries: int = 0  # steps aside (or looks for room to) in this jam
+    _giving_way: bool = False  # the move under way is a step aside
+    _turned_aside: bool = False  # turned round to step aside: step before turning back to the goal
     _now: float = 0.0  # time of the latest view
     _closest: tuple[float, float] = (math.inf, 0.0)  # (nearest the goal has been, odometer then)
     _crest_looks: int = 0
@@ -109,6 +113,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         self._photos_taken, self._photo_due = 0, True
         self._crater_seen_at, self._max_pitch, self._blocked_rotations = None, -90.0, 0
         self._crowd_since, self._crowd_waits, self._parking, self._crowded_since = None, 0, False, None
+        self._give_way_tries, self._giving_way, self._turned_aside = 0, False, False
         self._closest = (math.inf, self._odometer)
         self._crest_looks, self._backs, self._backing, self._on_spoke = 0, 0, False, False
         self._rejected.clear()
@@ -117,9 +122,11 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         self._odometer += distance
         if self._crossing is not None:
             self._crossing.reset()
-        if distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
+        if self._giving_way:  # a step aside: no progress; wait for the others to pass
+            self._giving_way, self._hold_until = False, self._now + GIVE_WAY_HOLD_S
+        elif distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
             self._blocked_rotations = 0
-            self._crowd_since, self._crowd_waits = None, 0
+            self._crowd_since, self._crowd_waits, self._give_way_tries = None, 0, 0
             self._rejected.clear()
 
     def rejected(self, relative_angle: float) -> None:
@@ -327,6 +334,8 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         tx, tz = self._route_point(view) or goal.target
         to_goal = wrap_deg(bearing_deg(tx - pose.x, tz - pose.z) - pose.heading)
         window = min(p.perception.field_of_view_degrees / 2 - 5, p.behaviour.scanner_field_of_view / 2)
+        if self._turned_aside and (step := self._step_aside(view, to_goal, window)) is not None:
+            return step
         if abs(to_goal) > window:
             if self._crowd_since is None:  # turning without getting anywhere counts toward giving up...
                 self._blocked_rotations += 1  # ...except when waiting for rovers, which has its own limit
@@ -345,7 +354,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
                 slow = self._close_quarters and free_space.rover_near(view.hits, p.behaviour)
                 return MoveTo(round(length * math.sin(rad), 4), round(length * math.cos(rad), 4), slow)
         if self._blocked_by_rovers(view, to_goal, window, want):
-            return self._wait_in_crowd(view)
+            return self._wait_in_crowd(view, to_goal, window)
         self._blocked_rotations += 1
         if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
             return Finish("stuck", BLOCKED_WHY)

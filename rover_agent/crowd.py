@@ -2,7 +2,8 @@
 
 Rovers move on; rocks do not. So a rover blocked only by rovers waits for them (each rover for its own time, so
 two that met do not set off together again), turns now and then to look for another way, squeezes by with
-close-quarters gaps once a jam has lasted ``CROWD_SQUEEZE_S``, and gives up only after ``MAX_CROWD_WAIT_S``.
+close-quarters gaps once a jam has lasted ``CROWD_SQUEEZE_S``, steps aside to let the others by once it has lasted
+``GIVE_WAY_S``, and gives up only after ``MAX_CROWD_WAIT_S``.
 
 At a shared waypoint the report stops a rover once the waypoint is in view and rovers leave it no step towards
 it (6.6). A rover walking to its own station there stops so only once such a crowd has stood in its way, on and
@@ -18,8 +19,18 @@ getting to a goal. Pure logic, no I/O.
 
 from __future__ import annotations
 
-from rover_agent.decisions import Decision, Finish, Hold, Rotate, View
-from rover_agent.tuning import CROWD_LOOKS, CROWD_SQUEEZE_S, MAX_CROWD_WAIT_S
+import math
+
+from rover_agent import free_space
+from rover_agent.decisions import Decision, Finish, Hold, MoveTo, Rotate, View
+from rover_agent.tuning import (
+    CROWD_LOOKS,
+    CROWD_SQUEEZE_S,
+    GIVE_WAY_OFF_GOAL_DEG,
+    GIVE_WAY_S,
+    GIVE_WAY_TRIES,
+    MAX_CROWD_WAIT_S,
+)
 from schemas.frames import bearing_deg, wrap_deg
 
 
@@ -56,15 +67,45 @@ class CrowdRules:
         need = min(want, self.params.behaviour.min_move_size)
         return any(self._free_distance(a, still) >= need for a in self._candidates(to_goal, window))
 
-    def _wait_in_crowd(self, view: View) -> Decision:
-        """Rovers block the way: wait for them to move on, now and then turning to look for another way."""
+    def _wait_in_crowd(self, view: View, to_goal: float, window: float) -> Decision:
+        """Rovers block the way: wait for them to move on, now and then turning to look for another way; once
+        long held up, step aside (``_give_way``)."""
         if self._crowd_since is None:
             self._crowd_since = view.time
         if view.time - self._crowd_since > MAX_CROWD_WAIT_S:
             return Finish("stuck", f"held up by other rovers for {MAX_CROWD_WAIT_S:.0f} s")
+        if view.time - self._crowd_since > GIVE_WAY_S and self._give_way_tries < GIVE_WAY_TRIES:
+            return self._give_way(view, to_goal, window)
         self._crowd_waits += 1
         if self._crowd_waits % CROWD_LOOKS == 0:
             self._rejected.clear()
             return Rotate(self.params.behaviour.rotate_action)
         self._hold_until = view.time + self._wait_time()
         return Hold(self._hold_until)
+
+    def _give_way(self, view: View, to_goal: float, window: float) -> Decision:
+        """Step aside, away from the goal, into the freest direction in view: rovers that block each other (two
+        head on in a gap, four in a knot in a corridor) otherwise each wait for the others until all give up.
+        With no room in view, turn round first and step away from the knot (``_step_aside`` on the next
+        decision). The rover then waits a while where it stands (``moved``) before heading for the goal again,
+        and the jam's clock runs on: a step aside is no progress."""
+        self._give_way_tries += 1
+        step = self._step_aside(view, to_goal, window)
+        if step is not None:
+            return step
+        self._turned_aside = True
+        return Rotate(180.0)
+
+    def _step_aside(self, view: View, to_goal: float, window: float) -> MoveTo | None:
+        """A slow step of ``min_move_size`` into the freest direction in view at least ``GIVE_WAY_OFF_GOAL_DEG``
+        off the way to the goal; None if none is free that far."""
+        self._turned_aside = False
+        b = self.params.behaviour
+        aside = [a for a in free_space.candidates(to_goal, window, b.scan_angle, ())
+                 if abs(wrap_deg(a - to_goal)) >= GIVE_WAY_OFF_GOAL_DEG]
+        best = max(aside, key=lambda a: (round(self._free_distance(a, view.hits), 3), -abs(a)), default=None)
+        if best is None or self._free_distance(best, view.hits) < b.min_move_size:
+            return None
+        self._giving_way = True
+        rad = math.radians(best)
+        return MoveTo(round(b.min_move_size * math.sin(rad), 4), round(b.min_move_size * math.cos(rad), 4), True)

@@ -34,6 +34,16 @@ NO_PROGRESS_WALK_M = 300.0
 """Metres walked without getting any closer to the goal, routing or not, before giving up."""
 CROWD_SQUEEZE_S = 15.0
 """After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
+GIVE_WAY_S = 30.0
+"""After this long held up by rovers, a rover steps aside, away from its goal (``rover_agent.crowd``): rovers
+that block each other, each waiting for the others, would otherwise all give up at ``MAX_CROWD_WAIT_S``
+(development seed 48: four rovers in a knot in a maze's corridor)."""
+GIVE_WAY_TRIES = 2
+"""Steps aside (or turns to look for room to step aside) in one jam."""
+GIVE_WAY_OFF_GOAL_DEG = 60.0
+"""A step aside leaves at least this far off the direction to the goal: it makes room, rather than pushing in."""
+GIVE_WAY_HOLD_S = 10.0
+"""After a step aside, the rover waits this long for the others to pass before heading for the goal again."""
 CROWD_LOOKS = 3
 """While waiting in a crowd, every this many waits the rover rotates to look for another way."""
 RIGHT_OF_WAY_DEG = 10.0

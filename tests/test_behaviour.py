@@ -27,7 +27,12 @@ from rover_agent.behaviour import (
     View,
 )
 from rover_agent.dead_reckoning import Pose
-from rover_agent.tuning import CROWD_SQUEEZE_S, MAX_CROWD_WAIT_S
+from rover_agent.tuning import (
+    CROWD_SQUEEZE_S,
+    GIVE_WAY_HOLD_S,
+    GIVE_WAY_S,
+    MAX_CROWD_WAIT_S,
+)
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -249,6 +254,34 @@ def test_progress_resets_the_wait_in_a_crowd():
     b.decide(_view(hits=RINGED_BY_ROVERS, time=0.0))
     b.moved(2.0)
     assert b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) != Finish("stuck")
+
+
+# Rovers packed across the way ahead (a knot in a corridor, or one rover head on in a gap): room only to the sides.
+HEAD_ON = tuple(Hit(a, 1.8, "rover") for a in range(-50, 51, 5))
+
+
+def test_long_held_up_by_rovers_a_rover_steps_aside_to_let_them_by_and_waits_for_them():
+    """The mechanism of a knot: rovers that block each other each wait for the others to move, until all give
+    up. Long held up, a rover turns round if it must, steps away from the knot, then waits there a while."""
+    b, t, decision = _behaviour(), 0.0, None
+    while t <= GIVE_WAY_S:
+        decision = b.decide(_view(hits=HEAD_ON, time=t))
+        assert not isinstance(decision, MoveTo) and decision != Finish("stuck")
+        t += 0.5
+    while decision != Rotate(180.0) and t < GIVE_WAY_S + 10.0:
+        decision = b.decide(_view(hits=HEAD_ON, time=t))
+        t += 0.5
+    assert decision == Rotate(180.0)  # no room to the sides in view: turn round, and step away from the knot
+    behind = Pose(0.0, 0.0, 180.0)
+    step = b.decide(_view(pose=behind, time=t))
+    assert isinstance(step, MoveTo) and step.slow and abs(_angle(step)) < 90.0  # away from the goal behind it
+    assert math.hypot(step.x, step.z) == pytest.approx(PARAMS.behaviour.min_move_size, abs=1e-3)
+    b.moved(PARAMS.behaviour.min_move_size)
+    assert b.decide(_view(pose=behind, time=t + GIVE_WAY_HOLD_S - 1.0)) == Hold(t + GIVE_WAY_HOLD_S)
+    assert isinstance(b.decide(_view(pose=behind, time=t + GIVE_WAY_HOLD_S)), Rotate)  # then back to the goal
+    # A step aside is no progress: still held up, the rover gives up when the jam's time is out.
+    stuck = b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
+    assert stuck == Finish("stuck") and "held up by other rovers" in stuck.why
 
 
 def test_a_rover_pacing_without_getting_closer_gives_up():
