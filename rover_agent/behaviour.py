@@ -351,7 +351,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
                 length = min(free, want)
                 rad = math.radians(angle)
                 # close-quarters stops come at a body's gap: too late at full speed (``free_space.rover_near``)
-                slow = self._close_quarters and free_space.rover_near(view.hits, p.behaviour)
+                slow = self._close_quarters and free_space.rover_near(view.hits, p.behaviour, length)
                 return MoveTo(round(length * math.sin(rad), 4), round(length * math.cos(rad), 4), slow)
         if self._blocked_by_rovers(view, to_goal, window, want):
             return self._wait_in_crowd(view, to_goal, window)

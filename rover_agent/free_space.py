@@ -53,8 +53,10 @@ def free_rays(hits: Iterable[Hit], perception: PerceptionParams) -> list[float]:
     return [a for a in rays if round(a, 3) not in seen]
 
 
-def rover_near(hits: Iterable[Hit], behaviour: BehaviourParams) -> bool:
-    """A rover within ``collision_danger_dist``: two rovers stepping into one gap at full speed close by more
-    between two scans than a close-quarters stop leaves, so the move goes slowly. On any side: rovers at close
-    quarters turn before they step, so one beside or behind may be stepping into the same gap."""
-    return any(h.kind == "rover" and h.distance_m < behaviour.collision_danger_dist for h in hits)
+def rover_near(hits: Iterable[Hit], behaviour: BehaviourParams, step_m: float) -> bool:
+    """A rover within ``collision_danger_dist`` of anywhere along a step of ``step_m``: two rovers stepping into
+    one gap at full speed close by more between two scans than a close-quarters stop leaves, so the move goes
+    slowly. On any side: rovers at close quarters turn before they step, so one beside or behind may be stepping
+    into the same gap. Along the step: two rovers climbing a rim 4.5 m apart stepped 2 m each, head on, at full
+    speed, and met."""
+    return any(h.kind == "rover" and h.distance_m < behaviour.collision_danger_dist + step_m for h in hits)

@@ -3,6 +3,8 @@ speed level with them (``in_flight.Pace``)."""
 
 from __future__ import annotations
 
+import math
+
 from rover_agent.behaviour import DefaultBehaviour, Goal, Hit, MoveTo, View
 from rover_agent.dead_reckoning import Pose
 from rover_agent.in_flight import FULL_AGAIN_S, FULL_LEVEL, SLOW_LEVEL, Pace
@@ -29,6 +31,14 @@ def _move(goal: Goal, hits: tuple[Hit, ...]) -> MoveTo:
 def test_parking_near_another_rover_the_step_is_slow():
     assert _move(STATION, ROVER_NEAR).slow
     assert _move(STATION, ROVER_BEHIND).slow  # turning before it steps, one behind may step into the same gap
+
+
+def test_a_rover_near_enough_to_meet_during_the_step_makes_it_slow():
+    """Two rovers 4.5 m apart, each stepping 2 m towards the other at full speed, met on a crater's rim: the
+    danger distance counts from anywhere along the step."""
+    step = _move(STATION, ())
+    near_its_end = (Hit(0.0, PARAMS.behaviour.collision_danger_dist + math.hypot(step.x, step.z) - 0.5, "rover"),)
+    assert _move(STATION, near_its_end).slow
 
 
 def test_parking_with_no_rover_near_or_walking_in_the_open_the_step_is_not():
