@@ -13,7 +13,8 @@ the team shares, from the lander) once on it, in short, slow steps with close-qu
 
 Among rovers it follows the report's traffic rule (7.2.1: traffic to the right has right of way), waits
 when only rovers block the way (they move on; rocks do not), stops for rovers on a collision course,
-squeezes by, slowly and with small gaps, when a jam lasts, and gives up only after a long time. A rover
+squeezes by, slowly and with small gaps, when a jam lasts, steps aside when it lasts longer, and gives up only
+after a long time (``crowd``). A rover
 walking on without getting closer to its goal (pacing along a wall) switches to routing, then gives up.
 
 No I/O here: the runtime feeds a ``View`` and sends what ``decide`` returns, so this is tested with scripted
@@ -122,8 +123,9 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         self._odometer += distance
         if self._crossing is not None:
             self._crossing.reset()
-        if self._giving_way:  # a step aside: no progress; wait for the others to pass
-            self._giving_way, self._hold_until = False, self._now + GIVE_WAY_HOLD_S
+        self._turned_aside = False
+        if self._giving_way:  # a step aside: no progress; wait for the others to pass, each rover its own time
+            self._giving_way, self._hold_until = False, self._now + GIVE_WAY_HOLD_S * (1 + self.rover_id % 3) / 2
         elif distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
             self._blocked_rotations = 0
             self._crowd_since, self._crowd_waits, self._give_way_tries = None, 0, 0
@@ -132,13 +134,14 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
     def rejected(self, relative_angle: float) -> None:
         """The world refused a move in this direction: do not try it again from here."""
         self._rejected.append(relative_angle)
+        self._giving_way = False
 
     def cancelled(self, now: float) -> None:
         """A move was cancelled because another rover came close: give way for a moment."""
         if self._sun is not None and self._sun.turned_back:  # cancelled on entering shadow: no rover to wait for
             self._sun.turned_back = False
             return
-        self._hold_until = now + self._wait_time()
+        self._hold_until = max(self._hold_until, now + self._wait_time())  # a step aside's longer wait stands
         if self._crowd_since is None:
             self._crowd_since = now
 

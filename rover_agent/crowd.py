@@ -6,8 +6,8 @@ close-quarters gaps once a jam has lasted ``CROWD_SQUEEZE_S``, steps aside to le
 ``GIVE_WAY_S``, and gives up only after ``MAX_CROWD_WAIT_S``.
 
 At a shared waypoint the report stops a rover once the waypoint is in view and rovers leave it no step towards
-it (6.6). A rover walking to its own station there stops so only once such a crowd has stood in its way, on and
-off, for ``CROWD_SQUEEZE_S``: the rovers across its way may be walking to their own stations. With the report's
+it (6.6). A rover walking to its own station there stops so only if rovers crowd its way now and first did
+``CROWD_SQUEEZE_S`` or more before: the rovers across its way may be walking to their own stations. With the report's
 rule for stations too, a 20-rover team's later arrivals stopped at the first rover crossing their way, in a ring
 5 to 8 m short of their stations, and walled the last ones out (held up for 90 s and given up, or stopped in
 view of the waypoint but truly beyond the perception radius).
@@ -86,9 +86,10 @@ class CrowdRules:
     def _give_way(self, view: View, to_goal: float, window: float) -> Decision:
         """Step aside, away from the goal, into the freest direction in view: rovers that block each other (two
         head on in a gap, four in a knot in a corridor) otherwise each wait for the others until all give up.
-        With no room in view, turn round first and step away from the knot (``_step_aside`` on the next
-        decision). The rover then waits a while where it stands (``moved``) before heading for the goal again,
-        and the jam's clock runs on: a step aside is no progress."""
+        With no room in view, turn round first and step away from the knot (``_step_aside``, when the rover next
+        heads for its goal). The rover then waits a while where it stands (``moved``; rovers for different times,
+        so a pair that stepped aside together do not come back together) before heading for the goal again, and
+        the jam's clock runs on: a step aside is no progress."""
         self._give_way_tries += 1
         step = self._step_aside(view, to_goal, window)
         if step is not None:
@@ -101,7 +102,7 @@ class CrowdRules:
         off the way to the goal; None if none is free that far."""
         self._turned_aside = False
         b = self.params.behaviour
-        aside = [a for a in free_space.candidates(to_goal, window, b.scan_angle, ())
+        aside = [a for a in free_space.candidates(0.0, window, b.scan_angle, self._rejected)
                  if abs(wrap_deg(a - to_goal)) >= GIVE_WAY_OFF_GOAL_DEG]
         best = max(aside, key=lambda a: (round(self._free_distance(a, view.hits), 3), -abs(a)), default=None)
         if best is None or self._free_distance(best, view.hits) < b.min_move_size:

@@ -20,8 +20,8 @@ RELAY_CLOSE_M = 1.5
 """A relay holds its spot within this distance: the chain's spacing margin is for drift, not for slack."""
 STATION_CLOSE_M = 1.5
 """A station (the rover's own spot at a shared waypoint) is reached within ``STATION_CLOSE_M``; when rovers
-have left no way in for ``CROWD_SQUEEZE_S`` (``rover_agent.crowd``), wherever the waypoint is in view (the
-report's rule), but not short of the station with the waypoint out of view: that would not be at the goal."""
+leave no way in and first did ``CROWD_SQUEEZE_S`` before (``rover_agent.crowd``), wherever the waypoint is in
+view (the report's rule), but not short of the station with the waypoint out of view: not at the goal."""
 MAX_BLOCKED_ROTATIONS = 12
 """Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
 MAX_CROWD_WAIT_S = 90.0
@@ -36,14 +36,15 @@ CROWD_SQUEEZE_S = 15.0
 """After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
 GIVE_WAY_S = 30.0
 """After this long held up by rovers, a rover steps aside, away from its goal (``rover_agent.crowd``): rovers
-that block each other, each waiting for the others, would otherwise all give up at ``MAX_CROWD_WAIT_S``
-(development seed 48: four rovers in a knot in a maze's corridor)."""
+that block each other, each waiting for the others (two head on in a gap, four in a knot in a corridor), would
+otherwise all give up at ``MAX_CROWD_WAIT_S``."""
 GIVE_WAY_TRIES = 2
 """Steps aside (or turns to look for room to step aside) in one jam."""
 GIVE_WAY_OFF_GOAL_DEG = 60.0
 """A step aside leaves at least this far off the direction to the goal: it makes room, rather than pushing in."""
 GIVE_WAY_HOLD_S = 10.0
-"""After a step aside, the rover waits this long for the others to pass before heading for the goal again."""
+"""After a step aside, the rover waits about this long for the others to pass before heading for the goal again
+(half of it to one and a half times it, by rover id)."""
 CROWD_LOOKS = 3
 """While waiting in a crowd, every this many waits the rover rotates to look for another way."""
 RIGHT_OF_WAY_DEG = 10.0

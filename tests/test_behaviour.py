@@ -274,7 +274,7 @@ def test_long_held_up_by_rovers_a_rover_steps_aside_to_let_them_by_and_waits_for
     assert decision == Rotate(180.0)  # no room to the sides in view: turn round, and step away from the knot
     behind = Pose(0.0, 0.0, 180.0)
     step = b.decide(_view(pose=behind, time=t))
-    assert isinstance(step, MoveTo) and step.slow and abs(_angle(step)) < 90.0  # away from the goal behind it
+    assert isinstance(step, MoveTo) and step.slow and abs(_angle(step)) < 1.0  # straight away from the knot
     assert math.hypot(step.x, step.z) == pytest.approx(PARAMS.behaviour.min_move_size, abs=1e-3)
     b.moved(PARAMS.behaviour.min_move_size)
     assert b.decide(_view(pose=behind, time=t + GIVE_WAY_HOLD_S - 1.0)) == Hold(t + GIVE_WAY_HOLD_S)
@@ -282,6 +282,38 @@ def test_long_held_up_by_rovers_a_rover_steps_aside_to_let_them_by_and_waits_for
     # A step aside is no progress: still held up, the rover gives up when the jam's time is out.
     stuck = b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
     assert stuck == Finish("stuck") and "held up by other rovers" in stuck.why
+
+
+def _turned_to_give_way(b: DefaultBehaviour) -> float:
+    """Hold up ``b`` in a knot until it turns round to step aside; the time of the turn."""
+    t, decision = 0.0, None
+    while decision != Rotate(180.0):
+        assert t < GIVE_WAY_S + 10.0
+        decision = b.decide(_view(hits=HEAD_ON, time=t))
+        t += 0.5
+    return t
+
+
+def test_a_step_aside_the_world_refuses_is_not_tried_again_and_the_next_move_is_no_step_aside():
+    b = _behaviour()
+    t = _turned_to_give_way(b)
+    behind = Pose(0.0, 0.0, 180.0)
+    step = b.decide(_view(pose=behind, time=t))
+    b.rejected(_angle(step))
+    b.moved(0.0)
+    assert b._hold_until < t + 1.0  # a refused step is no step aside: no long wait after it
+    b._turned_aside = True  # as after the next try's turn
+    again = b.decide(_view(pose=behind, time=t + 0.5))
+    assert isinstance(again, MoveTo) and abs(_angle(again) - _angle(step)) > 5.0
+
+
+def test_a_step_aside_cut_short_by_a_rover_still_waits_its_while():
+    b = _behaviour()
+    t = _turned_to_give_way(b)
+    b.decide(_view(pose=Pose(0.0, 0.0, 180.0), time=t))
+    b.moved(0.8)  # the world cancelled it part way (NavigationFeedback: moved, then cancelled)
+    b.cancelled(t + 0.5)
+    assert b._hold_until == pytest.approx(t + GIVE_WAY_HOLD_S)  # rover 1: the plain hold, from the step
 
 
 def test_a_rover_pacing_without_getting_closer_gives_up():
