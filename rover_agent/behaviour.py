@@ -51,7 +51,6 @@ from rover_agent.tuning import (
     CLIMB_PITCH,
     CREST_FACING,
     CREST_PITCH,
-    GIVE_WAY_HOLD_S,
     MAX_BACKS,
     MAX_BLOCKED_ROTATIONS,
     MAX_CREST_LOOKS,
@@ -124,8 +123,8 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         if self._crossing is not None:
             self._crossing.reset()
         self._turned_aside = False
-        if self._giving_way:  # a step aside: no progress; wait for the others to pass, each rover its own time
-            self._giving_way, self._hold_until = False, self._now + GIVE_WAY_HOLD_S * (1 + self.rover_id % 3) / 2
+        if self._giving_way:  # a step aside: no progress
+            self._stepped_aside()
         elif distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
             self._blocked_rotations = 0
             self._crowd_since, self._crowd_waits, self._give_way_tries = None, 0, 0

@@ -26,6 +26,7 @@ from rover_agent.decisions import Decision, Finish, Hold, MoveTo, Rotate, View
 from rover_agent.tuning import (
     CROWD_LOOKS,
     CROWD_SQUEEZE_S,
+    GIVE_WAY_HOLD_S,
     GIVE_WAY_OFF_GOAL_DEG,
     GIVE_WAY_S,
     GIVE_WAY_TRIES,
@@ -35,9 +36,17 @@ from schemas.frames import bearing_deg, wrap_deg
 
 
 class CrowdRules:
+    @property
+    def _stagger(self) -> int:
+        """Rovers wait for different times (1, 2 or 3 shares, by id), so two that met do not set off together."""
+        return 1 + self.rover_id % 3
+
     def _wait_time(self) -> float:
-        """Rovers wait for different times, so two that met do not set off again together."""
-        return self.params.behaviour.max_wait_time * (1 + self.rover_id % 3)
+        return self.params.behaviour.max_wait_time * self._stagger
+
+    def _stepped_aside(self) -> None:
+        """A step aside done: wait for the others to pass (``GIVE_WAY_HOLD_S``, staggered) before going on."""
+        self._giving_way, self._hold_until = False, self._now + GIVE_WAY_HOLD_S * self._stagger / 2
 
     @property
     def _squeezing(self) -> bool:
@@ -87,9 +96,9 @@ class CrowdRules:
         """Step aside, away from the goal, into the freest direction in view: rovers that block each other (two
         head on in a gap, four in a knot in a corridor) otherwise each wait for the others until all give up.
         With no room in view, turn round first and step away from the knot (``_step_aside``, when the rover next
-        heads for its goal). The rover then waits a while where it stands (``moved``; rovers for different times,
-        so a pair that stepped aside together do not come back together) before heading for the goal again, and
-        the jam's clock runs on: a step aside is no progress."""
+        heads for its goal). The rover then waits a while where it stands (``_stepped_aside``; rovers for
+        different times, so a pair that stepped aside together do not come back together) before heading for the
+        goal again, and the jam's clock runs on: a step aside is no progress."""
         self._give_way_tries += 1
         step = self._step_aside(view, to_goal, window)
         if step is not None:
