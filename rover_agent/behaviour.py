@@ -85,7 +85,9 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
     _crowded_since: float | None = None  # when rovers first stood between it and its station, the goal in view
     _give_way_tries: int = 0  # steps aside (or looks for room to) in this jam
     _giving_way: bool = False  # the move under way is a step aside
+    _jam_from: tuple[tuple[float, float], float] | None = None  # the target, and metres from it, as the jam began
     _turned_aside: bool = False  # turned round to step aside: step before turning back to the goal
+    _follow_waits: int = 0  # waits in a row for a rover ahead to walk on (``_follow``)
     _now: float = 0.0  # time of the latest view
     _closest: tuple[float, float] = (math.inf, 0.0)  # (nearest the goal has been, odometer then)
     _crest_looks: int = 0
@@ -113,7 +115,8 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         self._photos_taken, self._photo_due = 0, True
         self._crater_seen_at, self._max_pitch, self._blocked_rotations = None, -90.0, 0
         self._crowd_since, self._crowd_waits, self._parking, self._crowded_since = None, 0, False, None
-        self._give_way_tries, self._giving_way, self._turned_aside = 0, False, False
+        self._give_way_tries, self._giving_way, self._turned_aside, self._follow_waits = 0, False, False, 0
+        self._jam_from = None
         self._closest = (math.inf, self._odometer)
         self._crest_looks, self._backs, self._backing, self._on_spoke = 0, 0, False, False
         self._rejected.clear()
@@ -122,12 +125,11 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         self._odometer += distance
         if self._crossing is not None:
             self._crossing.reset()
-        self._turned_aside = False
+        self._turned_aside, self._follow_waits = False, 0
         if self._giving_way:  # a step aside: no progress
             self._stepped_aside()
         elif distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
             self._blocked_rotations = 0
-            self._crowd_since, self._crowd_waits, self._give_way_tries = None, 0, 0
             self._rejected.clear()
 
     def rejected(self, relative_angle: float) -> None:
@@ -141,8 +143,8 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
             self._sun.turned_back = False
             return
         self._hold_until = max(self._hold_until, now + self._wait_time())  # a step aside's longer wait stands
-        if self._crowd_since is None:
-            self._crowd_since = now
+        if self._crowd_since is None:  # the jam begins where the move stopped: the next decision says how far
+            self._crowd_since, self._jam_from = now, None
 
     # ---- decisions ----
 
@@ -177,6 +179,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
             return self._observe(view.goal)
         goal, pose = view.goal, view.pose
         distance = math.hypot(goal.target[0] - pose.x, goal.target[1] - pose.z)
+        self._mind_jam(goal.target, distance)
         if goal.kind == "waypoint" and self._waypoint_reached(view, distance):
             return Finish("reached")
         if goal.kind == "relay" and distance <= RELAY_CLOSE_M:
@@ -351,6 +354,8 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
             free = self._free_distance(angle, view.hits)
             if free >= min(want, p.behaviour.min_move_size):
                 length = min(free, want)
+                if (wait := self._follow(view, angle, length, want)) is not None:
+                    return wait
                 rad = math.radians(angle)
                 # close-quarters stops come at a body's gap: too late at full speed (``free_space.rover_near``)
                 slow = self._close_quarters and free_space.rover_near(view.hits, p.behaviour, length)

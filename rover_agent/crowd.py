@@ -26,6 +26,8 @@ from rover_agent.decisions import Decision, Finish, Hold, MoveTo, Rotate, View
 from rover_agent.tuning import (
     CROWD_LOOKS,
     CROWD_SQUEEZE_S,
+    FOLLOW_SHARE,
+    FOLLOW_WAITS,
     GIVE_WAY_HOLD_S,
     GIVE_WAY_OFF_GOAL_DEG,
     GIVE_WAY_S,
@@ -43,6 +45,19 @@ class CrowdRules:
 
     def _wait_time(self) -> float:
         return self.params.behaviour.max_wait_time * self._stagger
+
+    def _mind_jam(self, target: tuple[float, float], distance: float) -> None:
+        """A jam ends only once the rover is closer to its goal (``target``, ``distance`` metres away now) than
+        where the jam began. A move anywhere else is no way through: counted as progress, it reset the jam's clock
+        and its tries, and a rover held up by a knot that would not clear (rovers standing at their stations round
+        its way) stepped aside, or to and fro among them, for ever instead of giving up. A new target (a station
+        given on the way) starts the measure afresh."""
+        jam = self._crowd_since is not None
+        if jam and self._jam_from is not None and self._jam_from[0] == target:
+            if distance >= self._jam_from[1] - self.params.behaviour.min_move_size / 2:
+                return
+            self._crowd_since, self._crowd_waits, self._give_way_tries = None, 0, 0
+        self._jam_from = (target, distance)
 
     def _stepped_aside(self) -> None:
         """A step aside done: wait for the others to pass (``GIVE_WAY_HOLD_S``, staggered) before going on."""
@@ -89,6 +104,22 @@ class CrowdRules:
         if self._crowd_waits % CROWD_LOOKS == 0:
             self._rejected.clear()
             return Rotate(self.params.behaviour.rotate_action)
+        self._hold_until = view.time + self._wait_time()
+        return Hold(self._hold_until)
+
+    def _follow(self, view: View, angle: float, length: float, want: float) -> Hold | None:
+        """A rover ahead leaves only a short step (under ``FOLLOW_SHARE`` of the step wanted, where the ground
+        itself is free farther): wait for it to walk on, up to ``FOLLOW_WAITS`` times, rather than creep after
+        it. Every move turns the heading a little whatever its length (``NavigationParams.heading_noise_std_deg``)
+        and a heading error swings all the rest of the way, so a rover creeping behind a queue in short steps
+        arrived metres farther off than one that had waited; with no heading noise, creeping costs nothing."""
+        if (self.params.navigation.heading_noise_std_deg <= 0 or self._close_quarters
+                or length >= FOLLOW_SHARE * want or self._follow_waits >= FOLLOW_WAITS):
+            return None
+        still = tuple(h for h in view.hits if h.kind != "rover")
+        if self._free_distance(angle, still) < FOLLOW_SHARE * want:  # the ground cuts the step short, not rovers
+            return None
+        self._follow_waits += 1
         self._hold_until = view.time + self._wait_time()
         return Hold(self._hold_until)
 

@@ -47,6 +47,11 @@ GIVE_WAY_HOLD_S = 10.0
 (half of it to one and a half times it, by rover id)."""
 CROWD_LOOKS = 3
 """While waiting in a crowd, every this many waits the rover rotates to look for another way."""
+FOLLOW_SHARE = 0.5
+"""A rover ahead that leaves less than this share of the step the rover wanted: wait for it to walk on rather
+than creep after it (``CrowdRules._follow``)."""
+FOLLOW_WAITS = 3
+"""...at most this many waits in a row; then the short step."""
 RIGHT_OF_WAY_DEG = 10.0
 """A rover ahead, or to the right of this many degrees left of ahead, has right of way (report 7.2.1)."""
 MAX_CREST_LOOKS = 3

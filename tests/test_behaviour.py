@@ -249,11 +249,24 @@ def test_blocked_by_rovers_the_rover_waits_and_looks_about_rather_than_giving_up
     assert stuck == Finish("stuck") and stuck.why == "held up by other rovers for 90 s"
 
 
-def test_progress_resets_the_wait_in_a_crowd():
+def test_getting_closer_to_the_goal_ends_the_wait_in_a_crowd():
     b = _behaviour()
     b.decide(_view(hits=RINGED_BY_ROVERS, time=0.0))
     b.moved(2.0)
-    assert b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) != Finish("stuck")
+    closer = Pose(0.0, 2.0, 0.0)
+    assert b.decide(_view(pose=closer, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) != Finish("stuck")
+
+
+def test_walking_to_and_fro_among_rovers_is_no_way_through_a_jam():
+    """Moves that get the rover no closer (aside and back, across and back) leave the jam's clock running: a knot
+    that never clears ends in a clear 'stuck', not in a rover pacing among the others for ever."""
+    b = _behaviour()
+    b.decide(_view(hits=RINGED_BY_ROVERS, time=0.0))
+    for k in range(1, 9):
+        b.moved(2.0)
+        b.decide(_view(pose=Pose(2.0 * (k % 2), 0.0, 0.0), hits=RINGED_BY_ROVERS, time=10.0 * k))
+    stuck = b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
+    assert stuck == Finish("stuck") and stuck.why == "held up by other rovers for 90 s"
 
 
 # Rovers packed across the way ahead (a knot in a corridor, or one rover head on in a gap): room only to the sides.
