@@ -85,7 +85,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
     _crowded_since: float | None = None  # when rovers first stood between it and its station, the goal in view
     _give_way_tries: int = 0  # steps aside (or looks for room to) in this jam
     _giving_way: bool = False  # the move under way is a step aside
-    _jam_from: tuple[tuple[float, float], float] | None = None  # the target, and metres from it, as the jam began
+    _jam_from: tuple[tuple[float, float], float, tuple[float, float]] | None = None  # target, metres to it, place
     _turned_aside: bool = False  # turned round to step aside: step before turning back to the goal
     _follow_waits: int = 0  # waits in a row for a rover ahead to walk on (``_follow``)
     _now: float = 0.0  # time of the latest view
@@ -179,7 +179,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
             return self._observe(view.goal)
         goal, pose = view.goal, view.pose
         distance = math.hypot(goal.target[0] - pose.x, goal.target[1] - pose.z)
-        self._mind_jam(goal.target, distance)
+        self._mind_jam(view, distance)
         if goal.kind == "waypoint" and self._waypoint_reached(view, distance):
             return Finish("reached")
         if goal.kind == "relay" and distance <= RELAY_CLOSE_M:

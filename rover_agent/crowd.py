@@ -46,18 +46,21 @@ class CrowdRules:
     def _wait_time(self) -> float:
         return self.params.behaviour.max_wait_time * self._stagger
 
-    def _mind_jam(self, target: tuple[float, float], distance: float) -> None:
-        """A jam ends only once the rover is closer to its goal (``target``, ``distance`` metres away now) than
-        where the jam began. A move anywhere else is no way through: counted as progress, it reset the jam's clock
-        and its tries, and a rover held up by a knot that would not clear (rovers standing at their stations round
-        its way) stepped aside, or to and fro among them, for ever instead of giving up. A new target (a station
-        given on the way) starts the measure afresh."""
-        jam = self._crowd_since is not None
-        if jam and self._jam_from is not None and self._jam_from[0] == target:
-            if distance >= self._jam_from[1] - self.params.behaviour.min_move_size / 2:
+    def _mind_jam(self, view: View, distance: float) -> None:
+        """A jam ends once the rover is closer to its goal (``distance`` metres away now) than where the jam began,
+        or has left that place (a step and a collision's distance from it: its way round the rovers may lead away
+        from the goal, as a maze's does). A move to and fro among them is no way through: counted as progress, it
+        reset the jam's clock and its tries, and a rover held up by a knot that would not clear (rovers standing
+        at their stations round its way) stepped aside and back for ever instead of giving up. A new target (a
+        station given on the way) starts the measure afresh."""
+        b, target, here = self.params.behaviour, view.goal.target, (view.pose.x, view.pose.z)
+        began = self._jam_from
+        if self._crowd_since is not None and began is not None and began[0] == target:
+            left = math.dist(here, began[2]) > b.collision_danger_dist + b.min_move_size
+            if not left and distance >= began[1] - b.min_move_size / 2:
                 return
             self._crowd_since, self._crowd_waits, self._give_way_tries = None, 0, 0
-        self._jam_from = (target, distance)
+        self._jam_from = (target, distance, here)
 
     def _stepped_aside(self) -> None:
         """A step aside done: wait for the others to pass (``GIVE_WAY_HOLD_S``, staggered) before going on."""

@@ -269,6 +269,16 @@ def test_walking_to_and_fro_among_rovers_is_no_way_through_a_jam():
     assert stuck == Finish("stuck") and stuck.why == "held up by other rovers for 90 s"
 
 
+def test_walking_away_from_where_a_jam_began_ends_it():
+    """A way round the rovers may lead away from the goal (a maze's does): with the jam left behind, a later
+    crowd is a new jam, not the old one timed out."""
+    b = _behaviour()
+    b.decide(_view(hits=RINGED_BY_ROVERS, time=0.0))
+    away = Pose(8.0, 0.0, 0.0)
+    assert isinstance(b.decide(_view(pose=away, time=20.0)), MoveTo)
+    assert b.decide(_view(pose=away, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) != Finish("stuck")
+
+
 # Rovers packed across the way ahead (a knot in a corridor, or one rover head on in a gap): room only to the sides.
 HEAD_ON = tuple(Hit(a, 1.8, "rover") for a in range(-50, 51, 5))
 
