@@ -317,13 +317,13 @@ class RoverAgent(NavigationFeedback, Localising):
     def _ask_station(self, hits: tuple[Hit, ...]) -> list[Out]:
         """Near a goal the team shares and with no station yet: ask the lander for one, again every
         ``STATION_ASK_RETRY_S`` until it comes (a lost request, or a lander out of reach for now). Near is
-        ``STATION_ASK_M`` from a waypoint; for a crater, whose size the rover does not know, once its terrain is
-        in view, some metres before the rim."""
+        ``STATION_ASK_M`` from the goal; for a crater, whose size the rover does not know, also once its terrain is
+        in view, some metres before the rim (a rover in the bowl sees no rim ahead: it asks by the distance)."""
         goal, pose = self.goal, self.pose
         if (goal is None or pose is None or not goal.shared or goal.station is not None or self.finished_goal
                 or self.fix.active or self.now - self._last_station_ask < STATION_ASK_RETRY_S
-                or not (any(h.kind == "crater_terrain" for h in hits) if goal.kind == "crater"
-                        else math.hypot(goal.x - pose.x, goal.z - pose.z) <= STATION_ASK_M)):
+                or not (math.hypot(goal.x - pose.x, goal.z - pose.z) <= STATION_ASK_M
+                        or (goal.kind == "crater" and any(h.kind == "crater_terrain" for h in hits)))):
             return []
         self._last_station_ask = self.now
         return [self._radio([ks.LANDER_ID], radio.StationRequest(goal_index=goal.index, x=round(pose.x, 3),

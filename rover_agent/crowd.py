@@ -100,7 +100,7 @@ class CrowdRules:
         if self._crowd_since is None:
             self._crowd_since = view.time
         if view.time - self._crowd_since > MAX_CROWD_WAIT_S:
-            return Finish("stuck", f"held up by other rovers for {MAX_CROWD_WAIT_S:.0f} s")
+            return self._held_up(view)
         if view.time - self._crowd_since > GIVE_WAY_S and self._give_way_tries < GIVE_WAY_TRIES:
             return self._give_way(view, to_goal, window)
         self._crowd_waits += 1
@@ -125,6 +125,17 @@ class CrowdRules:
         self._follow_waits += 1
         self._hold_until = view.time + self._wait_time()
         return Hold(self._hold_until)
+
+    def _held_up(self, view: View) -> Finish:
+        """The jam's time is out. Within the perception radius of a waypoint, the radius within which a rover is at
+        it, the rover is there, if not at its own station: the team keeps it out (the report's rule, 6.6, with
+        the whole radius rather than ``WAYPOINT_IN_VIEW`` of it, since the rovers kept it there for so long).
+        Elsewhere it gives up, and says why."""
+        goal, pose = view.goal, view.pose
+        if goal.kind == "waypoint" and math.hypot(goal.x - pose.x, goal.z - pose.z) <= \
+                self.params.perception.perception_radius:
+            return Finish("reached")
+        return Finish("stuck", f"held up by other rovers for {MAX_CROWD_WAIT_S:.0f} s")
 
     def _give_way(self, view: View, to_goal: float, window: float) -> Decision:
         """Step aside, away from the goal, into the freest direction in view: rovers that block each other (two

@@ -249,6 +249,14 @@ def test_blocked_by_rovers_the_rover_waits_and_looks_about_rather_than_giving_up
     assert stuck == Finish("stuck") and stuck.why == "held up by other rovers for 90 s"
 
 
+def test_held_up_by_rovers_within_the_perception_radius_of_a_waypoint_a_rover_is_at_it():
+    """Kept out of its station by the team for the jam's whole time, but within the radius within which a rover
+    is at a waypoint: reached, not stuck."""
+    b, near = _behaviour(), _goal(0.0, 0.95 * PARAMS.perception.perception_radius)
+    assert b.decide(_view(goal=near, hits=RINGED_BY_ROVERS, time=0.0)) != Finish("reached")
+    assert b.decide(_view(goal=near, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) == Finish("reached")
+
+
 def test_getting_closer_to_the_goal_ends_the_wait_in_a_crowd():
     b = _behaviour()
     b.decide(_view(hits=RINGED_BY_ROVERS, time=0.0))
@@ -687,8 +695,8 @@ def test_on_the_rim_a_photo_every_30_degrees_once_round_then_done():
     assert b.decide(view) == Finish("reached")
 
 
-def _station_requests(out) -> list[radio.StationRequest]:
-    messages = [radio.unpack(msg.payload) for key, msg in out if key == KEYS.rover(1, ks.COMM_OUT)]
+def _station_requests(out, rover: int = 1) -> list[radio.StationRequest]:
+    messages = [radio.unpack(msg.payload) for key, msg in out if key == KEYS.rover(rover, ks.COMM_OUT)]
     return [msg for msg in messages if isinstance(msg, radio.StationRequest)]
 
 
@@ -730,14 +738,23 @@ def test_a_stuck_rover_says_why_in_its_status():
     assert statuses[-1].detail.endswith("without finding a free way")
 
 
-def test_the_agent_asks_for_a_crest_station_once_crater_terrain_is_in_view():
-    """The rover does not know the crater's size, so no distance from its centre says it is near."""
+def test_the_agent_asks_for_a_crest_station_once_crater_terrain_is_in_view_or_from_inside_the_bowl():
+    """The rover does not know the crater's size: it asks once the crater's terrain is in view, however far from
+    the goal. Inside the bowl it sees no rim ahead (a crater's terrain shows where a ray enters it), and without a
+    station it would walk to and fro across the goal for ever: near the goal, it asks by the distance."""
     agent = RoverAgent(1, KEYS, PARAMS)
     _feed(agent, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
     _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="crater", bearing_deg=0.0, distance_m=60.0,
                                     shared=True))
-    agent.pose = Pose(0.0, 55.0, 0.0)  # 5 m from the goal, but nothing of the crater in view
-    assert _station_requests(_feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))) == []
-    agent.pose = Pose(0.0, 30.0, 0.0)  # 30 m out, the crater's terrain 8 m ahead
+    nothing = m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[])
+    agent.pose = Pose(0.0, 30.0, 0.0)  # 30 m out, nothing of the crater in view
+    assert _station_requests(_feed(agent, nothing)) == []
     seen = m.Perception(stamp=0.4, angles_deg=[0.0], distances_m=[8.0], kinds=["crater_terrain"])
     assert _station_requests(_feed(agent, seen)) == [radio.StationRequest(goal_index=0, x=0.0, z=30.0)]
+    inside = RoverAgent(2, KEYS, PARAMS)
+    _feed(inside, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
+    _feed(inside, m.MissionDirection(goal_index=0, goals_total=1, kind="crater", bearing_deg=0.0, distance_m=60.0,
+                                     shared=True))
+    inside.pose = Pose(0.0, 55.0, 0.0)  # in the bowl, 5 m from the goal: no rim in view
+    out = _feed(inside, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
+    assert _station_requests(out, rover=2) == [radio.StationRequest(goal_index=0, x=0.0, z=55.0)]
