@@ -94,6 +94,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
     _backs: int = 0  # steps back out of the crater's bowl onto the crest
     _on_spoke: bool = False  # at the foot of its crest station's spoke, or past it (``rim``)
     _backing: bool = False  # turned away from the bowl, to step out of it next
+    _bowl_looked_at: float | None = None  # in a crater's bowl, walking out: odometer at the last look back
     _rejected: list[float] = field(default_factory=list)
     _hold_until: float = 0.0
     _photos_taken: int = 0
@@ -119,6 +120,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         self._jam_from = None
         self._closest = (math.inf, self._odometer)
         self._crest_looks, self._backs, self._backing, self._on_spoke = 0, 0, False, False
+        self._bowl_looked_at = None
         self._rejected.clear()
 
     def moved(self, distance: float) -> None:
@@ -278,12 +280,12 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         self._crater_seen_at, self.state = self._odometer, "climbing"
         return None
 
-    def _climb(self, view: View) -> Finish | Rotate | MoveTo | None:
+    def _climb(self, view: View) -> Decision | None:
         if self._crater_seen_at is None and any(h.kind == "crater_terrain" for h in view.hits):
             self._crater_seen_at = self._odometer
             self.state = "climbing"
         if self._crater_seen_at is None:
-            return None
+            return self._out_of_bowl(view)
         pose, goal = view.pose, view.goal
         to_crater = wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading)
         facing = abs(to_crater) <= CREST_FACING
@@ -319,6 +321,23 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         # (a few times: on a crowded rim other rovers may keep turning it aside).
         self._crest_looks += 1
         return Rotate(round(to_crater, 3))
+
+    def _out_of_bowl(self, view: View) -> Decision | None:
+        """Near a crater goal without its terrain ever in view, the rover is in the bowl (it started there, or
+        came in with no rim in its way): a crater's terrain shows where a ray enters it, so from inside no rim
+        ever shows, and walking on for the goal it crossed it to and fro for ever. It walks out towards the
+        lander instead, looking back at the goal after each long step; outside, the rim shows, and it climbs as
+        from anywhere else. None: not in a bowl, or no way out to take (a station's spoke leads out anyway)."""
+        goal, pose, radius = view.goal, view.pose, self.params.perception.perception_radius
+        if self._bowl_looked_at is None:
+            if goal.station is not None or math.hypot(goal.x - pose.x, goal.z - pose.z) > WAYPOINT_CLOSE * radius:
+                return None
+            self._bowl_looked_at = self._odometer
+        if self._odometer - self._bowl_looked_at >= 0.9 * radius:
+            self._bowl_looked_at = self._odometer
+            return Rotate(round(wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading), 3))
+        lander = replace(view, goal=Goal(goal.index, goal.total, "waypoint", 0.0, 0.0))
+        return self._head_for(lander, math.hypot(pose.x, pose.z), None)
 
     def _route_point(self, view: View) -> tuple[float, float] | None:
         """Once routing: the next corner of the shortest route to the goal round every obstacle seen so far, so

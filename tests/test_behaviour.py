@@ -132,6 +132,25 @@ def test_crater_goal_is_not_reached_by_distance_alone():
     assert not isinstance(_behaviour(goal).decide(_view(goal)), Finish)
 
 
+def test_in_a_crater_bowl_the_rover_walks_out_and_looks_back_for_the_rim():
+    """A crater's terrain shows where a ray enters it: from inside the bowl no rim shows, and walking on for the
+    goal the rover crossed it to and fro for ever. Near the goal with no rim ever seen, it walks out towards the
+    lander, looks back at the goal after a long step, and climbs as usual once the rim shows."""
+    goal, radius = _goal(0.0, 50.0, kind="crater"), PARAMS.perception.perception_radius
+    b = _behaviour(goal)
+    turn = b.decide(_view(goal, pose=Pose(0.0, 48.0, 0.0)))
+    assert isinstance(turn, Rotate) and abs(turn.degrees) == pytest.approx(180.0)  # the lander is behind it
+    out = b.decide(_view(goal, pose=Pose(0.0, 48.0, 180.0)))
+    assert isinstance(out, MoveTo) and _angle(out) == pytest.approx(0.0) and out.z == pytest.approx(0.9 * radius)
+    b.moved(0.9 * radius)
+    outside = Pose(0.0, 48.0 - 0.9 * radius, 180.0)
+    look = b.decide(_view(goal, pose=outside))
+    assert isinstance(look, Rotate) and abs(look.degrees) == pytest.approx(180.0)  # look back at the goal
+    rim = [Hit(float(a), 6.0, "crater_terrain") for a in range(-30, 31, 5)]
+    climb = b.decide(_view(goal, pose=Pose(0.0, outside.z, 0.0), hits=rim))
+    assert b.state == "climbing" and isinstance(climb, MoveTo) and _angle(climb) == pytest.approx(0.0)
+
+
 # ---- obstacles ----
 
 
