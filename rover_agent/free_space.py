@@ -27,13 +27,20 @@ def candidates(to_goal: float, window: float, scan: float, rejected: Iterable[fl
 
 
 def free_distance(angle: float, hits: tuple[Hit, ...], params: RoverParams, rover_gap: float) -> float:
-    """How far the rover's body can go along ``angle`` before coming too close to a perceived thing."""
+    """How far the rover's body can go along ``angle`` before coming too close to a perceived thing.
+
+    A rock seen on a ray may reach almost to the next ray, which missed it, and rays spread with distance (a
+    ray step apart, 0.6 m at 8 m by default): so the margin kept from a hit grows by that spread. With a fixed
+    margin a move passed a rock 8 m off by a hair on the side where no ray touched it, and hit it. A rover's
+    size is known, and its centre fitted, so rovers keep their gap."""
     b = params.behaviour
     free = 0.9 * params.perception.perception_radius
+    spread = math.radians(params.perception.ray_step_deg)
     for h in hits:
         if h.kind not in SOLID_KINDS:
             continue
-        clearance = b.rover_radius + (b.rover_radius + rover_gap if h.kind == "rover" else OBSTACLE_MARGIN)
+        clearance = b.rover_radius + (b.rover_radius + rover_gap if h.kind == "rover"
+                                      else OBSTACLE_MARGIN + h.distance_m * spread)
         delta = math.radians(h.angle_deg - angle)
         along, across = h.distance_m * math.cos(delta), abs(h.distance_m * math.sin(delta))
         if across < clearance and along > 0:
