@@ -48,15 +48,15 @@ class CrowdRules:
 
     def _mind_jam(self, view: View, distance: float) -> None:
         """A jam ends once the rover is closer to its goal (``distance`` metres away now) than where the jam began,
-        or has left that place (a step and a collision's distance from it: its way round the rovers may lead away
-        from the goal, as a maze's does). A move to and fro among them is no way through: counted as progress, it
+        or has left that place (two steps from it: its way round the rovers may lead away from the goal, as a
+        maze's does, and a knot of rovers on the move lets it through bit by bit). A move to and fro among them is no way through: counted as progress, it
         reset the jam's clock and its tries, and a rover held up by a knot that would not clear (rovers standing
         at their stations round its way) stepped aside and back for ever instead of giving up. A new target (a
         station given on the way) starts the measure afresh."""
         b, target, here = self.params.behaviour, view.goal.target, (view.pose.x, view.pose.z)
         began = self._jam_from
         if self._crowd_since is not None and began is not None and began[0] == target:
-            left = math.dist(here, began[2]) > b.collision_danger_dist + b.min_move_size
+            left = math.dist(here, began[2]) > 2 * b.min_move_size
             if not left and distance >= began[1] - b.min_move_size / 2:
                 return
             self._crowd_since, self._crowd_waits, self._give_way_tries = None, 0, 0
