@@ -3,7 +3,8 @@
 Rovers move on; rocks do not. So a rover blocked only by rovers waits for them (each rover for its own time, so
 two that met do not set off together again), turns now and then to look for another way, squeezes by with
 close-quarters gaps once a jam has lasted ``CROWD_SQUEEZE_S``, steps aside to let the others by once it has lasted
-``GIVE_WAY_S``, and gives up only after ``MAX_CROWD_WAIT_S``.
+``GIVE_WAY_S``, and gives up only after ``MAX_CROWD_WAIT_S`` without progress (``_mind_jam`` says what progress
+is). Behind a rover that leaves it only a short step it waits a little rather than creeping (``_follow``).
 
 At a shared waypoint the report stops a rover once the waypoint is in view and rovers leave it no step towards
 it (6.6). A rover walking to its own station there stops so only if rovers crowd its way now and first did
@@ -49,10 +50,10 @@ class CrowdRules:
     def _mind_jam(self, view: View, distance: float) -> None:
         """A jam ends once the rover is closer to its goal (``distance`` metres away now) than where the jam began,
         or has left that place (two steps from it: its way round the rovers may lead away from the goal, as a
-        maze's does, and a knot of rovers on the move lets it through bit by bit). A move to and fro among them is no way through: counted as progress, it
-        reset the jam's clock and its tries, and a rover held up by a knot that would not clear (rovers standing
-        at their stations round its way) stepped aside and back for ever instead of giving up. A new target (a
-        station given on the way) starts the measure afresh."""
+        maze's does, and a knot of rovers on the move lets it through bit by bit). A move to and fro among them
+        is no way through: counted as progress, it reset the jam's clock and its tries, and a rover held up by a
+        knot that would not clear (rovers standing at their stations round its way) stepped aside and back for
+        ever instead of giving up. A new target (a station given on the way) starts the measure afresh."""
         b, target, here = self.params.behaviour, view.goal.target, (view.pose.x, view.pose.z)
         began = self._jam_from
         if self._crowd_since is not None and began is not None and began[0] == target:
@@ -131,9 +132,8 @@ class CrowdRules:
         it, the rover is there, if not at its own station: the team keeps it out (the report's rule, 6.6, with
         the whole radius rather than ``WAYPOINT_IN_VIEW`` of it, since the rovers kept it there for so long).
         Elsewhere it gives up, and says why."""
-        goal, pose = view.goal, view.pose
-        if goal.kind == "waypoint" and math.hypot(goal.x - pose.x, goal.z - pose.z) <= \
-                self.params.perception.perception_radius:
+        goal, pose, radius = view.goal, view.pose, self.params.perception.perception_radius
+        if goal.kind == "waypoint" and math.hypot(goal.x - pose.x, goal.z - pose.z) <= radius:
             return Finish("reached")
         return Finish("stuck", f"held up by other rovers for {MAX_CROWD_WAIT_S:.0f} s")
 
