@@ -30,6 +30,7 @@ from rover_agent.dead_reckoning import Pose
 from rover_agent.free_space import ray_angles
 from rover_agent.tuning import (
     CROWD_SQUEEZE_S,
+    FOLLOW_WAITS,
     GIVE_WAY_HOLD_S,
     GIVE_WAY_S,
     MAX_CROWD_WAIT_S,
@@ -334,6 +335,26 @@ def test_walking_away_from_where_a_jam_began_ends_it():
     away = Pose(8.0, 0.0, 0.0)
     assert isinstance(b.decide(_view(pose=away, time=20.0)), MoveTo)
     assert b.decide(_view(pose=away, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) != Finish("stuck")
+
+
+def test_behind_a_rover_that_leaves_a_short_step_a_rover_with_heading_noise_waits_a_little_rather_than_creeps():
+    """Every move turns the heading a little whatever its length, and the error swings the rest of the way: a rover
+    creeping behind a queue in short steps ends metres off. With heading noise it waits for the rover ahead a few
+    times, then takes the short step; without, creeping costs nothing and it steps at once."""
+    ahead = (Hit(0.0, 6.0, "rover"),)  # a rover 6 m ahead: 3 m free of the 9 m the rover wants
+    noisy = PARAMS.model_copy(update={"navigation": PARAMS.navigation.model_copy(
+        update={"heading_noise_std_deg": 0.3})})
+    b = DefaultBehaviour(1, noisy)
+    b.start_goal(_goal())
+    t = 0.0
+    for _ in range(FOLLOW_WAITS):
+        wait = b.decide(_view(hits=ahead, time=t))
+        assert isinstance(wait, Hold)
+        t = wait.until
+    assert isinstance(b.decide(_view(hits=ahead, time=t)), MoveTo)  # waited enough: the short step
+    assert isinstance(_behaviour().decide(_view(hits=ahead)), MoveTo)  # no heading noise: no wait
+    rock = (Hit(0.0, 6.0, "obstacle"),)
+    assert isinstance(DefaultBehaviour(1, noisy).decide(_view(hits=rock)), MoveTo)  # rocks do not move on
 
 
 # Rovers packed across the way ahead (a knot in a corridor, or one rover head on in a gap): room only to the sides.
