@@ -301,10 +301,16 @@ def test_blocked_by_rovers_the_rover_waits_and_looks_about_rather_than_giving_up
 
 def test_held_up_by_rovers_within_the_perception_radius_of_a_waypoint_a_rover_is_at_it():
     """Kept out of its station by the team for the jam's whole time, but within the radius within which a rover
-    is at a waypoint: reached, not stuck."""
-    b, near = _behaviour(), _goal(0.0, 0.95 * PARAMS.perception.perception_radius)
+    is at a waypoint the team shares: reached, not stuck."""
+    near = Goal(0, 1, "waypoint", 0.0, 0.95 * PARAMS.perception.perception_radius, shared=True)
+    b = _behaviour(near)
     assert b.decide(_view(goal=near, hits=RINGED_BY_ROVERS, time=0.0)) != Finish("reached")
     assert b.decide(_view(goal=near, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) == Finish("reached")
+    # on the way to a spot of its own (a spoke's foot, the lander), the same wait ends in giving up
+    own = _goal(0.0, 0.95 * PARAMS.perception.perception_radius)
+    b = _behaviour(own)
+    b.decide(_view(goal=own, hits=RINGED_BY_ROVERS, time=0.0))
+    assert b.decide(_view(goal=own, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) == Finish("stuck")
 
 
 def test_getting_closer_to_the_goal_ends_the_wait_in_a_crowd():
