@@ -24,7 +24,7 @@ sensor data and no router. The interface every behaviour shares is in ``rover_ag
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 from rover_agent import free_space, rim
@@ -217,8 +217,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
                 self._state_before_charging, self.state = self.state, "charging"
             return Hold(view.time + CHARGE_CHECK_S)
         lx, lz = advice
-        back = replace(view, goal=Goal(view.goal.index, view.goal.total, "waypoint", lx, lz))
-        return self._head_for(back, math.hypot(lx - view.pose.x, lz - view.pose.z), None)
+        return self._head_for(view.toward(lx, lz), math.hypot(lx - view.pose.x, lz - view.pose.z), None)
 
     def _pacing(self, distance: float, limit_m: float) -> bool:
         """Walked ``limit_m`` without getting closer (climbing a rim is judged by the climb rules instead)."""
@@ -275,7 +274,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         fx, fz = rim.foot(goal)
         gap = math.hypot(fx - pose.x, fz - pose.z)
         if gap > STATION_CLOSE_M and not self._pacing(gap, NO_PROGRESS_ROUTE_M):
-            return self._head_for(replace(view, goal=Goal(goal.index, goal.total, "waypoint", fx, fz)), gap, None)
+            return self._head_for(view.toward(fx, fz), gap, None)
         self._on_spoke, self._routing, self._closest = True, False, (math.inf, self._odometer)
         self._crater_seen_at, self.state = self._odometer, "climbing"
         return None
@@ -336,8 +335,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         if self._odometer - self._bowl_looked_at >= 0.9 * radius:
             self._bowl_looked_at = self._odometer
             return Rotate(round(wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading), 3))
-        lander = replace(view, goal=Goal(goal.index, goal.total, "waypoint", 0.0, 0.0))
-        return self._head_for(lander, math.hypot(pose.x, pose.z), None)
+        return self._head_for(view.toward(0.0, 0.0), math.hypot(pose.x, pose.z), None)
 
     def _route_point(self, view: View) -> tuple[float, float] | None:
         """Once routing: the next corner of the shortest route to the goal round every obstacle seen so far, so

@@ -131,8 +131,8 @@ class CrowdRules:
         """The jam's time is out. Within the perception radius of a waypoint the team shares, the radius within
         which a rover is at it, the rover is there, if not at its own station: the team keeps it out (the report's
         rule, 6.6, with the whole radius rather than ``WAYPOINT_IN_VIEW`` of it, since the rovers kept it there for
-        so long). Not so on the way to somewhere else (a spoke's foot, the lander, sunlight: those goals are
-        the rover's own), nor elsewhere: it gives up, and says why."""
+        so long). Not so on the way to a spot of its own (``View.toward``: a spoke's foot, out of a bowl,
+        sunlight), nor elsewhere: it gives up, and says why."""
         goal, pose, radius = view.goal, view.pose, self.params.perception.perception_radius
         if goal.kind == "waypoint" and goal.shared and math.hypot(goal.x - pose.x, goal.z - pose.z) <= radius:
             return Finish("reached")

@@ -6,7 +6,7 @@ interface alone (report 4.4: any behaviour that keeps the interface will do).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from rover_agent.dead_reckoning import Pose
 from schemas.params import RoverParams
@@ -51,6 +51,11 @@ class View:
     pitch_deg: float
     battery: float | None = None  # charge as a share of capacity; None: no power sensors (no sun in the world)
     sunlit: bool | None = None  # whether the solar panel is lit
+
+    def toward(self, x: float, z: float) -> View:
+        """This view with its goal swapped for a spot of the rover's own on the way (sunlight, the foot of a crest
+        station's spoke, the way out of a crater's bowl): a plain waypoint, which no teammate shares."""
+        return replace(self, goal=Goal(self.goal.index, self.goal.total, "waypoint", x, z))
 
 
 @dataclass(frozen=True)
