@@ -8,7 +8,10 @@ margin for dead-reckoning drift. Pure logic: the lander's plan asks for a chain 
 
 The rovers nearest the goal relay, the nearest taking the spot farthest out, and the others go on to the
 goal behind them: the chain forms ahead of the rovers that pass it, so none of them outruns the last relay
-(a relay held up by a rock or by traffic would otherwise leave the rovers ahead of it out of reach).
+(a relay held up by a rock or by traffic would otherwise leave the rovers ahead of it out of reach). Rovers
+the radio can reach where they set out come first (``in_radio_reach``): a rover set down out of everyone's
+range cannot be told to hold a spot until it has found the radio again, and a spot it would hold meanwhile
+stands empty, while it could have walked on to the goal.
 """
 
 from __future__ import annotations
@@ -30,6 +33,19 @@ class Chain:
         return sorted(self.spots, key=lambda rid: math.hypot(*self.spots[rid]))
 
 
+def in_radio_reach(places: dict[int, tuple[float, float]], lander_range: float, comm_range: float) -> set[int]:
+    """The rovers with a radio route to the lander (at the origin) from ``places``, by range alone: the lander's
+    best guess of who hears it, from where it set each rover down."""
+    reached, frontier = set(), [(0.0, 0.0, lander_range)]
+    while frontier:
+        x, z, reach = frontier.pop()
+        for rid, (px, pz) in places.items():
+            if rid not in reached and math.hypot(px - x, pz - z) <= reach:
+                reached.add(rid)
+                frontier.append((px, pz, comm_range))
+    return reached
+
+
 def relays_needed(reach_m: float, lander_range: float, comm_range: float) -> int:
     """Fewest relays that bridge ``reach_m`` from the lander, with the spacing margin."""
     if reach_m <= SPACING * lander_range:
@@ -41,7 +57,8 @@ def plan_chain(goal_xz: tuple[float, float], reach_m: float, rover_ids: list[int
                comm_range: float) -> Chain:
     """Relay spots toward a goal whose nearest useful point is ``reach_m`` from the lander.
 
-    ``rover_ids`` come nearest the goal first: the first ones relay, the first farthest out. At least one
+    ``rover_ids`` come in the order to relay in (the mission plan puts those in radio reach first, then nearest
+    the goal first): the first ones relay, the first farthest out. At least one
     rover always goes on to the goal, so a team too small for the distance gets as long a chain as it can
     form.
     """

@@ -12,7 +12,7 @@ import math
 from collections import defaultdict
 from collections.abc import Callable
 
-from lander_agent.daisy_chain import Chain, plan_chain
+from lander_agent.daisy_chain import Chain, in_radio_reach, plan_chain
 from lander_agent.stations import fitted_offsets, pick_rim_station, pick_station, rim_offsets
 from schemas import messages as m
 from schemas.frames import bearing_deg
@@ -129,7 +129,9 @@ class MissionPlan:
         crater = self.scenario.crater_of(goal) if goal.kind == "crater" else None
         reach = math.hypot(goal.x - lx, goal.z - lz) - (crater.radius_m if crater else 0.0)
         c = self.scenario.rover_params.communication
-        rovers.sort(key=lambda rid: math.dist(self._setting_out(rid, index), (goal.x - lx, goal.z - lz)))
+        places = {rid: self._setting_out(rid, index) for rid in rovers}
+        heard = in_radio_reach(places, c.lander_comm_range, c.comm_range)
+        rovers.sort(key=lambda rid: (rid not in heard, math.dist(places[rid], (goal.x - lx, goal.z - lz))))
         chain = plan_chain((goal.x - lx, goal.z - lz), reach, rovers, c.lander_comm_range, c.comm_range)
         if chain.spots:
             self.chains[index] = chain

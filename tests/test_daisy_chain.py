@@ -8,7 +8,7 @@ import pytest
 from procs import SCENARIOS
 
 from harness.loopback import run_mission
-from lander_agent.daisy_chain import SPACING, plan_chain, relays_needed
+from lander_agent.daisy_chain import SPACING, in_radio_reach, plan_chain, relays_needed
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import PhotoArchive
 from schemas.radio import GoalReport
@@ -52,6 +52,23 @@ def test_the_lander_holds_finished_rovers_until_the_chain_is_released():
     assert plan.on_report(8, GoalReport(goal_index=0, outcome="reached")) == []  # last goal: released
     assert plan.outcome == {1: "relay", 2: "relay", 3: "relay", 4: "relay", 5: "reached", 6: "reached",
                             7: "reached", 8: "reached"}
+
+
+def test_radio_reach_hops_from_the_lander_through_rovers_in_range():
+    places = {1: (0.0, 25.0), 2: (0.0, 50.0), 3: (0.0, 75.0), 4: (0.0, 140.0), 5: (40.0, 0.0)}
+    assert in_radio_reach(places, 30.0, 30.0) == {1, 2, 3}  # 4 is 65 m past the last hop; 5 is 40 m out
+    assert in_radio_reach(places, 45.0, 30.0) == {1, 2, 3, 5}
+
+
+def test_a_rover_set_down_out_of_radio_reach_is_not_made_a_relay_while_others_can_be():
+    """It cannot be told to hold a spot until it finds the radio, and the spot would stand empty meanwhile;
+    rovers the lander can reach take the spots, and it walks on to the goal once it hears the team."""
+    scenario = load_scenario(SCENARIOS / "daisy_chain.yaml")
+    rovers = list(scenario.rovers)
+    rovers[1] = rovers[1].model_copy(update={"z": 110.0})  # nearest the crater, but 80 m beyond any radio
+    plan = MissionPlan(scenario.model_copy(update={"rovers": rovers}))
+    assert 2 not in plan.relay_chain and len(plan.relay_chain) == 4
+    assert plan.direction_for(2).kind == "crater"
 
 
 def test_the_daisy_chain_scenario_keeps_rovers_connected_and_photos_reach_the_lander():
