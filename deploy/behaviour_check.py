@@ -27,7 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def scripted_problems(cls, params) -> list[str]:
     """Contract checks on scripted views; returns one line per problem."""
-    from rover_agent import behaviour as b
+    from rover_agent import decisions as b
     from rover_agent.dead_reckoning import Pose
 
     problems: list[str] = []

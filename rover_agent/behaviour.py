@@ -7,8 +7,8 @@ route planned on its own map of the obstacles seen (``planner``), which leads ou
 crater goal it climbs the rim with the gyroscope and stops on the crest only after having climbed and
 walked at least the perception radius since first seeing crater terrain (the report's 7.2.2 fix for a
 local optimum; a step over the crest is taken back off the bowl's wall), or along the spoke of its station
-on the crest (``rim``), then photographs the crater once round. A waypoint is reached once close, or in
-view with rovers crowding it (6.6); a relay spot once stood on; a station (the rover's own spot at a goal
+on the crest (``rim``), then photographs the crater once round (``crater_rules``). A waypoint is reached once
+close, or in view with rovers crowding it (6.6); a relay spot once stood on; a station (the rover's own spot at a goal
 the team shares, from the lander) once on it, in short, slow steps with close-quarters gaps.
 
 Among rovers it follows the report's traffic rule (7.2.1: traffic to the right has right of way), waits
@@ -27,7 +27,8 @@ import math
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from rover_agent import free_space, rim
+from rover_agent import free_space
+from rover_agent.crater_rules import CraterRules
 from rover_agent.crossing import CrossingWatch
 from rover_agent.crowd import CrowdRules
 from rover_agent.decisions import (
@@ -39,21 +40,15 @@ from rover_agent.decisions import (
     Hold,
     MoveTo,
     Rotate,
-    TakePhoto,
     View,
 )
 from rover_agent.free_space import OBSTACLE_MARGIN, ROVER_GAP_CLOSE
 from rover_agent.planner import OccupancyGrid, next_waypoint
 from rover_agent.sunlight import CHARGE, SunSeeker
 from rover_agent.tuning import (
-    BOWL_PITCH,
     CHARGE_CHECK_S,
     CLIMB_PITCH,
-    CREST_FACING,
-    CREST_PITCH,
-    MAX_BACKS,
     MAX_BLOCKED_ROTATIONS,
-    MAX_CREST_LOOKS,
     NEAR_CREST_PITCH,
     NO_PROGRESS_ROUTE_M,
     NO_PROGRESS_WALK_M,
@@ -66,10 +61,13 @@ from rover_agent.tuning import (
 from schemas.frames import bearing_deg, wrap_deg
 from schemas.params import RoverParams
 
+STILL_KINDS = frozenset({"obstacle", "lander"})
+"""What a rover steps off when nearer than a move keeps (``_step_off``): rocks, walls, the lander. Not steep
+terrain, which a rover on rough ground is often near and walks along."""
 BLOCKED_WHY = f"turned {MAX_BLOCKED_ROTATIONS} times in a row without finding a free way"
 
 @dataclass
-class DefaultBehaviour(CrowdRules, BaseBehaviour):
+class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
     """The report's single- and multi-rover behaviour with crater climbing."""
 
     rover_id: int
@@ -101,6 +99,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
     _photo_due: bool = True
     _map: OccupancyGrid = field(default_factory=OccupancyGrid)
     _routing: bool = False
+    _stepping_off: bool = False  # turned its back to a wall it stood too near: step away next (``_step_off``)
     _sun: SunSeeker | None = None
     _state_before_charging: str = "migration"
     _crossing: CrossingWatch | None = None  # rovers on a collision course, scan to scan during a move
@@ -127,7 +126,7 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         self._odometer += distance
         if self._crossing is not None:
             self._crossing.reset()
-        self._turned_aside, self._follow_waits = False, 0
+        self._turned_aside, self._follow_waits, self._stepping_off = False, 0, False
         if self._giving_way:  # a step aside: no progress
             self._stepped_aside()
         elif distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
@@ -251,92 +250,6 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
             return distance <= WAYPOINT_CLOSE * radius or (in_view and self._crowded(view))
         return distance <= STATION_CLOSE_M or (in_view and self._crowd_stood(view))
 
-    def _observe(self, goal: Goal) -> Decision:
-        """On the rim: a photo, a turn of ``photo_step_deg``, a photo... once round (report 10.5.3)."""
-        step = self.params.behaviour.photo_step_deg
-        if self._photos_taken >= max(1, round(360.0 / step)):
-            return Finish("reached")
-        if self._photo_due:
-            self._photo_due = False
-            self._photos_taken += 1
-            # The label names the photo's file at the lander and its caption on the page: a person reads it, so
-            # goals count from 1 there as in the terminal (goal_index, the wire's, stays 0-based beside it).
-            return TakePhoto(f"goal{goal.index + 1}_{(self._photos_taken - 1) * step:05.1f}deg")
-        self._photo_due = True
-        return Rotate(step)
-
-    def _to_spoke(self, view: View) -> Decision | None:
-        """With a station on the crest: walk to the foot of its spoke first (``rim``); None from there on, or
-        where the way to the foot stops getting shorter (the climb then starts where the rover stands)."""
-        goal, pose = view.goal, view.pose
-        if goal.station is None or self._on_spoke:
-            return None
-        fx, fz = rim.foot(goal)
-        gap = math.hypot(fx - pose.x, fz - pose.z)
-        if gap > STATION_CLOSE_M and not self._pacing(gap, NO_PROGRESS_ROUTE_M):
-            return self._head_for(view.toward(fx, fz), gap, None)
-        self._on_spoke, self._routing, self._closest = True, False, (math.inf, self._odometer)
-        self._crater_seen_at, self.state = self._odometer, "climbing"
-        return None
-
-    def _climb(self, view: View) -> Decision | None:
-        if self._crater_seen_at is None and any(h.kind == "crater_terrain" for h in view.hits):
-            self._crater_seen_at = self._odometer
-            self.state = "climbing"
-        if self._crater_seen_at is None:
-            return self._out_of_bowl(view)
-        pose, goal = view.pose, view.goal
-        to_crater = wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading)
-        facing = abs(to_crater) <= CREST_FACING
-        if facing or (self._on_spoke and rim.facing_station(goal, pose)):
-            self._max_pitch = max(self._max_pitch, view.pitch_deg)
-        walked = self._odometer - self._crater_seen_at
-        # At its crest station by its own estimate the rover has climbed, whichever way it came up the rim.
-        at_station = self._on_spoke and math.dist(goal.target, (pose.x, pose.z)) <= STATION_CLOSE_M
-        climbed = self._max_pitch >= CLIMB_PITCH or at_station
-        if self._backing:
-            self._backing = False
-            step = self.params.behaviour.min_move_size / 2
-            if self._free_distance(0.0, view.hits) >= step:
-                return MoveTo(0.0, step)
-            self._backs = MAX_BACKS  # a rover right behind: stay, rather than squeeze into it
-        if climbed and facing and view.pitch_deg <= -BOWL_PITCH and self._backs < MAX_BACKS:
-            # Past the crest, on the bowl's wall: turn round and step back onto the crest (a move must be in
-            # view), where the rover is at its goal and its radio sees over the rim (to a daisy chain's last relay).
-            self._backs, self._backing = self._backs + 1, True
-            return Rotate(180.0)
-        if climbed and facing and self._squeezing and self._crowded(view):
-            # Up the rim, facing the crater, long held up by rovers ahead that leave no step towards it: they
-            # stand on the crest a body or two ahead (the crater's counterpart of a waypoint crowded in view).
-            return Finish("reached")
-        after = rim.crest_after_m(goal) if self._on_spoke else self.params.perception.perception_radius
-        if not (climbed and (self._backs or walked >= after or at_station)):
-            return None
-        if view.pitch_deg > CREST_PITCH and not self._backs:
-            return None
-        if facing or self._crest_looks >= MAX_CREST_LOOKS:
-            return Finish("reached")
-        # Pitch tells the crest only when facing the crater; across or away from it, turn and look again
-        # (a few times: on a crowded rim other rovers may keep turning it aside).
-        self._crest_looks += 1
-        return Rotate(round(to_crater, 3))
-
-    def _out_of_bowl(self, view: View) -> Decision | None:
-        """Near a crater goal without its terrain ever in view, the rover is in the bowl (it started there, or
-        came in with no rim in its way): a crater's terrain shows where a ray enters it, so from inside no rim
-        ever shows, and walking on for the goal it crossed it to and fro for ever. It walks out towards the
-        lander instead, looking back at the goal after each long step; outside, the rim shows, and it climbs as
-        from anywhere else. None: not in a bowl, or no way out to take (a station's spoke leads out anyway)."""
-        goal, pose, radius = view.goal, view.pose, self.params.perception.perception_radius
-        if self._bowl_looked_at is None:
-            if goal.station is not None or math.hypot(goal.x - pose.x, goal.z - pose.z) > WAYPOINT_CLOSE * radius:
-                return None
-            self._bowl_looked_at = self._odometer
-        if self._odometer - self._bowl_looked_at >= 0.9 * radius:
-            self._bowl_looked_at = self._odometer
-            return Rotate(round(wrap_deg(bearing_deg(goal.x - pose.x, goal.z - pose.z) - pose.heading), 3))
-        return self._head_for(view.toward(0.0, 0.0), math.hypot(pose.x, pose.z), None)
-
     def _route_point(self, view: View) -> tuple[float, float] | None:
         """Once routing: the next corner of the shortest route to the goal round every obstacle seen so far, so
         dead ends it has seen (a maze's) are left behind rather than walked into again (report 6.1.2 steers
@@ -346,16 +259,18 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         p = self.params
         clearance = p.behaviour.rover_radius + OBSTACLE_MARGIN + self._map.cell_m / 2
         return next_waypoint(self._map, view.pose, view.goal.target, clearance,
-                             0.9 * p.perception.perception_radius)
+                             0.9 * p.perception.perception_radius, avoid=self._rovers_in_way(view, clearance))
 
     def _head_for(self, view: View, distance: float, step: float | None) -> Decision:
         p = self.params
         pose, goal = view.pose, view.goal
         free = free_space.free_rays(view.hits, p.perception)  # map what is in view: obstacles hit, ground free
         self._map.observe(pose, view.hits, p.perception.perception_radius, free)
+        window = min(p.perception.field_of_view_degrees / 2 - 5, p.behaviour.scanner_field_of_view / 2)
+        if (off := self._step_off(view, window)) is not None:
+            return off
         tx, tz = self._route_point(view) or goal.target
         to_goal = wrap_deg(bearing_deg(tx - pose.x, tz - pose.z) - pose.heading)
-        window = min(p.perception.field_of_view_degrees / 2 - 5, p.behaviour.scanner_field_of_view / 2)
         if self._turned_aside and (step := self._step_aside(view, to_goal, window)) is not None:
             return step
         if abs(to_goal) > window:
@@ -385,6 +300,28 @@ class DefaultBehaviour(CrowdRules, BaseBehaviour):
         self._rejected.clear()
         self._routing = True
         return Rotate(p.behaviour.rotate_action)
+
+    def _step_off(self, view: View, window: float) -> Decision | None:
+        """Nearer a rock or a wall than the gap a move keeps from it (a slip, or a wall just beyond view when the
+        step began, left it there): step straight away from it first, turning its back to it if need be. From
+        there every direction along it was blocked, and turning to look for a way only came back to the same
+        three headings until the rover gave up, a few metres from the wall's end."""
+        b = self.params.behaviour
+        step = b.min_move_size / 2
+        if self._stepping_off:  # turned its back to it: the wall is out of view now, so step straight on
+            self._stepping_off = False
+            return MoveTo(0.0, step, True) if self._free_distance(0.0, view.hits) >= step else None
+        near = [h for h in view.hits if h.kind in STILL_KINDS and h.distance_m < b.rover_radius + OBSTACLE_MARGIN]
+        if not near:
+            return None
+        away = wrap_deg(min(near, key=lambda h: h.distance_m).angle_deg + 180.0)
+        if abs(away) > window:
+            self._stepping_off = True
+            return Rotate(round(away, 3))
+        rad = math.radians(away)
+        if self._free_distance(away, view.hits) < step:
+            return None
+        return MoveTo(round(step * math.sin(rad), 4), round(step * math.cos(rad), 4), True)
 
     def _candidates(self, to_goal: float, window: float) -> list[float]:
         return free_space.candidates(to_goal, window, self.params.behaviour.scan_angle, self._rejected)

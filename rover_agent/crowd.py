@@ -24,6 +24,7 @@ import math
 
 from rover_agent import free_space
 from rover_agent.decisions import Decision, Finish, Hold, MoveTo, Rotate, View
+from rover_agent.occupancy import Cell, disc_offsets, ray_point
 from rover_agent.tuning import (
     CROWD_LOOKS,
     CROWD_SQUEEZE_S,
@@ -33,6 +34,7 @@ from rover_agent.tuning import (
     GIVE_WAY_OFF_GOAL_DEG,
     GIVE_WAY_S,
     GIVE_WAY_TRIES,
+    KNOT_ROUTE_RADII,
     MAX_CROWD_WAIT_S,
 )
 from schemas.frames import bearing_deg, wrap_deg
@@ -62,6 +64,7 @@ class CrowdRules:
                 return
             self._crowd_since, self._crowd_waits, self._give_way_tries = None, 0, 0
         self._jam_from = (target, distance, here)
+
 
     def _stepped_aside(self) -> None:
         """A step aside done: wait for the others to pass (``GIVE_WAY_HOLD_S``, staggered) before going on."""
@@ -100,6 +103,8 @@ class CrowdRules:
         long held up, step aside (``_give_way``)."""
         if self._crowd_since is None:
             self._crowd_since = view.time
+        if self._round_the_knot(view):  # long held up on the way: plan a way round the rovers (``_rovers_in_way``)
+            self._routing = True
         if view.time - self._crowd_since > MAX_CROWD_WAIT_S:
             return self._held_up(view)
         if view.time - self._crowd_since > GIVE_WAY_S and self._give_way_tries < GIVE_WAY_TRIES:
@@ -110,6 +115,27 @@ class CrowdRules:
             return Rotate(self.params.behaviour.rotate_action)
         self._hold_until = view.time + self._wait_time()
         return Hold(self._hold_until)
+
+    def _round_the_knot(self, view: View) -> bool:
+        """Long held up by rovers on the way, not at the goal: there the rovers in the way are the team standing
+        at it, and a route round them only led the rover to and fro among their stations."""
+        goal, pose = view.goal, view.pose
+        far = math.hypot(goal.x - pose.x, goal.z - pose.z) > KNOT_ROUTE_RADII * self.params.perception.perception_radius
+        return far and self._squeezing
+
+    def _rovers_in_way(self, view: View, clearance_m: float) -> frozenset[Cell]:
+        """Long held up by rovers (``CROWD_SQUEEZE_S``): the cells round the rovers in view, for the route to keep
+        clear of. Walking round a wall's long side, a team splits: the two ends are as near each other, and each
+        rover's map tips it one way or the other, so rovers going either way met head on along the wall and
+        waited for each other until they gave up (the 20-rover maze's first baffle). The route round the knot
+        itself, or the other way along the wall, lets it drain from outside in."""
+        if not self._round_the_knot(view):
+            return frozenset()
+        cell, radius = self._map.cell_m, self.params.behaviour.rover_radius
+        offsets = disc_offsets((radius + clearance_m) / cell)
+        centres = {self._map.cell_of(*ray_point(view.pose, h.angle_deg, h.distance_m + radius))
+                   for h in view.hits if h.kind == "rover"}
+        return frozenset((i + di, j + dj) for i, j in centres for di, dj in offsets)
 
     def _follow(self, view: View, angle: float, length: float, want: float) -> Hold | None:
         """A rover ahead leaves only a short step (under ``FOLLOW_SHARE`` of the step wanted, where the ground

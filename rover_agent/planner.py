@@ -31,14 +31,16 @@ _NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
 _ALL_DIRECTIONS = tuple((di, dj) for di, dj, _ in _NEIGHBOURS)
 
 
-def _forbidden(grid: OccupancyGrid, clearance_m: float, ends: Sequence[Cell]) -> frozenset[Cell]:
-    """Cells the rover's centre must not enter: too near a blocked cell.
+def _forbidden(grid: OccupancyGrid, clearance_m: float, ends: Sequence[Cell],
+               avoid: frozenset[Cell] = frozenset()) -> frozenset[Cell]:
+    """Cells the rover's centre must not enter: too near a blocked cell, or in ``avoid`` (cells kept clear for
+    this plan only, already inflated: rovers standing in the way).
 
     The ends (start, goal) are always allowed, and when one lies within the clearance so are the unblocked
     cells around it, so a rover standing near a wall can step away from it and a goal next to a rock can
     still be reached.
     """
-    inflated = grid.inflated(clearance_m)
+    inflated = grid.inflated(clearance_m) | avoid
     allowed: set[Cell] = set()
     for ci, cj in ends:
         allowed.add((ci, cj))
@@ -49,7 +51,7 @@ def _forbidden(grid: OccupancyGrid, clearance_m: float, ends: Sequence[Cell]) ->
 
 
 def plan(grid: OccupancyGrid, start_xz: Point, goal_xz: Point, clearance_m: float,
-         max_expansions: int = 20000) -> list[Point] | None:
+         max_expansions: int = 20000, avoid: frozenset[Cell] = frozenset()) -> list[Point] | None:
     """Shortest 8-connected path from the start to the goal through cells clear of known obstacles.
 
     Returns the cell centres after the start up to the goal (the last point is the goal itself). When the
@@ -62,7 +64,7 @@ def plan(grid: OccupancyGrid, start_xz: Point, goal_xz: Point, clearance_m: floa
     goal_point = (float(goal_xz[0]), float(goal_xz[1]))
     if start == goal:
         return [goal_point]
-    forbidden = _forbidden(grid, clearance_m, (start, goal))
+    forbidden = _forbidden(grid, clearance_m, (start, goal), avoid)
     search = _JumpSearch(forbidden, start, goal)
     jumps = search.run(max_expansions)
     if jumps is not None:
@@ -352,16 +354,16 @@ def _farthest_visible(points: Sequence[Point], anchor: int, forbidden: frozenset
 
 
 def next_waypoint(grid: OccupancyGrid, pose: Pose, goal_xz: Point, clearance_m: float, max_step_m: float,
-                  max_expansions: int = 20000) -> Point | None:
+                  max_expansions: int = 20000, avoid: frozenset[Cell] = frozenset()) -> Point | None:
     """Where to move next: the end of the first straight leg of the plan, at most ``max_step_m`` away along it
     (short steps let the rover look again before trusting what the map only guesses). None when the rover is
     walled in, or already as near as it can get to a walled-off goal."""
     start = (pose.x, pose.z)
-    path = plan(grid, start, goal_xz, clearance_m, max_expansions)
+    path = plan(grid, start, goal_xz, clearance_m, max_expansions, avoid)
     if not path:
         return None
     points = [start, *path]
-    forbidden = _forbidden(grid, clearance_m, (grid.cell_of(*start), grid.cell_of(*path[-1])))
+    forbidden = _forbidden(grid, clearance_m, (grid.cell_of(*start), grid.cell_of(*path[-1])), avoid)
     x, z = points[_farthest_visible(points, 0, forbidden, grid.cell_m)]  # simplify's first leg, and only that
     length = math.hypot(x - pose.x, z - pose.z)
     if length <= max_step_m:

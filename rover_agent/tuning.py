@@ -32,6 +32,10 @@ greedy scan can pace along a long wall (turn to the goal, slide right, turn, sli
 being blocked everywhere in view, which is what otherwise switches routing on."""
 NO_PROGRESS_WALK_M = 300.0
 """Metres walked without getting any closer to the goal, routing or not, before giving up."""
+KNOT_ROUTE_RADII = 2.0
+"""Farther than this many perception radii from its goal, a rover long held up by rovers plans a route round them
+(``CrowdRules._rovers_in_way``); nearer, they are the team at the goal, and the route only led it to and fro
+among their stations (within one radius, rovers of the 20-rover maze were stopped by the world's watchdog)."""
 CROWD_SQUEEZE_S = 15.0
 """After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
 GIVE_WAY_S = 30.0

@@ -7,33 +7,25 @@ import math
 import pytest
 
 from rover_agent.agent import STATION_ASK_M, STATION_ASK_RETRY_S, RoverAgent
-from rover_agent.behaviour import (
+from rover_agent.behaviour import DefaultBehaviour
+from rover_agent.dead_reckoning import Pose
+from rover_agent.decisions import Finish, Goal, Hit, Hold, MoveTo, Rotate, TakePhoto, View
+from rover_agent.free_space import ray_angles
+from rover_agent.occupancy import ray_point
+from rover_agent.tuning import (
     BOWL_PITCH,
+    CROWD_SQUEEZE_S,
+    FOLLOW_WAITS,
+    GIVE_WAY_HOLD_S,
+    GIVE_WAY_S,
     MAX_BACKS,
     MAX_BLOCKED_ROTATIONS,
+    MAX_CROWD_WAIT_S,
     NO_PROGRESS_ROUTE_M,
     NO_PROGRESS_WALK_M,
     STATION_CLOSE_M,
     WAYPOINT_CLOSE,
     WAYPOINT_IN_VIEW,
-    DefaultBehaviour,
-    Finish,
-    Goal,
-    Hit,
-    Hold,
-    MoveTo,
-    Rotate,
-    TakePhoto,
-    View,
-)
-from rover_agent.dead_reckoning import Pose
-from rover_agent.free_space import ray_angles
-from rover_agent.tuning import (
-    CROWD_SQUEEZE_S,
-    FOLLOW_WAITS,
-    GIVE_WAY_HOLD_S,
-    GIVE_WAY_S,
-    MAX_CROWD_WAIT_S,
 )
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -288,14 +280,16 @@ def test_traffic_from_the_left_gives_way_to_this_rover_unless_contact_is_close()
 
 # A ring of rovers 3 m away all round: the way is blocked by rovers, not by anything that stays.
 RINGED_BY_ROVERS = tuple(Hit(a, 3.0, "rover") for a in range(-105, 106, 5))
+# Near the goal, where a knot is the team at it and no route goes round it (far from it one does: below).
+AT_GOAL = _goal(0.0, 15.0)
 
 
 def test_blocked_by_rovers_the_rover_waits_and_looks_about_rather_than_giving_up():
-    b = _behaviour()
-    decisions = [b.decide(_view(hits=RINGED_BY_ROVERS, time=t)) for t in range(60)]
+    b = _behaviour(AT_GOAL)
+    decisions = [b.decide(_view(AT_GOAL, hits=RINGED_BY_ROVERS, time=t)) for t in range(60)]
     assert Finish("stuck") not in decisions
     assert any(isinstance(d, Hold) for d in decisions) and any(isinstance(d, Rotate) for d in decisions)
-    stuck = b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
+    stuck = b.decide(_view(AT_GOAL, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
     assert stuck == Finish("stuck") and stuck.why == "held up by other rovers for 90 s"
 
 
@@ -324,12 +318,12 @@ def test_getting_closer_to_the_goal_ends_the_wait_in_a_crowd():
 def test_walking_to_and_fro_among_rovers_is_no_way_through_a_jam():
     """Moves that get the rover no closer (aside and back, across and back) leave the jam's clock running: a knot
     that never clears ends in a clear 'stuck', not in a rover pacing among the others for ever."""
-    b = _behaviour()
-    b.decide(_view(hits=RINGED_BY_ROVERS, time=0.0))
+    b = _behaviour(AT_GOAL)
+    b.decide(_view(AT_GOAL, hits=RINGED_BY_ROVERS, time=0.0))
     for k in range(1, 9):
         b.moved(2.0)
-        b.decide(_view(pose=Pose(2.0 * (k % 2), 0.0, 0.0), hits=RINGED_BY_ROVERS, time=10.0 * k))
-    stuck = b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
+        b.decide(_view(AT_GOAL, pose=Pose(2.0 * (k % 2), 0.0, 0.0), hits=RINGED_BY_ROVERS, time=10.0 * k))
+    stuck = b.decide(_view(AT_GOAL, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
     assert stuck == Finish("stuck") and stuck.why == "held up by other rovers for 90 s"
 
 
@@ -370,25 +364,45 @@ HEAD_ON = tuple(Hit(a, 1.8, "rover") for a in range(-50, 51, 5))
 def test_long_held_up_by_rovers_a_rover_steps_aside_to_let_them_by_and_waits_for_them():
     """The mechanism of a knot: rovers that block each other each wait for the others to move, until all give
     up. Long held up, a rover turns round if it must, steps away from the knot, then waits there a while."""
-    b, t, decision = _behaviour(), 0.0, None
+    b, t, decision = _behaviour(AT_GOAL), 0.0, None
     while t <= GIVE_WAY_S:
-        decision = b.decide(_view(hits=HEAD_ON, time=t))
+        decision = b.decide(_view(AT_GOAL, hits=HEAD_ON, time=t))
         assert not isinstance(decision, MoveTo) and decision != Finish("stuck")
         t += 0.5
     while decision != Rotate(180.0) and t < GIVE_WAY_S + 10.0:
-        decision = b.decide(_view(hits=HEAD_ON, time=t))
+        decision = b.decide(_view(AT_GOAL, hits=HEAD_ON, time=t))
         t += 0.5
     assert decision == Rotate(180.0)  # no room to the sides in view: turn round, and step away from the knot
     behind = Pose(0.0, 0.0, 180.0)
-    step = b.decide(_view(pose=behind, time=t))
+    step = b.decide(_view(AT_GOAL, pose=behind, time=t))
     assert isinstance(step, MoveTo) and step.slow and abs(_angle(step)) < 1.0  # straight away from the knot
     assert math.hypot(step.x, step.z) == pytest.approx(PARAMS.behaviour.min_move_size, abs=1e-3)
     b.moved(PARAMS.behaviour.min_move_size)
-    assert b.decide(_view(pose=behind, time=t + GIVE_WAY_HOLD_S - 1.0)) == Hold(t + GIVE_WAY_HOLD_S)
-    assert isinstance(b.decide(_view(pose=behind, time=t + GIVE_WAY_HOLD_S)), Rotate)  # then back to the goal
+    assert b.decide(_view(AT_GOAL, pose=behind, time=t + GIVE_WAY_HOLD_S - 1.0)) == Hold(t + GIVE_WAY_HOLD_S)
+    assert isinstance(b.decide(_view(AT_GOAL, pose=behind, time=t + GIVE_WAY_HOLD_S)), Rotate)  # then back to the goal
     # A step aside is no progress: still held up, the rover gives up when the jam's time is out.
-    stuck = b.decide(_view(hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
+    stuck = b.decide(_view(AT_GOAL, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1))
     assert stuck == Finish("stuck") and "held up by other rovers" in stuck.why
+
+
+def test_long_held_up_by_rovers_on_the_way_a_rover_plans_a_route_round_them():
+    """Along a wall's long side a team splits, each rover's map tipping it to one end or the other, and rovers
+    going either way met head on and waited for each other until they gave up. Long held up on the way, a rover
+    plans round the rovers in view instead; near the goal, where they are the team at it, it does not."""
+    b, t = _behaviour(), 0.0
+    while t <= CROWD_SQUEEZE_S + 1.0:
+        b.decide(_view(hits=HEAD_ON, time=t))
+        t += 0.5
+    view = _view(hits=HEAD_ON, time=t)
+    corner = b._route_point(view)
+    assert b._routing and corner is not None
+    knot = [ray_point(ORIGIN, h.angle_deg, h.distance_m + PARAMS.behaviour.rover_radius) for h in HEAD_ON]
+    assert min(math.dist(corner, rover) for rover in knot) > 2 * PARAMS.behaviour.rover_radius
+    assert b._rovers_in_way(view, 1.0)
+    near = _behaviour(AT_GOAL)
+    for k in range(int(CROWD_SQUEEZE_S * 2) + 2):
+        near.decide(_view(AT_GOAL, hits=HEAD_ON, time=k * 0.5))
+    assert not near._rovers_in_way(_view(AT_GOAL, hits=HEAD_ON, time=t), 1.0)
 
 
 def _turned_to_give_way(b: DefaultBehaviour) -> float:
@@ -396,31 +410,48 @@ def _turned_to_give_way(b: DefaultBehaviour) -> float:
     t, decision = 0.0, None
     while decision != Rotate(180.0):
         assert t < GIVE_WAY_S + 10.0
-        decision = b.decide(_view(hits=HEAD_ON, time=t))
+        decision = b.decide(_view(AT_GOAL, hits=HEAD_ON, time=t))
         t += 0.5
     return t
 
 
 def test_a_step_aside_the_world_refuses_is_not_tried_again_and_the_next_move_is_no_step_aside():
-    b = _behaviour()
+    b = _behaviour(AT_GOAL)
     t = _turned_to_give_way(b)
     behind = Pose(0.0, 0.0, 180.0)
-    step = b.decide(_view(pose=behind, time=t))
+    step = b.decide(_view(AT_GOAL, pose=behind, time=t))
     b.rejected(_angle(step))
     b.moved(0.0)
     assert b._hold_until < t + 1.0  # a refused step is no step aside: no long wait after it
     b._turned_aside = True  # as after the next try's turn
-    again = b.decide(_view(pose=behind, time=t + 0.5))
+    again = b.decide(_view(AT_GOAL, pose=behind, time=t + 0.5))
     assert isinstance(again, MoveTo) and abs(_angle(again) - _angle(step)) > 5.0
 
 
 def test_a_step_aside_cut_short_by_a_rover_still_waits_its_while():
-    b = _behaviour()
+    b = _behaviour(AT_GOAL)
     t = _turned_to_give_way(b)
-    b.decide(_view(pose=Pose(0.0, 0.0, 180.0), time=t))
+    b.decide(_view(AT_GOAL, pose=Pose(0.0, 0.0, 180.0), time=t))
     b.moved(0.8)  # the world cancelled it part way (NavigationFeedback: moved, then cancelled)
     b.cancelled(t + 0.5)
     assert b._hold_until == pytest.approx(t + GIVE_WAY_HOLD_S)  # rover 1: the plain hold, from the step
+
+
+def test_nearer_a_wall_than_a_move_keeps_the_rover_first_steps_straight_away_from_it():
+    """A slip, or a wall just beyond view when a step began, can leave a rover nearer a wall than any move keeps
+    from it. From there every direction along the wall was blocked, and turning to look for a way came back to
+    the same three headings until the rover gave up, a few metres from the wall's end."""
+    wall = tuple(Hit(a, round(0.7 / math.cos(math.radians(a)), 3), "obstacle") for a in range(-60, 61, 5))
+    b = _behaviour()
+    assert b.decide(_view(hits=wall)) == Rotate(-180.0)  # its back to the wall first, which then is out of view
+    half = PARAMS.behaviour.min_move_size / 2
+    assert b.decide(_view(pose=Pose(0.0, 0.0, 180.0))) == MoveTo(0.0, half, True)
+    beside = (Hit(-100.0, 0.7, "obstacle"),)  # behind the left shoulder: straight away is in the window
+    step = _behaviour().decide(_view(hits=beside))
+    assert isinstance(step, MoveTo) and step.slow and _angle(step) == pytest.approx(80.0, abs=0.01)
+    assert math.hypot(step.x, step.z) == pytest.approx(half, abs=1e-3)
+    clear = (Hit(-100.0, 2.0, "obstacle"),)  # as far as a move keeps: nothing to step off
+    assert _behaviour().decide(_view(hits=clear)) == MoveTo(0.0, 0.9 * RADIUS)
 
 
 def test_a_rover_pacing_without_getting_closer_gives_up():

@@ -228,6 +228,19 @@ def test_plan_goes_through_the_gap_of_a_wall_and_keeps_its_clearance():
     assert _cost(start, path) < 40.0  # round the wall's end (x 14 at z 10 is 36.3 away), no detour
 
 
+def test_cells_kept_clear_for_one_plan_are_gone_round_and_left_off_the_map():
+    """Rovers standing in the way (``avoid``) are walked round in this plan only: the map does not keep them."""
+    grid = OccupancyGrid(1.0)
+    grid.block((x, 10) for x in range(-15, 13))  # the wall, open east of x = 12
+    knot = frozenset((x, z) for x in range(10, 20) for z in range(7, 14))  # rovers packed in the gap
+    start, goal = (0.0, 0.0), (0.0, 20.0)
+    path = plan(grid, start, goal, CLEARANCE, avoid=knot)
+    assert path is not None and path[-1] == goal
+    assert not _route_cells(grid, [start, *path]) & (knot | _inflated(grid, CLEARANCE))
+    assert all(x < -15 - CLEARANCE for x in _crossings([start, *path], 10.0))  # round the wall's other end
+    assert not grid.blocked(15, 10) and plan(grid, start, goal, CLEARANCE)[-1] == goal
+
+
 def _allowed_ends(grid: OccupancyGrid, inflated: set, ends, clearance: float) -> set:
     """The ends, and when an end lies within the clearance the unblocked cells within it: the rover near a
     wall may step away, a goal next to a rock may be reached."""

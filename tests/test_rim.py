@@ -8,8 +8,9 @@ import math
 import pytest
 
 from rover_agent import rim
-from rover_agent.behaviour import DefaultBehaviour, Finish, Goal, Hit, MoveTo, Rotate, TakePhoto, View
+from rover_agent.behaviour import DefaultBehaviour
 from rover_agent.dead_reckoning import Pose
+from rover_agent.decisions import Finish, Goal, Hit, MoveTo, Rotate, TakePhoto, View
 from schemas.params import RoverParams
 
 PARAMS = RoverParams()
