@@ -99,6 +99,7 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
     _photo_due: bool = True
     _map: OccupancyGrid = field(default_factory=OccupancyGrid)
     _routing: bool = False
+    _knot: dict[tuple[int, int], float] = field(default_factory=dict)  # rovers' cells round a knot: when last seen
     _stepping_off: bool = False  # turned its back to a wall it stood too near: step away next (``_step_off``)
     _sun: SunSeeker | None = None
     _state_before_charging: str = "migration"

@@ -34,6 +34,7 @@ from rover_agent.tuning import (
     GIVE_WAY_OFF_GOAL_DEG,
     GIVE_WAY_S,
     GIVE_WAY_TRIES,
+    KNOT_MEMORY_S,
     KNOT_ROUTE_RADII,
     MAX_CROWD_WAIT_S,
 )
@@ -124,18 +125,24 @@ class CrowdRules:
         return far and self._squeezing
 
     def _rovers_in_way(self, view: View, clearance_m: float) -> frozenset[Cell]:
-        """Long held up by rovers (``CROWD_SQUEEZE_S``): the cells round the rovers in view, for the route to keep
-        clear of. Walking round a wall's long side, a team splits: the two ends are as near each other, and each
-        rover's map tips it one way or the other, so rovers going either way met head on along the wall and
-        waited for each other until they gave up (the 20-rover maze's first baffle). The route round the knot
-        itself, or the other way along the wall, lets it drain from outside in."""
+        """Long held up by rovers (``CROWD_SQUEEZE_S``): the cells round the rovers seen in the last
+        ``KNOT_MEMORY_S``, for the route to keep clear of. Walking round a wall's long side, a team splits: the two
+        ends are as near each other, and each rover's map tips it one way or the other, so rovers going either way
+        met head on along the wall and waited for each other until they gave up (the 20-rover maze's first
+        baffle). The route round the knot itself, or the other way along the wall, lets it drain from outside in.
+        Remembered, not only those in view: which rovers are in view changes as the rover turns, and with them
+        the route, and a rover beside a relay turned from one side to the other for the rest of the mission."""
         if not self._round_the_knot(view):
+            self._knot.clear()
             return frozenset()
         cell, radius = self._map.cell_m, self.params.behaviour.rover_radius
+        for h in view.hits:
+            if h.kind == "rover":
+                self._knot[self._map.cell_of(*ray_point(view.pose, h.angle_deg, h.distance_m + radius))] = view.time
+        for centre in [c for c, seen in self._knot.items() if view.time - seen > KNOT_MEMORY_S]:
+            del self._knot[centre]
         offsets = disc_offsets((radius + clearance_m) / cell)
-        centres = {self._map.cell_of(*ray_point(view.pose, h.angle_deg, h.distance_m + radius))
-                   for h in view.hits if h.kind == "rover"}
-        return frozenset((i + di, j + dj) for i, j in centres for di, dj in offsets)
+        return frozenset((i + di, j + dj) for i, j in self._knot for di, dj in offsets)
 
     def _follow(self, view: View, angle: float, length: float, want: float) -> Hold | None:
         """A rover ahead leaves only a short step (under ``FOLLOW_SHARE`` of the step wanted, where the ground

@@ -36,6 +36,9 @@ KNOT_ROUTE_RADII = 2.0
 """Farther than this many perception radii from its goal, a rover long held up by rovers plans a route round them
 (``CrowdRules._rovers_in_way``); nearer, they are the team at the goal, and the route only led it to and fro
 among their stations (within one radius, rovers of the 20-rover maze were stopped by the world's watchdog)."""
+KNOT_MEMORY_S = 10.0
+"""...and keeps clear of the rovers it saw in the last this many seconds, in view or not now: long enough to turn
+round and look, short enough that a rover that walked on does not stay in the way."""
 CROWD_SQUEEZE_S = 15.0
 """After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
 GIVE_WAY_S = 30.0

@@ -18,6 +18,7 @@ from rover_agent.tuning import (
     FOLLOW_WAITS,
     GIVE_WAY_HOLD_S,
     GIVE_WAY_S,
+    KNOT_MEMORY_S,
     MAX_BACKS,
     MAX_BLOCKED_ROTATIONS,
     MAX_CROWD_WAIT_S,
@@ -399,6 +400,9 @@ def test_long_held_up_by_rovers_on_the_way_a_rover_plans_a_route_round_them():
     knot = [ray_point(ORIGIN, h.angle_deg, h.distance_m + PARAMS.behaviour.rover_radius) for h in HEAD_ON]
     assert min(math.dist(corner, rover) for rover in knot) > 2 * PARAMS.behaviour.rover_radius
     assert b._rovers_in_way(view, 1.0)
+    # turned away, it still keeps clear of them for a while (which rovers are in view changes as it turns)
+    assert b._rovers_in_way(_view(time=t + KNOT_MEMORY_S - 1.0), 1.0)
+    assert not b._rovers_in_way(_view(time=t + KNOT_MEMORY_S + 1.0), 1.0)
     near = _behaviour(AT_GOAL)
     for k in range(int(CROWD_SQUEEZE_S * 2) + 2):
         near.decide(_view(AT_GOAL, hits=HEAD_ON, time=k * 0.5))
