@@ -303,10 +303,10 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
         return Rotate(p.behaviour.rotate_action)
 
     def _step_off(self, view: View, window: float) -> Decision | None:
-        """Nearer a rock or a wall than the gap a move keeps from it (a slip, or a wall just beyond view when the
-        step began, left it there): step straight away from it first, turning its back to it if need be. From
-        there every direction along it was blocked, and turning to look for a way only came back to the same
-        three headings until the rover gave up, a few metres from the wall's end."""
+        """Nearer a rock, a wall or the lander than the gap a move keeps from it (a slip, or a wall just beyond view
+        when the step began, left it there): step straight away from it first, turning its back to it if need be.
+        From there every direction along a wall was blocked, and turning to look for a way only came back to the
+        same three headings until the rover gave up, a few metres from the wall's end."""
         b = self.params.behaviour
         step = b.min_move_size / 2
         if self._stepping_off:  # turned its back to it: the wall is out of view now, so step straight on

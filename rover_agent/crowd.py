@@ -2,7 +2,8 @@
 
 Rovers move on; rocks do not. So a rover blocked only by rovers waits for them (each rover for its own time, so
 two that met do not set off together again), turns now and then to look for another way, squeezes by with
-close-quarters gaps once a jam has lasted ``CROWD_SQUEEZE_S``, steps aside to let the others by once it has lasted
+close-quarters gaps once a jam has lasted ``CROWD_SQUEEZE_S`` and, far from its goal, plans its route round the
+rovers that hold it up (``_rovers_in_way``), steps aside to let the others by once it has lasted
 ``GIVE_WAY_S``, and gives up only after ``MAX_CROWD_WAIT_S`` without progress (``_mind_jam`` says what progress
 is). Behind a rover that leaves it only a short step it waits a little rather than creeping (``_follow``).
 
@@ -65,7 +66,6 @@ class CrowdRules:
                 return
             self._crowd_since, self._crowd_waits, self._give_way_tries = None, 0, 0
         self._jam_from = (target, distance, here)
-
 
     def _stepped_aside(self) -> None:
         """A step aside done: wait for the others to pass (``GIVE_WAY_HOLD_S``, staggered) before going on."""
