@@ -77,6 +77,7 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
     _odometer: float = 0.0
     _max_pitch: float = -90.0
     _blocked_rotations: int = 0
+    _jam_turns: int = 0  # turns to a goal or route corner out of the window, held up by rovers, since a real move
     _crowd_since: float | None = None  # when the rover last stopped making progress among rovers
     _crowd_waits: int = 0
     _parking: bool = False  # walking the last metres to this rover's station at a shared waypoint
@@ -114,7 +115,7 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
     def start_goal(self, goal: Goal) -> None:
         self.state = "migration"
         self._photos_taken, self._photo_due = 0, True
-        self._crater_seen_at, self._max_pitch, self._blocked_rotations = None, -90.0, 0
+        self._crater_seen_at, self._max_pitch, self._blocked_rotations, self._jam_turns = None, -90.0, 0, 0
         self._crowd_since, self._crowd_waits, self._parking, self._crowded_since = None, 0, False, None
         self._give_way_tries, self._giving_way, self._turned_aside, self._follow_waits = 0, False, False, 0
         self._jam_from = None
@@ -131,7 +132,7 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
         if self._giving_way:  # a step aside: no progress
             self._stepped_aside()
         elif distance >= self.params.behaviour.min_move_size / 2:  # real progress, not a move cancelled at once
-            self._blocked_rotations = 0
+            self._blocked_rotations, self._jam_turns = 0, 0
             self._rejected.clear()
 
     def rejected(self, relative_angle: float) -> None:
@@ -276,7 +277,9 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
             return step
         if abs(to_goal) > window:
             if self._crowd_since is None:  # turning without getting anywhere counts toward giving up...
-                self._blocked_rotations += 1  # ...except when waiting for rovers, which has its own limit
+                self._blocked_rotations += 1  # ...except when waiting for rovers, which has its own limit...
+            elif self._turning_in_a_jam(view):  # ...unless the rover only turns, past the jam's time
+                return self._held_up(view)
             if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
                 return Finish("stuck", BLOCKED_WHY)
             return Rotate(round(to_goal, 3))

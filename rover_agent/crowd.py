@@ -37,6 +37,7 @@ from rover_agent.tuning import (
     GIVE_WAY_TRIES,
     KNOT_MEMORY_S,
     KNOT_ROUTE_RADII,
+    MAX_BLOCKED_ROTATIONS,
     MAX_CROWD_WAIT_S,
 )
 from schemas.frames import bearing_deg, wrap_deg
@@ -116,6 +117,17 @@ class CrowdRules:
             return Rotate(self.params.behaviour.rotate_action)
         self._hold_until = view.time + self._wait_time()
         return Hold(self._hold_until)
+
+    def _turning_in_a_jam(self, view: View) -> bool:
+        """Held up by rovers past ``MAX_CROWD_WAIT_S``, and only turning: more than ``MAX_BLOCKED_ROTATIONS`` turns
+        to a goal or a route's corner outside the window without a real move between. Such turns are not counted
+        as blocked while rovers hold the rover up, and the jam's time is minded where it waits; packed among
+        rovers on a crater's crest, a rover's route corner flipped from side to side as their bodies hid the
+        ground, and it turned to and fro and never waited, for the rest of the mission. A rover that still
+        moves now and then is getting through, however slowly, and is left to."""
+        self._jam_turns += 1
+        long = self._crowd_since is not None and view.time - self._crowd_since > MAX_CROWD_WAIT_S
+        return long and self._jam_turns > MAX_BLOCKED_ROTATIONS
 
     def _round_the_knot(self, view: View) -> bool:
         """Long held up by rovers on the way, not at the goal: there the rovers in the way are the team standing

@@ -328,6 +328,26 @@ def test_walking_to_and_fro_among_rovers_is_no_way_through_a_jam():
     assert stuck == Finish("stuck") and stuck.why == "held up by other rovers for 90 s"
 
 
+def test_only_turning_among_rovers_does_not_outlast_a_jam_but_moving_now_and_then_does():
+    """Turns to a goal or a route's corner behind the rover are not counted as blocked while rovers hold it up:
+    packed among rovers whose bodies hid the ground, a rover's route corner flipped from side to side and it
+    turned to and fro for the rest of the mission. Past the jam's time, turning alone ends it; a rover that
+    still moves now and then is left to get through."""
+    facing_away = Pose(0.0, 0.0, 180.0)
+    b = _behaviour(AT_GOAL)
+    b.decide(_view(AT_GOAL, hits=RINGED_BY_ROVERS, time=0.0))
+    for k in range(MAX_BLOCKED_ROTATIONS):
+        assert isinstance(b.decide(_view(AT_GOAL, pose=facing_away, time=MAX_CROWD_WAIT_S + k)), Rotate)
+    stuck = b.decide(_view(AT_GOAL, pose=facing_away, time=MAX_CROWD_WAIT_S + MAX_BLOCKED_ROTATIONS))
+    assert stuck == Finish("stuck") and stuck.why == "held up by other rovers for 90 s"
+    moving = _behaviour(AT_GOAL)
+    moving.decide(_view(AT_GOAL, hits=RINGED_BY_ROVERS, time=0.0))
+    for k in range(2 * MAX_BLOCKED_ROTATIONS):
+        if k % 4 == 3:
+            moving.moved(PARAMS.behaviour.min_move_size)
+        assert isinstance(moving.decide(_view(AT_GOAL, pose=facing_away, time=MAX_CROWD_WAIT_S + k)), Rotate)
+
+
 def test_walking_away_from_where_a_jam_began_ends_it():
     """A way round the rovers may lead away from the goal (a maze's does): with the jam left behind, a later
     crowd is a new jam, not the old one timed out."""
