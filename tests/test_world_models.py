@@ -610,6 +610,19 @@ def test_driving_into_a_rock_is_a_collision():
     assert world.report().obstacle_collisions == 1
 
 
+def test_a_move_that_touches_a_rock_on_its_last_step_ends_collided_with_a_cancel_result():
+    """The step that completes a move may be the one that touches: the move is then already over when the
+    collision is found, and its end still needs the CancelResult that tells the agent where the rover stopped."""
+    world = World(_scenario(rocks=[(0.0, 4.99, 0.5)]), KEYS)  # the body touches it only at the move's end
+    assert _send(world, 1, m.MoveAction(x=0.0, z=4.0))[0][1].outcome == "running"
+    out = _step_until_idle(world)
+    statuses = [msg for key, msg in out if key == KEYS.rover(1, ks.NAVIGATION_STATUS)]
+    results = [msg for key, msg in out if key == KEYS.rover(1, ks.CANCEL_RESULT)]
+    assert statuses[-1].outcome == "collided"
+    assert len(results) == 1 and results[0].reason == "collided"
+    assert results[0].z == pytest.approx(world.bodies[1].z) and 3.5 < results[0].z < 4.0
+
+
 def test_driving_into_a_rover_is_a_rover_collision():
     world = World(_scenario(rovers=[(0.0, 0.0, 0.0), (0.8, 2.0, 0.0)]), KEYS)
     assert _send(world, 1, m.MoveAction(x=0.0, z=4.0))[0][1].outcome == "running"

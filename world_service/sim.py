@@ -229,7 +229,10 @@ class World(ActionInputs, RadioLink):
         moved = [b for b in active if (b.x, b.z) != before[b.id][:2]]
         for body in self._colliding(moved):
             body.x, body.z, body.distance_covered = before[body.id]
-            start = body.action.start if body.action is not None else None
+            # a move may have ended on this very step: its start is then in its end, and the agent needs the
+            # CancelResult built from it (a "collided" status without one left the agent waiting for ever)
+            done = ended[body.id]
+            start = body.action.start if body.action is not None else done.start if done else None
             body.action, body.velocity = None, 0.0
             ended[body.id] = nav.Ended("move", "collided", start)
         self._positions = None
