@@ -539,15 +539,19 @@ def test_cancel_with_nothing_running_is_rejected():
     assert (rejection.action, rejection.reason) == ("cancel", "no_action")
 
 
+def _navigation_ends(out) -> tuple[list, list]:
+    """Rover 1's navigation statuses and cancel results among a world's outputs."""
+    return ([msg for key, msg in out if key == KEYS.rover(1, ks.NAVIGATION_STATUS)],
+            [msg for key, msg in out if key == KEYS.rover(1, ks.CANCEL_RESULT)])
+
+
 def test_cancel_of_a_move_answers_a_cancel_result():
     world = World(_scenario(), KEYS)
     _send(world, 1, m.MoveAction(x=0.0, z=8.0))
     for _ in range(5):
         world.step()
     assert _send(world, 1, m.CancelAction()) == []
-    out = _step_until_idle(world)
-    statuses = [msg for key, msg in out if key == KEYS.rover(1, ks.NAVIGATION_STATUS)]
-    results = [msg for key, msg in out if key == KEYS.rover(1, ks.CANCEL_RESULT)]
+    statuses, results = _navigation_ends(_step_until_idle(world))
     assert statuses[-1].outcome == "cancelled"
     assert len(results) == 1 and results[0].reason == "cancelled"
     assert results[0].z == pytest.approx(world.bodies[1].z) and 0 < results[0].z < 8.0
@@ -596,9 +600,7 @@ def test_driving_into_a_rock_is_a_collision():
     world = World(_scenario(rocks=[(0.8, 2.0, 0.5)]), KEYS)
     accepted = _send(world, 1, m.MoveAction(x=0.0, z=4.0))
     assert accepted[0][1].outcome == "running"
-    out = _step_until_idle(world)
-    statuses = [msg for key, msg in out if key == KEYS.rover(1, ks.NAVIGATION_STATUS)]
-    results = [msg for key, msg in out if key == KEYS.rover(1, ks.CANCEL_RESULT)]
+    statuses, results = _navigation_ends(_step_until_idle(world))
     assert statuses[-1].outcome == "collided" and statuses[-1].remaining == 0.0
     assert len(results) == 1 and results[0].reason == "collided"
     assert world.obstacle_collisions == 1 and world.rover_collisions == 0
@@ -615,9 +617,7 @@ def test_a_move_that_touches_a_rock_on_its_last_step_ends_collided_with_a_cancel
     collision is found, and its end still needs the CancelResult that tells the agent where the rover stopped."""
     world = World(_scenario(rocks=[(0.0, 4.99, 0.5)]), KEYS)  # the body touches it only at the move's end
     assert _send(world, 1, m.MoveAction(x=0.0, z=4.0))[0][1].outcome == "running"
-    out = _step_until_idle(world)
-    statuses = [msg for key, msg in out if key == KEYS.rover(1, ks.NAVIGATION_STATUS)]
-    results = [msg for key, msg in out if key == KEYS.rover(1, ks.CANCEL_RESULT)]
+    statuses, results = _navigation_ends(_step_until_idle(world))
     assert statuses[-1].outcome == "collided"
     assert len(results) == 1 and results[0].reason == "collided"
     assert results[0].z == pytest.approx(world.bodies[1].z) and 3.5 < results[0].z < 4.0
