@@ -43,6 +43,7 @@ from rover_agent.decisions import (
     View,
 )
 from rover_agent.free_space import OBSTACLE_MARGIN, ROVER_GAP_CLOSE
+from rover_agent.occupancy import STATIC_KINDS
 from rover_agent.planner import OccupancyGrid, next_waypoint
 from rover_agent.sunlight import CHARGE, SunSeeker
 from rover_agent.tuning import (
@@ -61,7 +62,7 @@ from rover_agent.tuning import (
 from schemas.frames import bearing_deg, wrap_deg
 from schemas.params import RoverParams
 
-STILL_KINDS = frozenset({"obstacle", "lander"})
+STILL_KINDS = STATIC_KINDS - {"terrain"}
 """What a rover steps off when nearer than a move keeps (``_step_off``): rocks, walls, the lander. Not steep
 terrain, which a rover on rough ground is often near and walks along."""
 BLOCKED_WHY = f"turned {MAX_BLOCKED_ROTATIONS} times in a row without finding a free way"
@@ -278,8 +279,10 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
         if abs(to_goal) > window:
             if self._crowd_since is None:  # turning without getting anywhere counts toward giving up...
                 self._blocked_rotations += 1  # ...except when waiting for rovers, which has its own limit...
-            elif self._turning_in_a_jam(view):  # ...unless the rover only turns, past the jam's time
-                return self._held_up(view)
+            else:
+                self._jam_turns += 1
+                if self._turning_in_a_jam(view):  # ...unless the rover only turns, past the jam's time
+                    return self._held_up(view)
             if self._blocked_rotations > MAX_BLOCKED_ROTATIONS:
                 return Finish("stuck", BLOCKED_WHY)
             return Rotate(round(to_goal, 3))

@@ -125,7 +125,6 @@ class CrowdRules:
         rovers on a crater's crest, a rover's route corner flipped from side to side as their bodies hid the
         ground, and it turned to and fro and never waited, for the rest of the mission. A rover that still
         moves now and then is getting through, however slowly, and is left to."""
-        self._jam_turns += 1
         long = self._crowd_since is not None and view.time - self._crowd_since > MAX_CROWD_WAIT_S
         return long and self._jam_turns > MAX_BLOCKED_ROTATIONS
 

@@ -34,7 +34,7 @@ NO_PROGRESS_WALK_M = 300.0
 """Metres walked without getting any closer to the goal, routing or not, before giving up."""
 KNOT_ROUTE_RADII = 2.0
 """Farther than this many perception radii from its goal, a rover long held up by rovers plans a route round them
-(``CrowdRules._rovers_in_way``); nearer, they are the team at the goal, and the route only led it to and fro
+(``CrowdRules._round_the_knot``); nearer, they are the team at the goal, and the route only led it to and fro
 among their stations (within one radius, rovers of the 20-rover maze were stopped by the world's watchdog)."""
 KNOT_MEMORY_S = 10.0
 """...and keeps clear of the rovers it saw in the last this many seconds, in view or not now: long enough to turn
