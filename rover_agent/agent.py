@@ -57,7 +57,7 @@ class RoverAgent(NavigationFeedback, Localising):
         self.behaviour = behaviour or DefaultBehaviour(rover_id, params)
         self.state_file = state_file
         self.saved: SavedState | None = load_state(state_file) if state_file else None
-        self.run = ""  # the world's run (Clock.run), once heard
+        self.run: str | None = None  # the world's run (Clock.run; "" from a clock that names none), once heard
         self.ids = ActionIds()
         self.heard_action = 0  # the last action whose end this agent has heard (RoverStatus.action_id)
         self.ids_heard = False  # the world's answers name this agent's action ids (a driver's may not)
@@ -152,7 +152,7 @@ class RoverAgent(NavigationFeedback, Localising):
 
     def _join(self, clock: m.Clock) -> None:
         """The first clock of a run: resume the saved state if it is this run's; a restart without one is lost."""
-        first, self.run = not self.run, clock.run
+        first, self.run = self.run is None, clock.run
         self.contact.heard_at = clock.sim_time  # silence is counted from the first clock of a run
         saved, self.saved = self.saved, None
         if saved is not None and saved.run == clock.run:
@@ -280,6 +280,8 @@ class RoverAgent(NavigationFeedback, Localising):
 
     def _on_perception(self, msg: m.Perception) -> list[Out]:
         self.now = max(self.now, msg.stamp)
+        if self.run is None:  # no clock yet: whether it resumes a saved state is not known, so it neither acts nor
+            return []  # assumes a pose (an action now would outrank every id it resumes with)
         hits = tuple(Hit(a, d, k) for a, d, k in zip(msg.angles_deg, msg.distances_m, msg.kinds, strict=True))
         standing = self.in_flight is None and self.pose is not None and msg.stamp >= self.settled_at
         if standing:  # where the estimate says it stands: correct it, then map what it sees from there

@@ -67,7 +67,9 @@ class NavigationFeedback:
             return []
         if msg.action not in ("move", "rotate"):
             return []
-        if isinstance(flight.decision, MoveTo):
+        if msg.reason == "stale":  # the world has a later action of this rover than the agent knows of (one sent
+            self.ids.renew()  # in an earlier life): nothing about the ground, only the ids to renew
+        elif isinstance(flight.decision, MoveTo):
             self.behaviour.rejected(math.degrees(math.atan2(flight.decision.x, flight.decision.z)))
         log.info("rover %d: %s rejected (%s): %s", self.id, msg.action, msg.reason, msg.detail)
         self._settle(self.now)

@@ -224,6 +224,43 @@ def test_an_agent_joining_late_without_a_saved_pose_says_it_is_lost_and_does_not
     assert "position unknown" in status.detail
 
 
+def test_a_restarted_agent_neither_acts_nor_assumes_a_pose_before_its_first_clock(tmp_path):
+    """Perception can reach a restarted agent before the clock: long silence from the lander then looks like a
+    lost calibration, and an action sent on an assumed pose would outrank every id the agent resumes with."""
+    path = tmp_path / "rover1.json"
+    flight = _moving_agent().in_flight
+    save_state(path, SavedState("r1", Pose(0.0, 20.0, 180.0), flight.saved(), flight.action_id + 1))
+    again = RoverAgent(1, KEYS, _moving_agent().params, state_file=path,
+                       dispatch=m.Calibration(x=0.0, z=20.0, heading_deg=180.0))
+    for t in range(30, 90, 5):
+        again.handle(ks.GYROSCOPE, codec.encode(m.Gyroscope(stamp=float(t), pitch_deg=0.0)))
+        assert again.handle(ks.PERCEPTION, codec.encode(m.Perception(stamp=float(t), angles_deg=[], distances_m=[],
+                                                                      kinds=[]))) == []
+    assert again.pose is None and again.in_flight is None
+    asked = again.on_clock(_clock(90.0))
+    assert [msg.action_id for key, msg in asked if key.endswith(ks.MOVE_ACTION)] == [flight.action_id]
+
+
+def test_an_action_refused_as_older_than_the_rovers_latest_renews_the_agents_ids():
+    """The world has a later action of this rover than the agent knows of (an earlier life's): the agent's next
+    ids must outrank it, or every action it sends is refused as stale."""
+    world = _world()
+    earlier = ActionIds().take(10.0)
+    _send(world, ks.MOVE_ACTION, m.MoveAction(x=0.0, z=1.0, action_id=earlier))
+    _until_idle(world)
+    agent = _moving_agent()
+    out = _send(world, ks.MOVE_ACTION, agent.in_flight.request(KEYS, 1)[1])
+    (refusal,) = _of(out, ks.ACTION_REJECTED)
+    assert refusal.reason == "stale"
+    agent.handle(ks.ACTION_REJECTED, codec.encode(refusal))
+    assert agent.in_flight is None and agent.pose == Pose(0.0, 20.0, 180.0)
+    agent.handle(ks.GYROSCOPE, codec.encode(m.Gyroscope(stamp=12.0, pitch_deg=0.0)))
+    (_, move), = agent.handle(ks.PERCEPTION, codec.encode(m.Perception(stamp=12.0, angles_deg=[], distances_m=[],
+                                                                          kinds=[])))
+    assert move.action_id > earlier
+    assert _of(_send(world, ks.MOVE_ACTION, move), ks.NAVIGATION_STATUS)[0].action_id == move.action_id
+
+
 # ---- whole missions over a lossy link (in process, lockstep) ----
 
 

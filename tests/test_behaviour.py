@@ -5,8 +5,9 @@ from __future__ import annotations
 import math
 
 import pytest
+from agent_kit import joined_agent
 
-from rover_agent.agent import STATION_ASK_M, STATION_ASK_RETRY_S, RoverAgent
+from rover_agent.agent import STATION_ASK_M, STATION_ASK_RETRY_S
 from rover_agent.behaviour import DefaultBehaviour
 from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Finish, Goal, Hit, Hold, MoveTo, Rotate, TakePhoto, View
@@ -685,7 +686,7 @@ def _feed(agent, message):
 
 def _ready_agent(x=0.0, z=20.0, heading=180.0, bearing=180.0, distance=100.0, kind="waypoint"):
     """An agent told where it stands and where to go (the goal 100 m south of the lander by default)."""
-    agent = RoverAgent(1, KEYS, PARAMS)
+    agent = joined_agent(1, KEYS, PARAMS)
     assert _feed(agent, m.Calibration(x=x, z=z, heading_deg=heading)) == []
     out = _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind=kind, bearing_deg=bearing,
                                           distance_m=distance))
@@ -710,7 +711,7 @@ def test_agent_emits_a_move_action_after_calibration_direction_gyroscope_and_per
 
 
 def test_agent_does_nothing_without_calibration_or_goal():
-    agent = RoverAgent(1, KEYS, PARAMS)
+    agent = joined_agent(1, KEYS, PARAMS)
     _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
     assert _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[])) == []
     _feed(agent, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
@@ -832,7 +833,7 @@ def _station_requests(out, rover: int = 1) -> list[radio.StationRequest]:
 
 
 def test_near_a_shared_waypoint_the_agent_asks_for_its_station_until_it_comes():
-    agent = RoverAgent(1, KEYS, PARAMS)
+    agent = joined_agent(1, KEYS, PARAMS)
     _feed(agent, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
     shared = {"goal_index": 0, "goals_total": 1, "kind": "waypoint", "bearing_deg": 0.0, "distance_m": 40.0,
               "shared": True}
@@ -873,7 +874,7 @@ def test_the_agent_asks_for_a_crest_station_once_crater_terrain_is_in_view_or_fr
     """The rover does not know the crater's size: it asks once the crater's terrain is in view, however far from
     the goal. Inside the bowl it sees no rim ahead (a crater's terrain shows where a ray enters it), and without a
     station it would walk to and fro across the goal for ever: near the goal, it asks by the distance."""
-    agent = RoverAgent(1, KEYS, PARAMS)
+    agent = joined_agent(1, KEYS, PARAMS)
     _feed(agent, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
     _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="crater", bearing_deg=0.0, distance_m=60.0,
                                     shared=True))
@@ -882,7 +883,7 @@ def test_the_agent_asks_for_a_crest_station_once_crater_terrain_is_in_view_or_fr
     assert _station_requests(_feed(agent, nothing)) == []
     seen = m.Perception(stamp=0.4, angles_deg=[0.0], distances_m=[8.0], kinds=["crater_terrain"])
     assert _station_requests(_feed(agent, seen)) == [radio.StationRequest(goal_index=0, x=0.0, z=30.0)]
-    inside = RoverAgent(2, KEYS, PARAMS)
+    inside = joined_agent(2, KEYS, PARAMS)
     _feed(inside, m.Calibration(x=0.0, z=0.0, heading_deg=0.0))
     _feed(inside, m.MissionDirection(goal_index=0, goals_total=1, kind="crater", bearing_deg=0.0, distance_m=60.0,
                                      shared=True))

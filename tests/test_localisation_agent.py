@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from agent_kit import joined_agent
 
 from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
@@ -51,7 +52,7 @@ def _lander_scan(stamp: float, truth: Pose) -> m.Perception:
 def _walked(params: RoverParams, partners: list[int] = ()) -> RoverAgent:
     """An agent calibrated 15 m south of the lander facing north, a goal far east, one 9 m move done: the lander
     is 6 m ahead."""
-    agent = RoverAgent(1, KEYS, params)
+    agent = joined_agent(1, KEYS, params)
     _feed(agent, m.Calibration(x=0.0, z=-15.0, heading_deg=0.0))
     _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="waypoint", bearing_deg=20.0, distance_m=300.0))
     _feed(agent, m.CommPartners(ids=[0, *partners]))
@@ -150,7 +151,7 @@ def test_the_saved_state_keeps_the_covariance():
 def _unsure_with_a_return(distance: float, bearing: float = 90.0) -> RoverAgent:
     """A noisy rover 120 m north of the lander, unsure by several metres, sent to a waypoint (by default back near
     the lander)."""
-    agent = RoverAgent(1, KEYS, NOISY)
+    agent = joined_agent(1, KEYS, NOISY)
     agent.pose = Pose(0.0, 120.0, 180.0)
     agent.localisation.cov = [[16.0, 0.0, 0.0], [0.0, 16.0, 0.0], [0.0, 0.0, math.radians(3.0) ** 2]]
     _feed(agent, m.MissionDirection(goal_index=1, goals_total=2, kind="waypoint", bearing_deg=bearing,
@@ -187,7 +188,7 @@ def test_once_sure_again_the_rover_goes_on_to_its_goal():
 
 
 def test_a_noise_free_rover_never_goes_by_the_lander():
-    agent = RoverAgent(1, KEYS, QUIET)
+    agent = joined_agent(1, KEYS, QUIET)
     agent.pose = Pose(0.0, 120.0, 180.0)
     _feed(agent, m.MissionDirection(goal_index=1, goals_total=2, kind="waypoint", bearing_deg=90.0, distance_m=25.0))
     _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
