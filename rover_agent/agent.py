@@ -19,7 +19,8 @@ from rover_agent.in_flight import ActionIds, InFlight, Pace
 from rover_agent.localising import Localising
 from rover_agent.map_report import MapRecorder
 from rover_agent.navigation_feedback import NavigationFeedback
-from rover_agent.saved_state import STATE_WRITER, SavedState, load_state
+from rover_agent.resuming import Resuming
+from rover_agent.saved_state import SavedState, load_state
 from rover_agent.sightings import Teammate
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -43,11 +44,9 @@ STATION_ASK_M = 15.0
 """Near a shared waypoint, closer than this, the rover asks the lander for its station: just before it reaches
 a 20-rover formation (8.5 m in radius at the default spacing), so stations go out in the order rovers arrive."""
 STATION_ASK_RETRY_S = 2.0
-JOINED_LATE_S = 2.0
-"""An agent whose first clock is later than this joined a mission already under way: a restart."""
 
 
-class RoverAgent(NavigationFeedback, Localising):
+class RoverAgent(NavigationFeedback, Localising, Resuming):
     def __init__(self, rover_id: int, keys: ks.Keyspace, params: RoverParams,
                  behaviour: BaseBehaviour | None = None, state_file: Path | None = None,
                  dispatch: m.Calibration | None = None) -> None:
@@ -149,25 +148,6 @@ class RoverAgent(NavigationFeedback, Localising):
         if self.pose is not None:
             timers.append(self.map.next_due())
         return min(timers)
-
-    def _join(self, clock: m.Clock) -> None:
-        """The first clock of a run: resume the saved state if it is this run's; a restart without one is lost."""
-        first, self.run = self.run is None, clock.run
-        self.contact.heard_at = clock.sim_time  # silence is counted from the first clock of a run
-        saved, self.saved = self.saved, None
-        if saved is not None and saved.run == clock.run:
-            self._resume_estimate(saved.pose, saved.cov)
-            self.ids = ActionIds(saved.next_action)
-            if saved.flight is not None:
-                self.in_flight = InFlight.resumed(saved.flight, self.now)
-            log.info("rover %d: resumed at %s from %s", self.id, self.pose, self.state_file)
-        elif first and clock.sim_time > JOINED_LATE_S:
-            self.lost = True
-            log.error("rover %d: joined a mission %.0f s under way with no saved pose of this run (%s): it does not "
-                      "know where it is, so it will not drive; start it with the --state it ran with", self.id,
-                      clock.sim_time, self.state_file or "no --state")
-        elif saved is not None:
-            log.info("rover %d: the saved state in %s is from another run; starting afresh", self.id, self.state_file)
 
     # ---- lander, via radio ----
 
@@ -280,8 +260,8 @@ class RoverAgent(NavigationFeedback, Localising):
 
     def _on_perception(self, msg: m.Perception) -> list[Out]:
         self.now = max(self.now, msg.stamp)
-        if self.run is None:  # no clock yet: whether it resumes a saved state is not known, so it neither acts nor
-            return []  # assumes a pose (an action now would outrank every id it resumes with)
+        if self.run is None:  # no clock: it may resume a saved state, so it neither acts nor takes a pose yet
+            return []
         hits = tuple(Hit(a, d, k) for a, d, k in zip(msg.angles_deg, msg.distances_m, msg.kinds, strict=True))
         standing = self.in_flight is None and self.pose is not None and msg.stamp >= self.settled_at
         if standing:  # where the estimate says it stands: correct it, then map what it sees from there
@@ -392,11 +372,3 @@ class RoverAgent(NavigationFeedback, Localising):
         return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(
             stamp=self.now, state=self.state, goal_index=index, detail=detail, photos_pending=len(self.photo_outbox),
             action_id=self.heard_action, rejected=self.rejected)
-
-    def _save(self) -> None:
-        """Pose, action in flight and next id, written in the background: what a restart resumes from."""
-        if self.state_file is None or self.pose is None or not self.run:
-            return
-        flight = self.in_flight.saved() if self.in_flight is not None else None
-        STATE_WRITER.save(self.state_file, SavedState(self.run, self.pose, flight, self.ids.next_id,
-                                                      self.localisation.cov))
