@@ -256,7 +256,7 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
     def _view(self, stamp: float, pose: Pose, hits: tuple[Hit, ...]) -> View:
         charge = self.battery.fraction if self.battery is not None else None
         goal = self.contact.goal or self.fix.goal or self.goal
-        return View(stamp, pose, goal, hits, self.pitch[0], charge, self.sunlit)
+        return View(stamp, pose, goal, hits, self.pitch[0], charge, self.sunlit, self.localisation.position_std)
 
     def _on_perception(self, msg: m.Perception) -> list[Out]:
         self.now = max(self.now, msg.stamp)

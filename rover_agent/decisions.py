@@ -51,6 +51,7 @@ class View:
     pitch_deg: float
     battery: float | None = None  # charge as a share of capacity; None: no power sensors (no sun in the world)
     sunlit: bool | None = None  # whether the solar panel is lit
+    position_std_m: float = 0.0  # how far off ``pose`` may be: its 1-sigma position error (0 without noise)
 
     def toward(self, x: float, z: float) -> View:
         """This view with its goal swapped for a spot of the rover's own on the way (sunlight, the foot of a crest

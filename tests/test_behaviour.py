@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 from agent_kit import joined_agent
@@ -307,6 +308,19 @@ def test_held_up_by_rovers_within_the_perception_radius_of_a_waypoint_a_rover_is
     b = _behaviour(own)
     b.decide(_view(goal=own, hits=RINGED_BY_ROVERS, time=0.0))
     assert b.decide(_view(goal=own, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1)) == Finish("stuck")
+
+
+def test_held_up_by_rovers_a_rover_unsure_of_its_pose_counts_the_radius_as_far_as_it_can_tell():
+    """Its estimate puts a shared waypoint just beyond the radius, but it may be off by more than that: for all
+    the rover can tell it is at the waypoint, where the team keeps it out; sure of its pose, it is not."""
+    beyond = Goal(0, 1, "waypoint", 0.0, 1.05 * PARAMS.perception.perception_radius, shared=True)
+    ends = {}
+    for std in (0.0, 2.0):
+        b = _behaviour(beyond)
+        b.decide(replace(_view(goal=beyond, hits=RINGED_BY_ROVERS, time=0.0), position_std_m=std))
+        ends[std] = b.decide(replace(_view(goal=beyond, hits=RINGED_BY_ROVERS, time=MAX_CROWD_WAIT_S + 1),
+                                     position_std_m=std))
+    assert ends == {0.0: Finish("stuck"), 2.0: Finish("reached")}
 
 
 def test_getting_closer_to_the_goal_ends_the_wait_in_a_crowd():
