@@ -119,6 +119,18 @@ def test_a_cancel_naming_an_ended_action_gets_its_end():
     assert refused[0].reason == "no_action"
 
 
+def test_an_action_that_comes_after_its_own_cancel_never_starts():
+    """Sent again behind a flood of its key while its cancel, on a key of its own, went ahead: the world had no
+    such action, so its agent settled where it stood; started now, the rover would drive blind."""
+    world = _world()
+    (refusal,) = _of(_send(world, ks.CANCEL_ACTION, m.CancelAction(action_id=7)), ks.ACTION_REJECTED)
+    assert refusal.reason == "no_action"
+    late = _send(world, ks.MOVE_ACTION, m.MoveAction(x=0.0, z=1.0, action_id=7))
+    assert not world.bodies[1].busy and _of(late, ks.ACTION_REJECTED)[0].reason == "stale"
+    _send(world, ks.MOVE_ACTION, m.MoveAction(x=0.0, z=1.0, action_id=8))
+    assert world.bodies[1].busy  # the agent's next action starts
+
+
 # ---- the agent's side ----
 
 

@@ -449,11 +449,17 @@ FLOOD_S = 15.0
 def test_a_flood_of_valid_move_actions_on_one_rover_key_does_not_stop_the_mission(tmp_path):
     """An id-less move (``action_id`` 0, as a ground tool sends) behind the rover, as fast as one client can
     publish: the world drops what its inbox cannot hold and refuses the rest at most once a tick, and rover 1's
-    agent must not take those refusals of someone else's move for answers to its own."""
+    agent must not take those refusals of someone else's move for answers to its own.
+
+    The flooding client shares this machine's cores at normal priority. With the agents in the idle class (the
+    real-time default, ``bus.priority``) it starved them: all five fell up to 12 s behind the world's clock, and
+    1 run in 8 had a rover collision. So the agents here share the cores as the kernel does by default: the flood
+    is what is tested, not who gets the CPU (the launcher warns when agents fall behind)."""
     port = free_port()
     keys = Keyspace()
     out = tmp_path / "run"
     run = lunarsim("run", str(CRATER), "--port", str(port), "--time-scale", "5", "--quiet", "--no-record",
+                   "--agent-priority", "equal",
                    "--out", str(out))
     stop_flood = threading.Event()
     flooded: list[int] = []
@@ -480,6 +486,7 @@ def test_a_flood_of_valid_move_actions_on_one_rover_key_does_not_stop_the_missio
         finally:
             watch.close()
         assert run.returncode == 0, stdout + stderr
+        print(stdout)  # shown if the test fails: the launcher says which agents fell behind the clock
         report = json.loads((out / "report.json").read_text())
         _reached_all(report, 5)
         assert flooded and flooded[0] > report["dropped_messages"] > 0, (flooded, report)

@@ -36,6 +36,7 @@ class ActionLedger:
         self.refused: dict[int, ActionRecord] = {}  # rover -> the last action the world refused
         self.heard: dict[int, int] = {}  # rover -> the last action id whose end its agent says it has heard
         self.latest: dict[int, int] = {}  # rover -> the highest action id it has sent
+        self.unseen_cancel: dict[int, int] = {}  # rover -> the highest id cancelled before the world had it
         self.repeats = 0  # actions sent again by their agent (a query after a lost sample)
         self.resent = 0  # ends sent again because the agent had not heard them
         self.stale = 0  # actions older than their rover's latest, refused
@@ -49,11 +50,19 @@ class ActionLedger:
             if record is not None and record.action_id == action_id:
                 self.repeats += 1
                 return record
-        if action_id < self.latest.get(rover, 0):
+        if action_id < self.latest.get(rover, 0) or action_id <= self.unseen_cancel.get(rover, 0):
             self.stale += 1
             return ActionRecord(action_id, STALE)
         self.latest[rover] = action_id
         return None
+
+    def cancelled_unseen(self, rover: int, action_id: int) -> None:
+        """A cancel naming an action the world never had: its agent, told so, settles where it stood, so the action
+        must never start if it comes after all (sent again, it was queued behind a flood of its key while the
+        cancel, on a key of its own, went ahead; started then, the rover drove blind into the rover it had
+        stopped for)."""
+        if action_id:
+            self.unseen_cancel[rover] = max(self.unseen_cancel.get(rover, 0), action_id)
 
     def start(self, rover: int, action_id: int, kind: str, tick: int) -> None:
         self.started[rover] = ActionRecord(action_id, kind, started_tick=tick)

@@ -106,6 +106,7 @@ class ActionInputs:
         record = self.actions.started.get(rid)
         if msg.action_id and record is not None and record.action_id == msg.action_id and record.answer:
             return list(record.answer)
+        self.actions.cancelled_unseen(rid, msg.action_id)
         return [self._reject(rid, "cancel", "no_action", "nothing to cancel", msg.action_id)]
 
     def _on_speed(self, rid: int, msg: m.SpeedAction) -> list[Out]:
