@@ -120,8 +120,8 @@ def test_a_cancel_naming_an_ended_action_gets_its_end():
 
 
 def test_an_action_that_comes_after_its_own_cancel_never_starts():
-    """Sent again behind a flood of its key while its cancel, on a key of its own, went ahead: the world had no
-    such action, so its agent settled where it stood; started now, the rover would drive blind."""
+    """A copy delayed on the way, after a cancel that found no such action: its agent settled where it stood, so
+    started now, the rover would drive where its agent does not watch."""
     world = _world()
     (refusal,) = _of(_send(world, ks.CANCEL_ACTION, m.CancelAction(action_id=7)), ks.ACTION_REJECTED)
     assert refusal.reason == "no_action"

@@ -5,7 +5,7 @@ then both behaviours on ``polar_night_edge`` in one process."""
 from __future__ import annotations
 
 import pytest
-from agent_kit import joined_agent
+from agent_kit import RUN, joined_agent
 from procs import SCENARIOS
 
 from harness.loopback import run_mission
@@ -98,7 +98,7 @@ def test_the_agent_does_nothing_while_its_rover_is_off_and_says_why():
     _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
     _feed(agent, m.Battery(stamp=0.1, charge_wh=0.0, capacity_wh=20.0, empty=True))
     assert _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[])) == []
-    (_, status), = agent.on_clock(m.Clock(tick=100, sim_time=5.0, time_scale=1.0, run="r1"))
+    (_, status), = agent.on_clock(m.Clock(tick=100, sim_time=5.0, time_scale=1.0, run=RUN))
     assert status.detail == "off: battery empty"
     _feed(agent, m.Battery(stamp=0.3, charge_wh=19.0, capacity_wh=20.0))
     _feed(agent, m.Temperature(stamp=0.3, celsius=-40.0, shutdown=True))

@@ -58,9 +58,8 @@ class ActionLedger:
 
     def cancelled_unseen(self, rover: int, action_id: int) -> None:
         """A cancel naming an action the world never had: its agent, told so, settles where it stood, so the action
-        must never start if it comes after all (sent again, it was queued behind a flood of its key while the
-        cancel, on a key of its own, went ahead; started then, the rover drove blind into the rover it had
-        stopped for)."""
+        must never start if a copy of it comes after all (a link delivers late as well as loses): started then,
+        the rover would drive where its agent does not watch, towards whatever it had cancelled for."""
         if action_id:
             self.unseen_cancel[rover] = max(self.unseen_cancel.get(rover, 0), action_id)
 
