@@ -176,7 +176,7 @@ class CrowdRules:
         which a rover is at it, the rover is there, if not at its own station: the team keeps it out (the report's
         rule, 6.6, with the whole radius rather than ``WAYPOINT_IN_VIEW`` of it, since the rovers kept it there for
         so long), within what it can tell: its estimate may be off by its 1-sigma error. In the middle of a team
-        that drifted through a maze, a rover 7 m from the waypoint believed it 10.4 m away (4.7 m sigma) and
+        that drifted through a maze, a rover 6.7 m from the waypoint believed it 10.4 m away (4.7 m sigma) and
         gave up. Not so on the way to a spot of its own (``View.toward``: a spoke's foot, out of a bowl,
         sunlight), nor elsewhere: it gives up, and says why."""
         goal, pose = view.goal, view.pose

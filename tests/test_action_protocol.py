@@ -7,6 +7,7 @@ import random
 from pathlib import Path
 
 import pytest
+from agent_kit import RUN, joined_agent
 
 from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
@@ -135,9 +136,8 @@ def test_an_action_that_comes_after_its_own_cancel_never_starts():
 
 
 def _moving_agent(state_file: Path | None = None) -> RoverAgent:
-    agent = RoverAgent(1, KEYS, load_scenario(SCENARIOS / "crater_observation.yaml").rover_params,
-                       state_file=state_file)
-    agent.on_clock(m.Clock(tick=0, sim_time=0.0, time_scale=1.0, running=False, run="r1"))
+    agent = joined_agent(1, KEYS, load_scenario(SCENARIOS / "crater_observation.yaml").rover_params,
+                         state_file=state_file)
     agent.handle(ks.CALIBRATION, codec.encode(m.Calibration(x=0.0, z=20.0, heading_deg=180.0)))
     agent.handle(ks.MISSION_DIRECTION, codec.encode(m.MissionDirection(goal_index=0, goals_total=1, kind="waypoint",
                                                                        bearing_deg=180.0, distance_m=100.0)))
@@ -149,7 +149,7 @@ def _moving_agent(state_file: Path | None = None) -> RoverAgent:
 
 
 def _clock(t: float) -> m.Clock:
-    return m.Clock(tick=round(t / 0.05), sim_time=t, time_scale=1.0, run="r1")
+    return m.Clock(tick=round(t / 0.05), sim_time=t, time_scale=1.0, run=RUN)
 
 
 def test_an_agent_that_hears_nothing_of_its_action_asks_again_with_the_same_id():
@@ -207,7 +207,7 @@ def test_a_restarted_agent_resumes_its_pose_and_asks_how_its_action_ended(tmp_pa
 
     STATE_WRITER.flush()
     saved = load_state(path)
-    assert saved.run == "r1" and saved.flight.action_id == flight.action_id
+    assert saved.run == RUN and saved.flight.action_id == flight.action_id
     again = RoverAgent(1, KEYS, agent.params, state_file=path)
     asked = again.on_clock(_clock(30.0))
     assert again.pose == Pose(0.0, 20.0, 180.0)
@@ -221,8 +221,7 @@ def test_a_restarted_agent_resumes_its_pose_and_asks_how_its_action_ended(tmp_pa
 def test_a_state_saved_in_another_run_is_not_resumed(tmp_path):
     path = tmp_path / "rover1.json"
     save_state(path, SavedState("old-run", Pose(50.0, 50.0, 0.0)))
-    agent = RoverAgent(1, KEYS, _moving_agent().params, state_file=path)
-    agent.on_clock(m.Clock(tick=0, sim_time=0.0, time_scale=1.0, running=False, run="r1"))
+    agent = joined_agent(1, KEYS, _moving_agent().params, state_file=path)
     assert agent.pose is None and not agent.lost
 
 
@@ -241,7 +240,7 @@ def test_a_restarted_agent_neither_acts_nor_assumes_a_pose_before_its_first_cloc
     lost calibration, and an action sent on an assumed pose would outrank every id the agent resumes with."""
     path = tmp_path / "rover1.json"
     flight = _moving_agent().in_flight
-    save_state(path, SavedState("r1", Pose(0.0, 20.0, 180.0), flight.saved(), flight.action_id + 1))
+    save_state(path, SavedState(RUN, Pose(0.0, 20.0, 180.0), flight.saved(), flight.action_id + 1))
     again = RoverAgent(1, KEYS, _moving_agent().params, state_file=path,
                        dispatch=m.Calibration(x=0.0, z=20.0, heading_deg=180.0))
     for t in range(30, 90, 5):
