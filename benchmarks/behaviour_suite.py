@@ -15,7 +15,10 @@ return) and for each rover's role (formation, in_crater, out_of_range):
 - localisation error: from each rover's own estimate of where it stands (``RoverAgent.pose``) to where it truly
   stands at the end, median and p90 over the rovers that walked at least ``LOCALISED_AFTER_M``;
 - a failure taxonomy: for each rover that did not reach, its classes, role, final state, distance to its final
-  goal and whether it ever heard the lander (it holds a goal index only once a mission direction reached it).
+  goal and whether it ever heard the lander (it holds a goal index only once a mission direction reached it); a
+  rover done off its goal is told apart by whether its own estimate allowed for the error (``UNSURE_SIGMAS``):
+  one that knew it was unsure had nothing left to fix it with, one sure of a wrong estimate is the estimator's
+  fault.
 ``MissionReport`` carries no per-rover figures, so they come from the world's last published state.
 
 Path: ``harness.loopback.run_mission``, the world, lander and rover agents wired in one process through their pure
@@ -62,6 +65,9 @@ SETS = {"dev": DEVELOPMENT, "held-out": HELD_OUT}
 BASE_CAP_S, CAP_S_PER_M, MAX_CAP_S = 600.0, 3.0, 1800.0
 """Simulated-time cap: 600 s (twice the watchdog's stall time) plus 3 s a metre of the longest ideal path."""
 SHOWN_FAILURES = 25
+UNSURE_SIGMAS = 3.0
+"""A rover done off its goal "knew it was unsure" when its estimate's error was within this many of its own 1-sigma
+position errors (``Localisation.position_std``)."""
 LOCALISED_AFTER_M = 400.0
 """The localisation figure counts rovers that walked at least this far: dead reckoning's error grows with the
 distance walked, so short walks would flatter it."""
@@ -94,6 +100,11 @@ def _estimate_error(agent: RoverAgent, scenario: Scenario, x: float, z: float) -
     return round(math.hypot(agent.pose.x - (x - scenario.lander.x), agent.pose.z - (z - scenario.lander.z)), 3)
 
 
+def _estimate_std(agent: RoverAgent) -> float | None:
+    """The rover's own 1-sigma position error, metres: how far off it thinks its estimate may be."""
+    return None if agent.localisation is None else round(agent.localisation.position_std, 3)
+
+
 def _rovers(world: World, made: GeneratedScenario, agents: dict[int, RoverAgent]) -> list[dict]:
     """Per-rover figures from the world's last published state (the one its report was computed from)."""
     scenario, state, missions = made.scenario, world.mission_stats.last, world.missions
@@ -113,6 +124,7 @@ def _rovers(world: World, made: GeneratedScenario, agents: dict[int, RoverAgent]
                     "connected_fraction": round(1 - disconnected / links.elapsed_s, 4) if links.elapsed_s else 1.0,
                     "goal_error_m": round(stats.distance_to_goal(scenario, goal, r.x, r.z), 3),
                     "estimate_error_m": _estimate_error(agents[r.id], scenario, r.x, r.z),
+                    "estimate_std_m": _estimate_std(agents[r.id]),
                     "distance_covered_m": r.distance_covered_m, "ideal_path_m": round(ideal, 3),
                     "efficiency": round(ideal / r.distance_covered_m, 4) if r.distance_covered_m > 0 else None,
                     "detail": world.status[r.id].detail})
@@ -133,7 +145,11 @@ def failure_kind(rover: dict) -> str:
     if rover["stalled"]:
         return "stalled (world's watchdog)"
     if rover["state"] == "done" and rover["goal_index"] == rover["final_goal_index"]:
-        return "done but not at the goal"
+        error, std = rover.get("estimate_error_m"), rover.get("estimate_std_m")  # runs saved before have no std
+        if error is None or std is None:
+            return "done but not at the goal"
+        knew = error <= UNSURE_SIGMAS * std
+        return f"done but not at the goal, {'knowing it was unsure' if knew else 'sure of a wrong estimate'}"
     if rover["state"] == "done":
         return "done at an earlier goal"
     return f"unfinished ({rover['state']}) at the cap"

@@ -116,7 +116,8 @@ class Localising:
     def _fix_arrived(self, outcome: str) -> list:
         """A leg of the way by the lander is over and the estimate not yet fixed: turn round to look, go on to the
         next spot of the search, or give up and go on to the rover's own goal (``LanderFix.arrived``)."""
-        step = self.fix.arrived(outcome, (self.pose.x, self.pose.z), self.params.perception.perception_radius)
+        step = self.fix.arrived(outcome, (self.pose.x, self.pose.z), self.params.perception.perception_radius,
+                                self.localisation.position_std if self.localisation else 0.0)
         if step == "look":
             return self._act(Rotate(180.0))
         if step == "search":

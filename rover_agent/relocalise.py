@@ -6,8 +6,9 @@ sighting's (``rover_agent.localisation``). When a waypoint goal comes, the rover
 would be on arriving there by the direct way, from its own noise parameters. If that is more than ``FIX_STD_M``,
 and going by the lander leaves it surer at the goal (``WORTH``) for a way at most ``MAX_DETOUR`` longer than the
 direct one, it heads for the lander first; it goes on to its goal once the estimate is sure again
-(``FIXED_STD_M``). Where it thought the lander was, not seeing it, it turns round to look, then looks from four
-spots round that place (``SEARCH_SPOTS_DEG``); then, or if it can get no closer, it goes on whatever it saw.
+(``FIXED_STD_M``). Where it thought the lander was, not seeing it, it turns round to look, then searches round
+that place on rings of spots reaching as far as its estimate's error says the lander may be (``search_spots``);
+then, or if it can get no closer, it goes on whatever it saw.
 Returns to the start, as the report's crater_and_return, usually pass near the lander, so they gain most.
 
 The report's remedy for drifting estimates (7.2.1), with what a Lunar Zebro has: its noise model and the mission
@@ -41,9 +42,17 @@ MAX_DETOUR = 1.0
 DETAIL = "going by the lander to fix its position estimate"
 
 
-SEARCH_SPOTS_DEG = (0.0, 90.0, 180.0, 270.0)
-"""Where, round the lander's estimated place, a rover that has not seen it there looks next: four spots a
-perception radius out, so their views reach twice as far from it."""
+RING_SPACING = 1.5
+"""The search's rings, and the spots along each, are this many perception radii apart: walking from spot to spot
+the rover's wide view (210 degrees in the report) sweeps a band a perception radius deep on either side of its
+way, so neighbouring rings' bands overlap, with room for the drift of the walk."""
+SEARCH_SIGMAS = 3.0
+"""The search reaches out until its views cover this many 1-sigma position errors (``Localisation.position_std``)
+round the lander's estimated place: for an error alike in every direction, where the lander is 98 times in 100."""
+MAX_RINGS = 2
+"""A search ends after this many rings (its views 35 m out with the report's 10 m perception radius, some 250 m
+of walking). A third ring would more than double the walk, and keep the rover from its goal for longer than the
+world's watchdog waits for progress before counting it stuck (``WatchdogParams.stall_after_s``, 300 s)."""
 
 
 @dataclass
@@ -63,18 +72,17 @@ class LanderFix:
         x, z = self.spots[0]
         return Goal(LANDER_GOAL.index, LANDER_GOAL.total, "waypoint", x, z)
 
-    def arrived(self, outcome: str, here: tuple[float, float], radius: float) -> str:
+    def arrived(self, outcome: str, here: tuple[float, float], radius: float, position_std: float = 0.0) -> str:
         """What the rover does where a leg of the way by the lander ends without a fix: "look" (turn round at the
-        lander's estimated place), "search" (on to the next spot round it) or "over" (on to its own goal; also
-        when it could get no closer)."""
-        if outcome != "reached":
+        lander's estimated place), "search" (on to the next spot round it; past a spot it could not reach) or
+        "over" (on to its own goal; also when it could get no closer to the lander's estimated place)."""
+        if self.spots is None and outcome != "reached":
             return "over"
         if not self.looked:
             self.looked = True
             return "look"
         if self.spots is None:
-            spots = [(radius * math.sin(math.radians(a)), radius * math.cos(math.radians(a))) for a in SEARCH_SPOTS_DEG]
-            self.spots = sorted(spots, key=lambda p: math.dist(p, here))
+            self.spots = search_spots(radius, position_std, here)
             return "search"
         self.spots.pop(0)
         return "search" if self.spots else "over"
@@ -105,3 +113,23 @@ class LanderFix:
     def fixed(self, loc: Localisation) -> bool:
         """Sure again: the detour is over."""
         return self.active and loc.position_std <= FIXED_STD_M
+
+
+def search_spots(radius: float, position_std: float, here: tuple[float, float]) -> list[tuple[float, float]]:
+    """Spots round the lander's estimated place (the origin) to look for it from: rings ``RING_SPACING``
+    perception radii apart, the first a perception radius out, each walked all the way round from the spot
+    nearest the rover, its spots no farther apart than the rings are; as many rings as it takes for the views
+    to reach ``SEARCH_SIGMAS`` position errors out, at most ``MAX_RINGS``."""
+    step = RING_SPACING * radius
+    spots: list[tuple[float, float]] = []
+    for k in range(MAX_RINGS):
+        ring = radius + k * step
+        count = max(4, math.ceil(math.pi / math.asin(min(1.0, step / (2.0 * ring)))))
+        round_ = [(ring * math.sin(2.0 * math.pi * i / count), ring * math.cos(2.0 * math.pi * i / count))
+                  for i in range(count)]
+        start = min(range(count), key=lambda i: math.dist(round_[i], spots[-1] if spots else here))
+        spots += [*round_[start:], *round_[:start], round_[start]]
+        seen_to = ring * math.cos(math.pi / count) + radius  # the nearest its walk round comes, and a view's depth
+        if seen_to >= SEARCH_SIGMAS * position_std:
+            break
+    return spots

@@ -4,6 +4,7 @@ it, and a rover too unsure for its waypoint goes by the lander first (``rover_ag
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
@@ -14,7 +15,7 @@ from rover_agent.agent import RoverAgent
 from rover_agent.contact import LANDER_GOAL
 from rover_agent.dead_reckoning import Pose
 from rover_agent.localising import Localising
-from rover_agent.relocalise import DETAIL, FIX_STD_M, LanderFix
+from rover_agent.relocalise import DETAIL, FIX_STD_M, MAX_RINGS, RING_SPACING, SEARCH_SIGMAS, LanderFix, search_spots
 from rover_agent.saved_state import SavedState
 from scenarios.generator import generate
 from schemas import codec, radio
@@ -208,6 +209,40 @@ def test_a_rover_that_does_not_see_the_lander_where_it_thought_looks_round_then_
         seen.append(fix.goal)
     assert len({(g.x, g.z) for g in seen}) == 4  # four spots round the estimated place, then on to its goal
     assert LanderFix(active=True).arrived("stuck", (0.0, 0.0), 10.0) == "over"  # no closer: on to its goal
+
+
+def test_a_search_spot_the_rover_cannot_reach_is_passed_over_not_the_end_of_the_search():
+    fix = LanderFix(decided=1, active=True, looked=True)
+    fix.arrived("reached", (0.0, 0.0), 10.0, 20.0)
+    first = fix.goal
+    assert fix.arrived("stuck", (0.0, 0.0), 10.0, 20.0) == "search"
+    assert (fix.goal.x, fix.goal.z) != (first.x, first.z)
+
+
+def _farthest_unseen(way: list[tuple[float, float]], reach: float, radius: float) -> float:
+    """Over a grid of points within ``reach`` of the origin: the largest distance from one to the walk ``way``."""
+
+    def to_leg(p, a, b):
+        ax, az, bx, bz = *a, *b
+        length2 = (bx - ax) ** 2 + (bz - az) ** 2
+        t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((p[0] - ax) * (bx - ax) + (p[1] - az) * (bz - az)) / length2))
+        return math.dist(p, (ax + t * (bx - ax), az + t * (bz - az)))
+
+    grid = [(x, z) for x in range(-int(reach), int(reach) + 1) for z in range(-int(reach), int(reach) + 1)
+            if math.hypot(x, z) <= reach]
+    return max(min(to_leg(p, a, b) for a, b in itertools.pairwise(way)) for p in grid)
+
+
+@pytest.mark.parametrize("position_std", [0.0, 6.0, 9.0, 20.0, 200.0])
+def test_the_search_for_the_lander_sees_as_far_out_as_the_estimate_is_unsure(position_std):
+    radius = 10.0
+    spots = search_spots(radius, position_std, (0.5, 0.5))
+    reach = min(SEARCH_SIGMAS * position_std, radius + (MAX_RINGS - 1) * RING_SPACING * radius)
+    way = [(0.0, 0.0), *spots]  # it searches from the lander's estimated place, where it has turned round
+    assert _farthest_unseen(way, max(reach, radius), radius) <= radius  # every place in reach passes in view
+    if SEARCH_SIGMAS * position_std <= radius * (1.0 + math.cos(math.pi / 4)):  # in view from a square round it
+        assert [math.hypot(*p) for p in spots] == pytest.approx([radius] * len(spots))  # one ring, a fairly sure rover
+    assert max(math.hypot(*p) for p in spots) <= radius + (MAX_RINGS - 1) * RING_SPACING * radius + 1e-9
 
 
 def _mission(localising: bool):
