@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 from pathlib import Path
 
 from rover_agent import relocalise
@@ -315,7 +316,7 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
         flight = self.in_flight
         if flight.cancel_sent or not isinstance(flight.decision, MoveTo):
             return []
-        view = self._view(self.now, flight.start, hits)
+        view = replace(self._view(self.now, flight.start, hits), remaining_m=flight.remaining_m)
         if self.behaviour.should_cancel(view):
             return [flight.cancel(self.keys, self.id)]
         return []

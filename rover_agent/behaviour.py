@@ -106,6 +106,7 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
     _sun: SunSeeker | None = None
     _state_before_charging: str = "migration"
     _crossing: CrossingWatch | None = None  # rovers on a collision course, scan to scan during a move
+    _blocked_ahead: bool = False  # the move under way was cancelled short of a rock, wall or the lander
 
     name = "default"
     uses_sunlight: ClassVar[bool] = True
@@ -146,6 +147,9 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
         if self._sun is not None and self._sun.turned_back:  # cancelled on entering shadow: no rover to wait for
             self._sun.turned_back = False
             return
+        if self._blocked_ahead:  # stopped short of a thing that does not move: no rover to wait for
+            self._blocked_ahead = False
+            return
         self._hold_until = max(self._hold_until, now + self._wait_time())  # a step aside's longer wait stands
         if self._crowd_since is None:  # the jam begins where the move stopped: the next decision says how far
             self._crowd_since, self._jam_from = now, None
@@ -153,13 +157,17 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
     # ---- decisions ----
 
     def should_cancel(self, view: View) -> bool:
-        """During a move: stop for a rover close ahead that has right of way (report 6.2.2 and 7.2.1).
+        """During a move: stop for a rover close ahead that has right of way (report 6.2.2 and 7.2.1), or short
+        of a rock, a wall or the lander come into view across the rest of the way (``View.remaining_m``).
 
         Traffic ahead or to the right has right of way; a rover ahead-left gives way to this one, which stops
         for it only when a collision is close, or when its motion since the last scan says so (``crossing``).
         """
         self._now = view.time
         b = self.params.behaviour
+        if free_space.in_the_way(view.hits, STILL_KINDS, b.rover_radius, view.remaining_m):
+            self._blocked_ahead = True
+            return True
         self._crossing = self._crossing or CrossingWatch.of(self.params)
         if self._crossing.danger(view.time, view.hits):
             return True
@@ -174,6 +182,7 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
 
     def decide(self, view: View) -> Decision:
         self._now = view.time
+        self._blocked_ahead = False  # a cancel sent too late for a move that ended anyway
         if view.time < self._hold_until:
             return Hold(self._hold_until)
         power = self._mind_power(view)

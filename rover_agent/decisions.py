@@ -52,6 +52,7 @@ class View:
     battery: float | None = None  # charge as a share of capacity; None: no power sensors (no sun in the world)
     sunlit: bool | None = None  # whether the solar panel is lit
     position_std_m: float = 0.0  # how far off ``pose`` may be: its 1-sigma position error (0 without noise)
+    remaining_m: float = 0.0  # asked during a move (``should_cancel``): metres it still has to go, once under way
 
     def toward(self, x: float, z: float) -> View:
         """This view with its goal swapped for a spot of the rover's own on the way (sunlight, the foot of a crest

@@ -48,6 +48,21 @@ def free_distance(angle: float, hits: tuple[Hit, ...], params: RoverParams, rove
     return max(free, 0.0)
 
 
+def in_the_way(hits: tuple[Hit, ...], kinds: frozenset[str], radius: float, remaining_m: float) -> bool:
+    """Whether a thing of ``kinds`` seen now lies across the rest of a move under way: the rover's body, going
+    straight on for ``remaining_m``, would touch it. A move is planned clear of what was in view where it began;
+    a rock just beyond view then, or one that slip and heading error turned the rover towards, comes into view on
+    the way."""
+    for h in hits:
+        if h.kind not in kinds:
+            continue
+        rad = math.radians(h.angle_deg)
+        along, across = h.distance_m * math.cos(rad), abs(h.distance_m * math.sin(rad))
+        if across < radius and along > 0 and along - math.sqrt(radius * radius - across * across) < remaining_m:
+            return True
+    return False
+
+
 def ray_angles(fov_deg: float, count: int) -> list[float]:
     """The perception's ray angles, as the world casts them (evenly over the field of view)."""
     return [-fov_deg / 2 + fov_deg * i / (count - 1) for i in range(count)]

@@ -32,6 +32,11 @@ restarted without its saved state never reuses an id of its earlier life, which 
 end of an old action."""
 
 
+UNDER_WAY_M = 0.5
+"""A move is under way, facing along its way, once it has walked this far: before, the rover may still be turning
+to face its goal (the world turns it first), and what lies ahead of it then is not on its way."""
+
+
 @dataclass
 class InFlight:
     decision: MoveTo | Rotate | TakePhoto
@@ -48,6 +53,13 @@ class InFlight:
         """Whether an answer is about this action. 0 comes from a world or driver that sends no ids; once answers
         have carried ids, a 0 names someone else's id-less action (a ground tool's), never this one."""
         return action_id == self.action_id or (action_id == 0 and not ids_heard)
+
+    @property
+    def remaining_m(self) -> float:
+        """Metres of a move under way still to go (``UNDER_WAY_M``); 0 before, or for another action."""
+        if not isinstance(self.decision, MoveTo) or self.walked < UNDER_WAY_M:
+            return 0.0
+        return max(0.0, math.hypot(self.decision.x, self.decision.z) - self.walked)
 
     @property
     def navigating(self) -> bool:

@@ -110,7 +110,7 @@ class Localising:
             return
         if self.fix.fixed(loc):
             self._fix_over()
-        elif self.fix.consider(goal, loc, self.params):
+        elif self.fix.sharpened(loc) or self.fix.consider(goal, loc, self.params):
             self.behaviour.start_goal(self.fix.goal)
 
     def _fix_arrived(self, outcome: str) -> list:

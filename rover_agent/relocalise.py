@@ -49,6 +49,9 @@ way, so neighbouring rings' bands overlap, with room for the drift of the walk."
 SEARCH_SIGMAS = 3.0
 """The search reaches out until its views cover this many 1-sigma position errors (``Localisation.position_std``)
 round the lander's estimated place: for an error alike in every direction, where the lander is 98 times in 100."""
+SHARPENED = 0.5
+"""A search is begun again from the lander's estimated place once the estimate's error is down to this share of
+what the search was planned for: each new start needs the error halved, so a search cannot start for ever."""
 MAX_RINGS = 2
 """A search ends after this many rings (its views 35 m out with the report's 10 m perception radius, some 250 m
 of walking). A third ring would more than double the walk, and keep the rover from its goal for longer than the
@@ -61,6 +64,7 @@ class LanderFix:
     active: bool = False
     looked: bool = False  # turned round at the lander's estimated place
     spots: list[tuple[float, float]] | None = None  # the search's spots still to go to, once searching
+    planned_std: float = 0.0  # the position error the search was planned for
 
     @property
     def goal(self) -> Goal | None:
@@ -82,7 +86,7 @@ class LanderFix:
             self.looked = True
             return "look"
         if self.spots is None:
-            self.spots = search_spots(radius, position_std, here)
+            self.spots, self.planned_std = search_spots(radius, position_std, here), position_std
             return "search"
         self.spots.pop(0)
         return "search" if self.spots else "over"
@@ -109,6 +113,14 @@ class LanderFix:
         self.active = via <= WORTH * direct and detour <= MAX_DETOUR * straight
         self.looked, self.spots = False, None
         return self.active
+
+    def sharpened(self, loc: Localisation) -> bool:
+        """Searching, the estimate has become much surer than the search was planned for (a teammate seen on the
+        way, say), so where the lander should be has moved with it: go and look there again (sets the goal)."""
+        if not self.active or self.spots is None or loc.position_std > SHARPENED * self.planned_std:
+            return False
+        self.looked, self.spots = False, None
+        return True
 
     def fixed(self, loc: Localisation) -> bool:
         """Sure again: the detour is over."""

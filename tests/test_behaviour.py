@@ -265,6 +265,23 @@ def test_should_cancel_for_a_rover_close_ahead_only():
     assert not b.should_cancel(_view())
 
 
+def test_a_move_stops_short_of_a_rock_come_into_view_across_the_rest_of_its_way():
+    """Planned clear of what was in view where it began; slip, or a rock just beyond view, can put one in the way."""
+    b = _behaviour()
+
+    def on_the_way(hit: Hit, remaining: float) -> bool:
+        return b.should_cancel(replace(_view(hits=[hit]), remaining_m=remaining))
+
+    assert on_the_way(Hit(0.0, 4.0, "obstacle"), 5.0)
+    assert on_the_way(Hit(4.0, 5.0, "lander"), 5.0)  # 0.35 m off the line: inside the body's half-width
+    assert not on_the_way(Hit(0.0, 6.0, "obstacle"), 5.0)  # beyond where the move ends (body's reach: 5.5 m)
+    assert not on_the_way(Hit(10.0, 4.0, "obstacle"), 5.0)  # 0.7 m off the line: the body passes it
+    assert not on_the_way(Hit(0.0, 4.0, "terrain"), 5.0)  # a rover on rough ground walks along steep slopes
+    assert not on_the_way(Hit(0.0, 4.0, "obstacle"), 0.0)  # not under way yet: turning to face its goal
+    b.cancelled(now=10.0)  # stopped for a rock: nothing to give way to
+    assert not isinstance(b.decide(_view(time=10.2, hits=[Hit(0.0, 1.5, "obstacle")])), Hold)
+
+
 def test_a_rover_closing_in_from_the_side_stops_the_move():
     """Crossing courses: a rover abeam is no danger until contact is close, whatever the right of way."""
     b = _behaviour()

@@ -14,6 +14,7 @@ from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
 from rover_agent.contact import LANDER_GOAL
 from rover_agent.dead_reckoning import Pose
+from rover_agent.localisation import Localisation, NoiseModel
 from rover_agent.localising import Localising
 from rover_agent.relocalise import DETAIL, FIX_STD_M, MAX_RINGS, RING_SPACING, SEARCH_SIGMAS, LanderFix, search_spots
 from rover_agent.saved_state import SavedState
@@ -217,6 +218,20 @@ def test_a_search_spot_the_rover_cannot_reach_is_passed_over_not_the_end_of_the_
     first = fix.goal
     assert fix.arrived("stuck", (0.0, 0.0), 10.0, 20.0) == "search"
     assert (fix.goal.x, fix.goal.z) != (first.x, first.z)
+
+
+def test_a_search_whose_estimate_becomes_much_surer_goes_back_to_look_where_the_lander_now_should_be():
+    fix = LanderFix(decided=1, active=True, looked=True)
+    fix.arrived("reached", (0.0, 0.0), 10.0, 9.0)  # planned for a 9 m error: two rings
+    loc = Localisation(Pose(-16.5, 4.3, 0.0), NoiseModel(0.05, math.radians(1.0)),
+                       [[2.4, 0.0, 0.0], [0.0, 2.4, 0.0], [0.0, 0.0, 1e-3]])  # a teammate seen: 2.2 m now
+    assert fix.sharpened(loc) and fix.goal == LANDER_GOAL and not fix.looked
+    assert not fix.sharpened(loc)  # not searching now: once per halving of the error
+    assert fix.arrived("reached", (0.0, 0.0), 10.0, loc.position_std) == "look"
+    assert fix.arrived("reached", (0.0, 0.0), 10.0, loc.position_std) == "search"
+    assert len(fix.spots) == 5  # one ring for the surer estimate
+    loc.cov = [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1e-3]]
+    assert not fix.sharpened(loc)  # a little surer is not enough
 
 
 def _farthest_unseen(way: list[tuple[float, float]], reach: float, radius: float) -> float:
