@@ -360,6 +360,8 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
         self._last_status = self.now
         index = self.goal.index if self.goal else -1
         detail = "another rover found the crater" if index in self.craters_found else ""
+        if self.state == "done" and not detail:
+            detail = relocalise.unsure_detail(self.localisation, self.params.perception.perception_radius)
         if self.state == "stuck":
             detail = self.stuck_why
         if self.powered_off:

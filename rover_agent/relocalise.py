@@ -40,6 +40,9 @@ WORTH = 0.75
 MAX_DETOUR = 1.0
 """The way by the lander may be at most this share longer than the direct way to the goal."""
 DETAIL = "going by the lander to fix its position estimate"
+UNSURE_SHARE = 0.5
+"""A rover done at its goal says how unsure its estimate is once its 1-sigma position error is above this share of
+the perception radius: a waypoint counts as reached within that radius, so at two sigmas it may have missed it."""
 
 
 RING_SPACING = 1.5
@@ -145,3 +148,11 @@ def search_spots(radius: float, position_std: float, here: tuple[float, float]) 
         if seen_to >= SEARCH_SIGMAS * position_std:
             break
     return spots
+
+
+def unsure_detail(loc: Localisation | None, radius: float) -> str:
+    """What a done rover's status says of its estimate, so the ground knows which rovers may stand off their goal:
+    nothing while it is sure enough (``UNSURE_SHARE``)."""
+    if loc is None or loc.position_std <= UNSURE_SHARE * radius:
+        return ""
+    return f"at its goal by its own estimate, which may be {loc.position_std:.0f} m off (1 sigma)"

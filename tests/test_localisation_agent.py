@@ -212,6 +212,15 @@ def test_a_rover_that_does_not_see_the_lander_where_it_thought_looks_round_then_
     assert LanderFix(active=True).arrived("stuck", (0.0, 0.0), 10.0) == "over"  # no closer: on to its goal
 
 
+def test_a_rover_done_with_an_unsure_estimate_says_how_far_off_it_may_be():
+    agent = joined_agent(1, KEYS, NOISY)
+    agent.pose = Pose(0.0, 40.0, 0.0)
+    agent.behaviour.state = "done"
+    assert agent._status()[1].detail == ""  # sure of its pose: nothing to say
+    agent.localisation.cov = [[32.0, 0.0, 0.0], [0.0, 32.0, 0.0], [0.0, 0.0, 1e-3]]
+    assert agent._status()[1].detail == "at its goal by its own estimate, which may be 8 m off (1 sigma)"
+
+
 def test_a_search_spot_the_rover_cannot_reach_is_passed_over_not_the_end_of_the_search():
     fix = LanderFix(decided=1, active=True, looked=True)
     fix.arrived("reached", (0.0, 0.0), 10.0, 20.0)
