@@ -51,12 +51,14 @@ the rover's wide view (210 degrees in the report) sweeps a band a perception rad
 way, so neighbouring rings' bands overlap, with room for the drift of the walk."""
 SEARCH_SIGMAS = 3.0
 """The search reaches out until its views cover this many 1-sigma position errors (``Localisation.position_std``)
-round the lander's estimated place: for an error alike in every direction, where the lander is 98 times in 100."""
+round the lander's estimated place. Two would do 98 times in 100 for an error alike in every direction, on paper;
+on the development seeds a rover stood 2.7 of its own errors off, an estimate fused with teammates' being rougher
+than the filter's ideal."""
 SHARPENED = 0.5
 """A search is begun again from the lander's estimated place once the estimate's error is down to this share of
 what the search was planned for: each new start needs the error halved, so a search cannot start for ever."""
 MAX_RINGS = 2
-"""A search ends after this many rings (its views 35 m out with the report's 10 m perception radius, some 250 m
+"""A search ends after this many rings (its views 34 m out with the report's 10 m perception radius, some 240 m
 of walking). A third ring would more than double the walk, and keep the rover from its goal for longer than the
 world's watchdog waits for progress before counting it stuck (``WatchdogParams.stall_after_s``, 300 s)."""
 

@@ -243,7 +243,7 @@ def test_a_search_whose_estimate_becomes_much_surer_goes_back_to_look_where_the_
     assert not fix.sharpened(loc)  # a little surer is not enough
 
 
-def _farthest_unseen(way: list[tuple[float, float]], reach: float, radius: float) -> float:
+def _farthest_unseen(way: list[tuple[float, float]], reach: float) -> float:
     """Over a grid of points within ``reach`` of the origin: the largest distance from one to the walk ``way``."""
 
     def to_leg(p, a, b):
@@ -263,7 +263,7 @@ def test_the_search_for_the_lander_sees_as_far_out_as_the_estimate_is_unsure(pos
     spots = search_spots(radius, position_std, (0.5, 0.5))
     reach = min(SEARCH_SIGMAS * position_std, radius + (MAX_RINGS - 1) * RING_SPACING * radius)
     way = [(0.0, 0.0), *spots]  # it searches from the lander's estimated place, where it has turned round
-    assert _farthest_unseen(way, max(reach, radius), radius) <= radius  # every place in reach passes in view
+    assert _farthest_unseen(way, max(reach, radius)) <= radius  # every place in reach passes in view
     if SEARCH_SIGMAS * position_std <= radius * (1.0 + math.cos(math.pi / 4)):  # in view from a square round it
         assert [math.hypot(*p) for p in spots] == pytest.approx([radius] * len(spots))  # one ring, a fairly sure rover
     assert max(math.hypot(*p) for p in spots) <= radius + (MAX_RINGS - 1) * RING_SPACING * radius + 1e-9
