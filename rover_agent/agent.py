@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import replace
 from pathlib import Path
 
 from rover_agent import relocalise
@@ -254,10 +253,11 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
         """The battery is empty or the rover too cold: it can do nothing until the world says it is back."""
         return bool((self.battery and self.battery.empty) or (self.temperature and self.temperature.shutdown))
 
-    def _view(self, stamp: float, pose: Pose, hits: tuple[Hit, ...]) -> View:
+    def _view(self, stamp: float, pose: Pose, hits: tuple[Hit, ...], remaining_m: float = 0.0) -> View:
         charge = self.battery.fraction if self.battery is not None else None
         goal = self.contact.goal or self.fix.goal or self.goal
-        return View(stamp, pose, goal, hits, self.pitch[0], charge, self.sunlit, self.localisation.position_std)
+        return View(stamp, pose, goal, hits, self.pitch[0], charge, self.sunlit, self.localisation.position_std,
+                    remaining_m)
 
     def _on_perception(self, msg: m.Perception) -> list[Out]:
         self.now = max(self.now, msg.stamp)
@@ -316,8 +316,7 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
         flight = self.in_flight
         if flight.cancel_sent or not isinstance(flight.decision, MoveTo):
             return []
-        view = replace(self._view(self.now, flight.start, hits), remaining_m=flight.remaining_m)
-        if self.behaviour.should_cancel(view):
+        if self.behaviour.should_cancel(self._view(self.now, flight.start, hits, flight.remaining_m)):
             return [flight.cancel(self.keys, self.id)]
         return []
 

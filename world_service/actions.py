@@ -35,25 +35,25 @@ class ActionLedger:
         self.started: dict[int, ActionRecord] = {}  # rover -> the last action the world started
         self.refused: dict[int, ActionRecord] = {}  # rover -> the last action the world refused
         self.heard: dict[int, int] = {}  # rover -> the last action id whose end its agent says it has heard
-        self.latest: dict[int, int] = {}  # rover -> the highest action id it has sent
-        self.unseen_cancel: dict[int, int] = {}  # rover -> the highest id cancelled before the world had it
+        self.floor: dict[int, int] = {}  # rover -> the lowest action id it may still start: its latest, or one past
+        # an id cancelled before the world had it
         self.repeats = 0  # actions sent again by their agent (a query after a lost sample)
         self.resent = 0  # ends sent again because the agent had not heard them
-        self.stale = 0  # actions older than their rover's latest, refused
+        self.stale = 0  # actions below their rover's floor, refused
 
     def known(self, rover: int, action_id: int) -> ActionRecord | None:
         """The record of an action the world has already had, if ``action_id`` names one; a ``STALE`` record for
-        an id older than the rover's latest (a late duplicate), which must never start."""
+        an id below the rover's floor (a late duplicate), which must never start."""
         if action_id == 0:
             return None
         for record in (self.started.get(rover), self.refused.get(rover)):
             if record is not None and record.action_id == action_id:
                 self.repeats += 1
                 return record
-        if action_id < self.latest.get(rover, 0) or action_id <= self.unseen_cancel.get(rover, 0):
+        if action_id < self.floor.get(rover, 0):
             self.stale += 1
             return ActionRecord(action_id, STALE)
-        self.latest[rover] = action_id
+        self.floor[rover] = action_id
         return None
 
     def cancelled_unseen(self, rover: int, action_id: int) -> None:
@@ -61,7 +61,7 @@ class ActionLedger:
         must never start if a copy of it comes after all (a link delivers late as well as loses): started then,
         the rover would drive where its agent does not watch, towards whatever it had cancelled for."""
         if action_id:
-            self.unseen_cancel[rover] = max(self.unseen_cancel.get(rover, 0), action_id)
+            self.floor[rover] = max(self.floor.get(rover, 0), action_id + 1)
 
     def start(self, rover: int, action_id: int, kind: str, tick: int) -> None:
         self.started[rover] = ActionRecord(action_id, kind, started_tick=tick)
