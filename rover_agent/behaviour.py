@@ -55,6 +55,7 @@ from rover_agent.tuning import (
     NO_PROGRESS_WALK_M,
     RELAY_CLOSE_M,
     RIGHT_OF_WAY_DEG,
+    SPOT_HELD_M,
     STATION_CLOSE_M,
     WAYPOINT_CLOSE,
     WAYPOINT_IN_VIEW,
@@ -195,7 +196,7 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
         self._mind_jam(view, distance)
         if goal.kind == "waypoint" and self._waypoint_reached(view, distance):
             return Finish("reached")
-        if goal.kind == "relay" and distance <= RELAY_CLOSE_M:
+        if goal.kind == "relay" and (distance <= RELAY_CLOSE_M or self._spot_taken(distance)):
             return Finish("relay")
         if goal.kind == "crater":
             decision = self._to_spoke(view) or self._climb(view)
@@ -260,7 +261,11 @@ class DefaultBehaviour(CraterRules, CrowdRules, BaseBehaviour):
         in_view = math.hypot(goal.x - pose.x, goal.z - pose.z) <= WAYPOINT_IN_VIEW * radius
         if goal.station is None:
             return distance <= WAYPOINT_CLOSE * radius or (in_view and self._crowded(view))
-        return distance <= STATION_CLOSE_M or (in_view and self._crowd_stood(view))
+        return distance <= STATION_CLOSE_M or (in_view and self._crowd_stood(view)) or self._spot_taken(distance)
+
+    def _spot_taken(self, distance: float) -> bool:
+        """Near its spot (a relay's, a station) and circling it without getting nearer: hold here (``SPOT_HELD_M``)."""
+        return distance <= SPOT_HELD_M and self._pacing(distance, NO_PROGRESS_ROUTE_M)
 
     def _route_point(self, view: View) -> tuple[float, float] | None:
         """Once routing: the next corner of the shortest route to the goal round every obstacle seen so far, so

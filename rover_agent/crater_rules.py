@@ -19,6 +19,7 @@ from rover_agent.tuning import (
     CREST_PITCH,
     MAX_BACKS,
     MAX_CREST_LOOKS,
+    MAX_CROWD_WAIT_S,
     NO_PROGRESS_ROUTE_M,
     STATION_CLOSE_M,
     WAYPOINT_CLOSE,
@@ -81,7 +82,8 @@ class CraterRules:
             # view), where the rover is at its goal and its radio sees over the rim (to a daisy chain's last relay).
             self._backs, self._backing = self._backs + 1, True
             return Rotate(180.0)
-        if climbed and facing and self._squeezing and self._crowded(view):
+        held_long = self._crowd_since is not None and view.time - self._crowd_since > MAX_CROWD_WAIT_S
+        if climbed and facing and self._squeezing and self._crowded(view) and (self._near_station(view) or held_long):
             # Up the rim, facing the crater, long held up by rovers ahead that leave no step towards it: they
             # stand on the crest a body or two ahead (the crater's counterpart of a waypoint crowded in view).
             return Finish("reached")
@@ -96,6 +98,17 @@ class CraterRules:
         # (a few times: on a crowded rim other rovers may keep turning it aside).
         self._crest_looks += 1
         return Rotate(round(to_crater, 3))
+
+    def _near_station(self, view: View) -> bool:
+        """Within two bodies of its crest station by its own estimate, or with none (the report's rule: anywhere
+        on the crest): where rovers that leave it no step towards the crater stand on the crest ahead. They may
+        be climbing too: on development seed 139 two bound for neighbouring stations stopped each other on the
+        steep outer flank, 3-4 m below the crest. Farther off, a rover holds on and the jam rules part them; held
+        up until it would give up (``MAX_CROWD_WAIT_S``), it observes from there after all: its estimate may be
+        what is off (high noise, development seed 11)."""
+        goal = view.goal
+        reach = 4 * self.params.behaviour.rover_radius
+        return goal.station is None or math.dist(goal.target, (view.pose.x, view.pose.z)) <= reach
 
     def _out_of_bowl(self, view: View) -> Decision | None:
         """Near a crater goal without its terrain ever in view, the rover is in the bowl (it started there, or

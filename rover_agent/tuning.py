@@ -18,6 +18,11 @@ WAYPOINT_CLOSE = 0.5
 already there block the way."""
 RELAY_CLOSE_M = 1.5
 """A relay holds its spot within this distance: the chain's spacing margin is for drift, not for slack."""
+SPOT_HELD_M = 3.0
+"""A relay spot or a station this near that the rover walked ``NO_PROGRESS_ROUTE_M`` round without getting nearer
+is taken (a rock or a wall on it, or in the last metres of the way): the rover holds where it is, rather than
+circle it until the world's watchdog counts it stuck (development seed 175's first relay circled its spot 1.8-2.5
+m off for 300 s). Twice ``RELAY_CLOSE_M``: a chain's link lengthens by no more than the circling did."""
 STATION_CLOSE_M = 1.5
 """A station (the rover's own spot at a shared waypoint) is reached within ``STATION_CLOSE_M``; when rovers
 leave no way in and first did ``CROWD_SQUEEZE_S`` before (``rover_agent.crowd``), wherever the waypoint is in

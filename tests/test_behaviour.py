@@ -26,6 +26,7 @@ from rover_agent.tuning import (
     MAX_CROWD_WAIT_S,
     NO_PROGRESS_ROUTE_M,
     NO_PROGRESS_WALK_M,
+    SPOT_HELD_M,
     STATION_CLOSE_M,
     WAYPOINT_CLOSE,
     WAYPOINT_IN_VIEW,
@@ -581,6 +582,26 @@ def test_a_rover_crossing_the_way_to_a_station_does_not_end_the_walk_short_of_it
     assert behaviour.decide(_view(goal, pose=later, hits=passing, time=CROWD_SQUEEZE_S + 1.0)) == Finish("reached")
     plain = _goal(0.0, 20.0)  # no station (the report's rule): in view and crowded is reached at once
     assert _behaviour(plain).decide(_view(plain, pose=here, hits=passing)) == Finish("reached")
+
+
+@pytest.mark.parametrize(("kind", "station", "outcome"), [
+    ("relay", None, "relay"), ("waypoint", (4.0, 0.0), "reached")])
+@pytest.mark.parametrize(("off_m", "holds"), [(SPOT_HELD_M - 0.5, True), (SPOT_HELD_M + 1.0, False)])
+def test_a_spot_the_rover_circles_without_getting_nearer_is_held_from_where_it_stands(kind, station, outcome, off_m,
+                                                                                       holds):
+    """A rock or a wall on a relay spot or a station: the rover walks round it and gets no nearer. Near it, it
+    holds where it is rather than circle until the world's watchdog counts it stuck; farther off it keeps looking
+    for a way (a route, in the end a stuck report of its own)."""
+    goal = Goal(0, 1, kind, 0.0, 20.0, station)
+    tx, tz = goal.target
+    b = _behaviour(goal)
+    here = Pose(tx, tz - off_m, 0.0)
+    decisions = []
+    for step in range(8):  # round and round: 24 m walked, never nearer
+        decisions.append(b.decide(_view(goal, pose=here, time=float(step))))
+        b.moved(3.0)
+    assert (Finish(outcome) in decisions) is holds
+    assert Finish(outcome) not in decisions[:int(NO_PROGRESS_ROUTE_M // 3) + 1]  # not before it has tried
 
 
 # ---- crater climb ----

@@ -11,6 +11,7 @@ from rover_agent import rim
 from rover_agent.behaviour import DefaultBehaviour
 from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Finish, Goal, Hit, MoveTo, Rotate, TakePhoto, View
+from rover_agent.tuning import CROWD_SQUEEZE_S, MAX_CROWD_WAIT_S
 from schemas.params import RoverParams
 
 PARAMS = RoverParams()
@@ -108,3 +109,39 @@ def test_at_its_station_a_rover_that_never_felt_the_climb_still_observes():
     station = CRATER.target
     first = b.decide(View(0.0, Pose(station[0] + 0.5, station[1], 270.0), CRATER, (), 0.0))
     assert isinstance(first, TakePhoto) and b.state == "observing"
+
+
+
+TWO_BODIES = 4 * PARAMS.behaviour.rover_radius
+WALL_OF_ROVERS = (*CRATER_AHEAD, *(Hit(a, 1.4, "rover") for a in range(-100, 101, 4)))
+
+
+@pytest.mark.parametrize(("off_m", "finishes"), [(TWO_BODIES - 0.5, True), (TWO_BODIES + 1.0, False)])
+def test_a_rover_held_up_on_the_rim_observes_from_there_only_near_its_station(off_m, finishes):
+    """The rovers that leave it no step towards the crater may be climbing too, bound for stations beside its
+    own: farther below its station than two bodies by its own estimate, it holds on."""
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    _on_the_spoke(b)
+    station = CRATER.target
+    here = Pose(station[0] + off_m, station[1], 270.0)  # up the outer slope, facing the crater
+    b.moved(2.0)
+    held = [b.decide(View(t, here, CRATER, WALL_OF_ROVERS, 9.0)) for t in (1.0, 5.0, CROWD_SQUEEZE_S + 2.0)]
+    assert (isinstance(held[-1], TakePhoto) and b.state == "observing") is finishes
+    assert not any(isinstance(d, TakePhoto) for d in held[:-1])
+
+
+
+def test_a_rover_held_up_on_the_rim_far_from_its_station_observes_there_rather_than_give_up():
+    """Its estimate may be what puts it far from its station: held up until it would give up, it observes."""
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    _on_the_spoke(b)
+    station = CRATER.target
+    here = Pose(station[0] + TWO_BODIES + 1.0, station[1], 270.0)
+    b.moved(2.0)
+    decisions = [b.decide(View(float(t), here, CRATER, WALL_OF_ROVERS, 9.0))
+                 for t in range(0, int(MAX_CROWD_WAIT_S) + 3)]
+    photos = [t for t, d in enumerate(decisions) if isinstance(d, TakePhoto)]
+    assert photos and photos[0] > MAX_CROWD_WAIT_S and b.state == "observing"
+    assert not any(isinstance(d, Finish) for d in decisions)
