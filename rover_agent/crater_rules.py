@@ -25,6 +25,13 @@ from rover_agent.tuning import (
     WAYPOINT_CLOSE,
 )
 from schemas.frames import bearing_deg, wrap_deg
+from schemas.params import RoverParams
+
+
+def near_station_m(params: RoverParams) -> float:
+    """Two bodies: how near its crest station a rover held up on the rim must be to take the crest as a body or
+    two ahead (``CraterRules._near_station``)."""
+    return 4 * params.behaviour.rover_radius
 
 
 class CraterRules:
@@ -107,8 +114,7 @@ class CraterRules:
         up until it would give up (``MAX_CROWD_WAIT_S``), it observes from there after all: its estimate may be
         what is off (high noise, development seed 11)."""
         goal = view.goal
-        reach = 4 * self.params.behaviour.rover_radius
-        return goal.station is None or math.dist(goal.target, (view.pose.x, view.pose.z)) <= reach
+        return goal.station is None or math.dist(goal.target, (view.pose.x, view.pose.z)) <= near_station_m(self.params)
 
     def _out_of_bowl(self, view: View) -> Decision | None:
         """Near a crater goal without its terrain ever in view, the rover is in the bowl (it started there, or

@@ -9,6 +9,7 @@ import pytest
 
 from rover_agent import rim
 from rover_agent.behaviour import DefaultBehaviour
+from rover_agent.crater_rules import near_station_m
 from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Finish, Goal, Hit, MoveTo, Rotate, TakePhoto, View
 from rover_agent.tuning import CROWD_SQUEEZE_S, MAX_CROWD_WAIT_S
@@ -111,8 +112,7 @@ def test_at_its_station_a_rover_that_never_felt_the_climb_still_observes():
     assert isinstance(first, TakePhoto) and b.state == "observing"
 
 
-
-TWO_BODIES = 4 * PARAMS.behaviour.rover_radius
+TWO_BODIES = near_station_m(PARAMS)
 WALL_OF_ROVERS = (*CRATER_AHEAD, *(Hit(a, 1.4, "rover") for a in range(-100, 101, 4)))
 
 
@@ -129,7 +129,6 @@ def test_a_rover_held_up_on_the_rim_observes_from_there_only_near_its_station(of
     held = [b.decide(View(t, here, CRATER, WALL_OF_ROVERS, 9.0)) for t in (1.0, 5.0, CROWD_SQUEEZE_S + 2.0)]
     assert (isinstance(held[-1], TakePhoto) and b.state == "observing") is finishes
     assert not any(isinstance(d, TakePhoto) for d in held[:-1])
-
 
 
 def test_a_rover_held_up_on_the_rim_far_from_its_station_observes_there_rather_than_give_up():
