@@ -19,7 +19,6 @@ from rover_agent.tuning import (
     CREST_PITCH,
     MAX_BACKS,
     MAX_CREST_LOOKS,
-    MAX_CROWD_WAIT_S,
     NO_PROGRESS_ROUTE_M,
     STATION_CLOSE_M,
     WAYPOINT_CLOSE,
@@ -89,8 +88,8 @@ class CraterRules:
             # view), where the rover is at its goal and its radio sees over the rim (to a daisy chain's last relay).
             self._backs, self._backing = self._backs + 1, True
             return Rotate(180.0)
-        held_long = self._crowd_since is not None and view.time - self._crowd_since > MAX_CROWD_WAIT_S
-        if climbed and facing and self._squeezing and self._crowded(view) and (self._near_station(view) or held_long):
+        near = self._near_station(view) or self._jam_outlasted(view)
+        if climbed and facing and self._squeezing and self._crowded(view) and near:
             # Up the rim, facing the crater, long held up by rovers ahead that leave no step towards it: they
             # stand on the crest a body or two ahead (the crater's counterpart of a waypoint crowded in view).
             return Finish("reached")

@@ -76,6 +76,10 @@ class CrowdRules:
     def _squeezing(self) -> bool:
         return self._crowd_since is not None and self._now - self._crowd_since > CROWD_SQUEEZE_S
 
+    def _jam_outlasted(self, view: View) -> bool:
+        """Held up by rovers longer than ``MAX_CROWD_WAIT_S``: past when a rover gives up."""
+        return self._crowd_since is not None and view.time - self._crowd_since > MAX_CROWD_WAIT_S
+
     def _crowded(self, view: View) -> bool:
         """Rovers in view leave no room for a step towards the goal."""
         pose, (tx, tz) = view.pose, view.goal.target
@@ -107,7 +111,7 @@ class CrowdRules:
             self._crowd_since = view.time
         if self._round_the_knot(view):  # long held up on the way: plan a way round the rovers (``_rovers_in_way``)
             self._routing = True
-        if view.time - self._crowd_since > MAX_CROWD_WAIT_S:
+        if self._jam_outlasted(view):
             return self._held_up(view)
         if view.time - self._crowd_since > GIVE_WAY_S and self._give_way_tries < GIVE_WAY_TRIES:
             return self._give_way(view, to_goal, window)
@@ -125,8 +129,7 @@ class CrowdRules:
         rovers on a crater's crest, a rover's route corner flipped from side to side as their bodies hid the
         ground, and it turned to and fro and never waited, for the rest of the mission. A rover that still
         moves now and then is getting through, however slowly, and is left to."""
-        long = self._crowd_since is not None and view.time - self._crowd_since > MAX_CROWD_WAIT_S
-        return long and self._jam_turns > MAX_BLOCKED_ROTATIONS
+        return self._jam_outlasted(view) and self._jam_turns > MAX_BLOCKED_ROTATIONS
 
     def _round_the_knot(self, view: View) -> bool:
         """Long held up by rovers on the way, not at the goal: there the rovers in the way are the team standing
