@@ -1,17 +1,16 @@
 """The world and lander of a lockstep mission in one process, with the rovers' agents outside it.
 
-A lockstep tick is a cascade: the world steps and publishes; each sample, routed to its subscriber, may make it
-publish more; when nothing more is said the world sends its clock, whose answers cascade in turn. Routed first in,
-first out, the samples of a cascade fall into generations (what the world published, the answers to those, the
-answers to the answers...). ``Rounds`` runs the world's and the lander's part of each generation itself and stops
-wherever a rover has something to hear: the caller answers for every rover at once (``advance``), as a rover
-agent would over Zenoh, and the cascade goes on. That is one round; a tick has as many as its cascade needs and
-ticks that send the rovers nothing have none.
+A lockstep tick here is what it is in the world service (``world_service.service``): the world steps and publishes
+its samples, then its clock; the agents answer both; only once every answer is in does the world take them, by key
+(each key's in order), and what it publishes while taking them (a radio delivery, a navigation status) is late:
+the agents hear it before the next step, but the world takes their answers to it only with the next tick's. So a
+tick has at most three rounds, each stopping wherever a rover has something to hear: the step's samples, the
+clock, the late samples. The caller answers for every rover at once (``advance``), as a rover agent would over
+Zenoh. The lander's part runs here, at the same points.
 
 The in-process mission (``harness.loopback``) answers with the rover agents themselves; the PettingZoo
 environment (``rover_env``) with a policy. With the shipped agents the report is the one ``lunarsim run --lockstep``
-gives (tests/test_loopback_equals_processes.py, tests/test_rover_env.py), though a reply to an answer can reach a
-rover within the tick here where over Zenoh it may come a tick later.
+gives (tests/test_loopback_equals_processes.py, tests/test_rover_env.py).
 """
 
 from __future__ import annotations
@@ -33,10 +32,6 @@ Out = tuple[str, m.Message]
 Heard = dict[int, list[tuple[str, bytes]]]
 """Rover id -> the samples that reached its keys this round, in order: (topic, encoded payload); the topic of
 the world's clock is ``keyspace.CLOCK``."""
-MAX_ROUNDS_PER_TICK = 64
-"""A cascade still going after this many rounds (agents answering each other's radio without end) goes on over
-the next ticks, as it would over Zenoh, where the world does not wait for chatter to stop: the clock must run.
-The shipped agents' cascades end in a few rounds."""
 Drop = Callable[[str, m.Message], bool]
 """Fault injection: says which samples the link loses (key and message); lost samples are never delivered."""
 
@@ -61,25 +56,45 @@ class Rounds:
         self.plan = AckPlan(self.keys, self.world.dt)
         self.rover_ids = sorted(self.world.bodies)
         self._photos: list[PhotoJob] = []
-        self._queue: list[Out] = []  # published, not yet routed
+        self._phase = "step"  # next: "samples", "clock", "take", then "step" again
+        self._queue: list[Out] = []  # published by the world's step: the agents hear it first
+        self._said: list[Out] = []  # what the agents said this tick: the world takes it once all have answered
+        self._deferred: list[Out] = []  # answers to late samples: the world takes them with the next tick's
         self._clock: m.Clock | None = None  # the tick's clock, until it is sent
         self._asked: list[int] = []  # the rovers the last clock sent waits for
+        self._late_round = False  # the last round handed the rovers late samples
         self._clock_round = False  # the last round handed the rovers the clock (and nothing else)
         self._rover_head = f"{self.keys.prefix}/rover/"
+        self._lander_inputs = {self.keys.lander(ks.COMM_IN), self.keys.lander(ks.COMM_PARTNERS)}
+        self._world_inputs = {self.keys.lander(ks.COMM_OUT), self.keys.lander(ks.STATUS), self.keys.ground_command}
         self.over = False
-        self.rounds_this_tick = 0
 
     def advance(self, answers: dict[int, list[Out]]) -> Heard:
         """Publish the rovers' answers to the last round and run until some rover hears something; an empty
         result means the mission is over (complete, or at ``max_sim_time``)."""
         self._take_answers(answers)
-        self._clock_round = False
+        self._clock_round = self._late_round = False
         while not self.over:
-            chatter = self.rounds_this_tick >= MAX_ROUNDS_PER_TICK
-            heard = self._route() if self._queue and not chatter else self._next_phase()
+            heard = self._next_round()
             if heard:
-                self.rounds_this_tick += 1
                 return heard
+        return {}
+
+    def _next_round(self) -> Heard:
+        phase = self._phase
+        if phase == "samples":
+            self._phase = "clock"
+            return self._route(self._queue)
+        if phase == "clock":
+            self._phase = "take"
+            return self._send_clock()
+        if phase == "take":
+            self._phase = "step"
+            return self._take()
+        if self.world.sim_time >= self.max_sim_time or self.world.complete:
+            self.over = True
+        else:
+            self._step_world()
         return {}
 
     def finish(self) -> World:
@@ -101,28 +116,39 @@ class Rounds:
                 raise AssertionError(f"rover {rid} published {[k.rsplit('/', 1)[-1] for k, _ in said]} on tick "
                                      f"{self.world.tick}, which the world does not wait for (asked: "
                                      f"{self._asked}): the agent's next_wake() misses a timer")
-            self._queue += said
+            (self._deferred if self._late_round else self._said).extend(said)
 
-    def _route(self) -> Heard:
-        """Route one generation: the world's and the lander's part here, the rovers' returned."""
-        generation, self._queue = self._queue, []
-        heard: Heard = {}
-        taken: list[tuple[str, bytes]] = []
-        for key, message in generation:
+    def _route(self, samples: list[Out], late: bool = False) -> Heard:
+        """Hand samples the world published to the rovers (returned) and the lander (answered here); the lander's
+        answers to late samples wait for the next tick, as the rovers' do."""
+        samples, heard = list(samples), {}
+        self._queue = []
+        for key, message in samples:
             self.plan.note(key)
             if self.drop is not None and self.drop(key, message):
                 continue
             payload = codec.encode(message)
-            rover = self._rover_topic(key)
-            if rover is not None:
+            if key in self._lander_inputs:
+                (self._deferred if late else self._said).extend(self.lander.handle(key, payload))
+            elif (rover := self._rover_topic(key)) is not None:
                 heard.setdefault(rover[0], []).append((rover[1], payload))
-            else:
-                taken.append((key, payload))
-        # By key, each key's samples in order, as the world service takes a tick's inputs: moves draw their noise
-        # from one generator, so rover 10's move before rover 2's ("rover/10" < "rover/2") is part of the result.
-        for key, payload in sorted(taken, key=lambda sample: sample[0]):
-            self._queue += self._deliver(key, payload)
+        self._late_round = late and bool(heard)
         return heard
+
+    def _take(self) -> Heard:
+        """The world takes the tick's answers, by key, each key's in order, as the world service does: moves draw
+        their noise from one generator, so rover 10's move before rover 2's ("rover/10" < "rover/2") is part of
+        the result. What it publishes meanwhile goes out as late samples."""
+        said, self._said = self._said, []
+        late: list[Out] = []
+        for key, message in sorted(said, key=lambda sample: sample[0]):
+            if self.drop is not None and self.drop(key, message):
+                continue
+            if key == self.keys.ground_command:  # the lander carries it out, the world follows it for its statistics
+                self._deferred += self.lander.handle(key, codec.encode(message))
+            if key in self._world_inputs or key.startswith(self._rover_head):
+                late += self.world.receive(key, codec.encode(message))
+        return self._route(late, late=True)
 
     def _rover_topic(self, key: str) -> tuple[int, str] | None:
         """(rover, topic) for a sample on a rover's own keys, None for anything the world or lander takes."""
@@ -131,41 +157,23 @@ class Rounds:
         rid, topic = self.keys.parse_rover_key(key)
         return None if topic in World.INPUT_TOPICS else (rid, topic)
 
-    def _deliver(self, key: str, payload: bytes) -> list[Out]:
-        world, lander = self.world, self.lander
-        if key == self.keys.ground_command:  # the lander carries it out, the world follows it for its statistics
-            return lander.handle(key, payload) + world.receive(key, payload)
-        if key.startswith(self.keys.lander("")):
-            return lander.handle(key, payload) if key != self.keys.lander(ks.COMM_OUT) else world.receive(key, payload)
-        if key.startswith(self._rover_head):
-            return world.receive(key, payload)
-        return []
-
-    def _next_phase(self) -> Heard:
-        """The cascade is over: send the tick's clock if it waits for anyone, else step the world."""
-        if self._clock is not None:
-            clock, self._clock = self._clock, None
-            clock = clock.model_copy(update={"acks": self.plan.ask(clock.tick, {ks.LANDER_ID, *self.rover_ids})})
-            if clock.acks:  # as the world service: no clock on a tick that waits for nobody
-                return self._send_clock(clock)
+    def _send_clock(self) -> Heard:
+        """The tick's clock, if it waits for anyone (as the world service: no clock on a tick that waits for nobody).
+        The lander answers it here; its answers join the tick's."""
+        clock, self._clock = self._clock, None
+        clock = clock.model_copy(update={"acks": self.plan.ask(clock.tick, {ks.LANDER_ID, *self.rover_ids})})
+        if not clock.acks:
             return {}
-        if self.world.sim_time >= self.max_sim_time or self.world.complete:
-            self.over = True
-            return {}
-        self._step_world()
-        return {}
-
-    def _send_clock(self, clock: m.Clock) -> Heard:
         payload = codec.encode(clock)
-        self._asked = [a for a in clock.acks or () if a != ks.LANDER_ID]
+        self._asked = [a for a in clock.acks if a != ks.LANDER_ID]
         for key, message in self.lander.handle(self.keys.clock, payload):
             if isinstance(message, m.Ack):
                 self.plan.acked(ks.LANDER_ID, message.tick, message.wake)
-            elif self.strict and ks.LANDER_ID not in (clock.acks or ()):
+            elif self.strict and ks.LANDER_ID not in clock.acks:
                 raise AssertionError(f"the lander published {key} on tick {clock.tick}, which the world does not "
                                      "wait for: its next_wake() misses a timer")
             else:
-                self._queue.append((key, message))
+                self._said.append((key, message))
         self._clock_round = True
         return {rid: [(ks.CLOCK, payload)] for rid in self.rover_ids}
 
@@ -178,5 +186,6 @@ class Rounds:
         self._photos = [job for job in self._photos if job.due_tick > world.tick + 1]
         out = world.step()
         self._clock = next(message for key, message in out if key == self.keys.clock)
-        self._queue += [*due, *((key, message) for key, message in out if key != self.keys.clock)]
-        self.rounds_this_tick = 0
+        self._queue = [*due, *((key, message) for key, message in out if key != self.keys.clock)]
+        self._said, self._deferred = self._deferred, []
+        self._phase = "samples"

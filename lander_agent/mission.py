@@ -35,7 +35,8 @@ class MissionPlan:
         self.goal_of = dict.fromkeys(self.calibration, 0)
         self.outcome: dict[int, str] = {}
         self.chains: dict[int, Chain] = {}
-        self.finished: dict[int, set[int]] = {}  # goal index -> rovers done with it, held while a chain stands
+        self.finished: dict[int, dict[int, bool]] = {}  # goal index -> rover done with it -> its photos are in;
+        # held while a chain stands
         self.stations: dict[tuple[int, Goal], dict[int, tuple[float, float]]] = {}
         self._form_chain(0)
 
@@ -75,13 +76,19 @@ class MissionPlan:
         index = request.goal_index
         if self.goal_of.get(rover_id) != index or rover_id in self.outcome:
             return False
+        if index in self.chains and rover_id in self.chains[index].spots:
+            return False
+        return self._assign_station(rover_id, index, (request.x, request.z))
+
+    def _assign_station(self, rover_id: int, index: int, here: tuple[float, float]) -> bool:
+        """A station at goal ``index`` for a rover ``here`` (in the lander's frame): the free one nearest it."""
         team = self._team(rover_id, index)
-        if len(team) < 2 or (index in self.chains and rover_id in self.chains[index].spots):
+        if len(team) < 2:
             return False
         goal = self.missions.goal(rover_id, index)
         taken = self.stations.setdefault((index, goal), {})
         lx, lz = self.scenario.lander.x, self.scenario.lander.z
-        near = (request.x - (goal.x - lx), request.z - (goal.z - lz))
+        near = (here[0] - (goal.x - lx), here[1] - (goal.z - lz))
         crater = self.scenario.crater_of(goal) if goal.kind == "crater" else None
         if goal.kind == "crater" and crater is None:
             return False
@@ -161,11 +168,13 @@ class MissionPlan:
         """Note a finished goal; returns the rovers that now have a new goal to be told about.
 
         Without a chain a rover goes on at once. While a chain stands for the goal, finished rovers wait
-        (leaving would break the chain's purpose) until every rover that is not a relay is done; then all,
-        relays too, go on together and a new chain forms for the next goal (report 6.5.2).
+        (leaving would break the chain's purpose) until every rover that is not a relay is done and has its
+        photos in; then all, relays too, go on together and a new chain forms for the next goal (report 6.5.2).
+        At the last goal the relays go on to the goal itself: nobody is left who needs the route to the lander.
         """
         index = report.goal_index
-        if rover_id not in self.goal_of or index != self.goal_of[rover_id] or report.outcome == "relay":
+        if (rover_id not in self.goal_of or index != self.goal_of[rover_id] or report.outcome == "relay"
+                or rover_id in self.outcome):
             return []
         if report.outcome == "stuck" or (index >= self.missions.final_index(rover_id) and index not in self.chains):
             self.outcome[rover_id] = report.outcome
@@ -173,22 +182,30 @@ class MissionPlan:
         if index not in self.chains:
             self.goal_of[rover_id] += 1
             return [rover_id]
-        self.finished.setdefault(index, set()).add(rover_id)
+        finished = self.finished.setdefault(index, {})
+        finished[rover_id] = report.photos_pending == 0
         return self._release(index)
 
     def _release(self, index: int) -> list[int]:
         chain = self.chains[index]
         group = [rid for rid, g in self.goal_of.items() if g == index and rid not in self.outcome]
-        if any(rid not in chain.spots and rid not in self.finished[index] for rid in group):
+        if any(rid not in chain.spots and not self.finished[index].get(rid, False) for rid in group):
             return []
         del self.chains[index]
-        moving = []
+        moving, held = [], {}
         for rid in group:
-            if index >= self.missions.final_index(rid):
-                self.outcome[rid] = "reached" if rid in self.finished[index] else "relay"
-            else:
+            if index < self.missions.final_index(rid):
                 self.goal_of[rid] += 1
                 moving.append(rid)
+            elif rid in self.finished[index]:
+                self.outcome[rid] = "reached"
+            elif self.scenario.rover_params.communication.release_relays:  # free to walk on to the goal
+                self._assign_station(rid, index, chain.spots[rid])
+                moving.append(rid)
+            else:
+                self.outcome[rid], held[rid] = "relay", chain.spots[rid]
+        if held:  # they keep being told to hold
+            self.chains[index] = Chain(held)
         self._form_chain(index + 1)
         return moving
 

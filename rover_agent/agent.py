@@ -167,7 +167,7 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
         current = self.goal
         if current is not None and goal.index < current.index:
             return []
-        if self.finished_goal and goal.index <= self.finished_goal[0]:
+        if self.finished_goal and goal.index <= self.finished_goal[0] and not self._relay_released(goal):
             return []
         self.goal = goal
         if current is None or goal.index != current.index or goal.target != current.target:
@@ -177,6 +177,10 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
                 self.behaviour.start_goal(goal)
             return [self._status()]
         return []
+
+    def _relay_released(self, goal: Goal) -> bool:
+        """The goal this rover held a relay spot for, now its own: the chain was released at the last goal."""
+        return self.finished_goal == (goal.index, "relay") and goal.kind != "relay"
 
     def _on_comm_partners(self, msg: m.CommPartners) -> list[Out]:
         self.partners = msg.ids
@@ -188,7 +192,10 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
             pending = len(self.photo_outbox)
             for label in message.labels:
                 self.photo_outbox.pop(label, None)
-            return [self._status()] if len(self.photo_outbox) != pending else []
+            if len(self.photo_outbox) == pending:
+                return []
+            all_in = not self.photo_outbox and self.finished_goal is not None and self.finished_goal[1] != "stopped"
+            return [self._status(), *(self._report_goal() if all_in else [])]  # the lander waits for all to be in
         elif isinstance(message, radio.MapAck) and msg.sender == ks.LANDER_ID:
             self.map.ack(message.seqs)
         elif isinstance(message, radio.PoseEstimate):
@@ -353,7 +360,8 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
     def _report_goal(self) -> list[Out]:
         index, outcome = self.finished_goal
         self._last_report = self.now
-        return [self._radio([ks.LANDER_ID], radio.GoalReport(goal_index=index, outcome=outcome))]
+        return [self._radio([ks.LANDER_ID], radio.GoalReport(goal_index=index, outcome=outcome,
+                                                             photos_pending=len(self.photo_outbox)))]
 
     def _status(self) -> Out:
         self._last_status = self.now

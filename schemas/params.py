@@ -101,6 +101,10 @@ class CommunicationParams(Params):
     lander_antenna_height_m: float = Field(3.0, ge=0, description="the lander's mast, for line of sight")
     latency_s: float = Field(0.0, ge=0, le=60, description="per-link delivery delay")
     loss_probability: float = Field(0.0, ge=0, le=1, description="chance a transmission is lost on the way")
+    release_relays: bool = Field(
+        True, description="at the last goal, once every other rover is done there and its photos are in, the daisy "
+        "chain's relays walk on to the goal too, out of the lander's reach; false keeps them on their spots (N3)"
+    )
 
 
 class BehaviourParams(Params):

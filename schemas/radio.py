@@ -23,6 +23,8 @@ class GoalReport(Message):
 
     goal_index: int
     outcome: Literal["reached", "stuck", "relay"]
+    photos_pending: int = Field(0, ge=0, description="its crater photos not yet acknowledged: a daisy chain "
+                                "stands until they are in")
 
 
 class PhotoReport(Message):

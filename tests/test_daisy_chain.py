@@ -11,8 +11,21 @@ from harness.loopback import run_mission
 from lander_agent.daisy_chain import SPACING, in_radio_reach, plan_chain, relays_needed
 from lander_agent.mission import MissionPlan
 from lander_agent.runtime import PhotoArchive
+from rover_agent.agent import RoverAgent
+from schemas import codec, radio
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.params import RoverParams
 from schemas.radio import GoalReport
 from schemas.scenario import load_scenario
+from schemas.truth import MissionReport
+
+KEYS = ks.Keyspace("w")
+
+
+def _feed(agent: RoverAgent, message: m.Message) -> list:
+    topic = next(t for t, model in m.TOPIC_MODELS.items() if model is type(message))
+    return agent.handle(topic, codec.encode(message))
 
 
 @pytest.mark.parametrize(("reach", "lander_range", "comm_range", "needed"), [
@@ -49,9 +62,19 @@ def test_the_lander_holds_finished_rovers_until_the_chain_is_released():
     assert plan.on_report(5, GoalReport(goal_index=0, outcome="reached")) == []
     assert plan.on_report(6, GoalReport(goal_index=0, outcome="reached")) == []
     assert plan.on_report(7, GoalReport(goal_index=0, outcome="reached")) == []
-    assert plan.on_report(8, GoalReport(goal_index=0, outcome="reached")) == []  # last goal: released
-    assert plan.outcome == {1: "relay", 2: "relay", 3: "relay", 4: "relay", 5: "reached", 6: "reached",
-                            7: "reached", 8: "reached"}
+    # The last observer is done, but a photo of its is still on the way: the chain must stand until it is in.
+    assert plan.on_report(8, GoalReport(goal_index=0, outcome="reached", photos_pending=1)) == []
+    assert plan.relay_chain == [4, 1, 3, 2]
+    # Its photos in, nobody needs the route any more: the relays walk on to the crater they held it for.
+    assert sorted(plan.on_report(8, GoalReport(goal_index=0, outcome="reached"))) == [1, 2, 3, 4]
+    assert plan.relay_chain == [] and plan.outcome == {5: "reached", 6: "reached", 7: "reached", 8: "reached"}
+    released = [plan.direction_for(rid) for rid in (1, 2, 3, 4)]
+    assert all(d.kind == "crater" and d.goal_index == 0 for d in released)
+    stations = [d.station for d in released]
+    assert None not in stations and len(set(stations)) == 4  # each its own spot on the crest, free of the others'
+    assert not set(stations) & {plan.direction_for(rid).station for rid in (5, 6, 7, 8)}
+    plan.on_report(2, GoalReport(goal_index=0, outcome="reached"))
+    assert plan.outcome[2] == "reached"
 
 
 def test_radio_reach_hops_from_the_lander_through_rovers_in_range():
@@ -71,15 +94,55 @@ def test_a_rover_set_down_out_of_radio_reach_is_not_made_a_relay_while_others_ca
     assert plan.direction_for(2).kind == "crater"
 
 
-def test_the_daisy_chain_scenario_keeps_rovers_connected_and_photos_reach_the_lander():
+def _relay_on_its_spot() -> RoverAgent:
+    agent = RoverAgent(1, KEYS, RoverParams())
+    agent.on_clock(m.Clock(tick=0, sim_time=0.0, time_scale=1.0, run="r1"))
+    _feed(agent, m.Calibration(x=0.0, z=5.0, heading_deg=0.0))
+    _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="relay", bearing_deg=0.0, distance_m=26.0))
+    agent._finish("relay")
+    return agent
+
+
+def test_a_relay_goes_on_to_the_last_goal_once_the_lander_releases_it_and_not_before():
+    agent = _relay_on_its_spot()
+    assert agent.state == "relay" and agent.finished_goal == (0, "relay")
+    _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="relay", bearing_deg=0.0, distance_m=26.0))
+    assert agent.state == "relay"  # the chain's direction again, resent every second: it holds
+    _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="crater", bearing_deg=0.0, distance_m=130.0,
+                                    station=(0.0, -20.0), shared=True))
+    assert agent.state == "migration" and agent.finished_goal is None and agent.goal.station == (0.0, -20.0)
+
+
+def test_a_rover_tells_the_lander_how_many_photos_it_still_holds_with_its_goal_report():
+    agent = _relay_on_its_spot()
+    agent.photo_outbox["crest-1"] = radio.PhotoReport(goal_index=0, label="crest-1", stamp=1.0, png=b"x")
+    sent = [radio.unpack(msg.payload) for _, msg in agent._report_goal()]
+    assert sent == [radio.GoalReport(goal_index=0, outcome="relay", photos_pending=1)]
+
+
+def _daisy_chain_mission(release: bool) -> tuple[MissionReport, PhotoArchive]:
     scenario = load_scenario(SCENARIOS / "daisy_chain.yaml")
+    comm = scenario.rover_params.communication.model_copy(update={"release_relays": release})
+    scenario = scenario.with_overrides(rover_params=scenario.rover_params.model_copy(update={"communication": comm}))
     archive = PhotoArchive(None)
-    world = run_mission(scenario, 400, archive)
-    report = world.report()
+    report = run_mission(scenario, 400, archive).report()
     assert report.complete and report.rover_collisions == 0 and report.obstacle_collisions == 0
     # 130 m from the lander to the rim at 30 m range takes 4 relays; the issue allows one more, counted by
     # the world as every rover that carries another's traffic (an observer over the crest included).
     assert 4 <= report.max_rovers_in_daisy_chain <= math.ceil(130 / 30)
-    assert report.rovers_reached_final_goal == 4  # the four that are not relays stand on the rim
-    assert len(archive.received) == 4 * 12  # every crater photo reached the lander through the chain
-    assert report.worst_rover_connected_fraction >= 0.95
+    assert len(archive.received) >= 4 * 12  # every photo of the four observers reached the lander through the chain
+    return report, archive
+
+
+def test_the_daisy_chain_keeps_rovers_connected_while_photos_reach_the_lander_then_its_relays_walk_on():
+    report, archive = _daisy_chain_mission(release=True)
+    # All four relays walk on; one may stop short of the crest by its estimate after 80-100 m of the shipped slip.
+    assert report.rovers_holding_relay_spots == 0 and report.rovers_reached_final_goal >= 7
+    # The relays' own photos wait on board: nobody is left between them and the lander.
+    assert len(archive.received) == 4 * 12 and report.worst_rover_connected_fraction < 0.95
+
+
+def test_a_daisy_chain_told_to_hold_keeps_every_rover_in_touch_to_the_end():
+    report, archive = _daisy_chain_mission(release=False)
+    assert report.rovers_reached_final_goal == 4 and report.rovers_holding_relay_spots == 4
+    assert len(archive.received) == 4 * 12 and report.worst_rover_connected_fraction >= 0.95

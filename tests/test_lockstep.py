@@ -18,6 +18,7 @@ import pytest
 
 from bus import priority
 from harness.loopback import run_mission
+from harness.rounds import Rounds
 from rover_agent.agent import RoverAgent
 from schemas import codec
 from schemas import keyspace as ks
@@ -154,6 +155,29 @@ def test_a_loopback_mission_keeps_to_the_plan_and_waits_for_few_agents(monkeypat
     assert world.tick == len(asked) and world.tick >= 400
     mean = sum(map(len, asked)) / len(asked)
     assert mean < 2.0, f"a tick waited for {mean:.2f} of the 6 agents on average"
+
+
+def test_an_answer_to_a_radio_delivery_reaches_the_world_after_its_next_step_as_over_zenoh():
+    """The world service takes a tick's answers only once all are in, so what it delivers meanwhile is answered
+    into the next tick. In process, a reply that came back within the tick put the daisy chain's release (goal
+    report, the lander's answer, a relay's move) a tick ahead of ``lunarsim run --lockstep``."""
+    rounds = Rounds(load_scenario(SCENARIOS / "crater_observation.yaml"), max_sim_time=5.0)
+    ping = (rounds.keys.rover(1, ks.COMM_OUT), m.OutboundComm(targets=[2], payload=b"ping"))
+    pong = (rounds.keys.rover(2, ks.COMM_OUT), m.OutboundComm(targets=[1], payload=b"pong"))
+    heard, said, seen = rounds.advance({}), False, []
+    while heard and len(seen) < 2:
+        answers: dict[int, list] = {}
+        for rid, samples in heard.items():
+            for topic, payload in samples:
+                if topic == ks.COMM_IN:
+                    seen.append((rid, codec.decode(m.InboundComm, payload).payload, rounds.world.tick))
+                    answers[rid] = [pong] if rid == 2 else []
+        if not said and 1 in heard and any(topic == ks.PERCEPTION for topic, _ in heard[1]):
+            said, answers[1] = True, [ping]
+        heard = rounds.advance(answers)
+    (to2, ping_got, tick), (to1, pong_got, later) = seen
+    assert (to2, ping_got, to1, pong_got) == (2, b"ping", 1, b"pong")
+    assert later == tick + 1  # the rover said ping on a tick; the pong it drew came back on the next
 
 
 # ---- photos ----

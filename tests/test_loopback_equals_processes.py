@@ -48,3 +48,9 @@ def test_a_team_of_twelve_whose_inputs_the_world_takes_in_key_order(tmp_path):
     path.write_text(dump_scenario(scenario))
     report = _compare(tmp_path, path, 400.0)
     assert report["rovers_total"] == 12
+
+
+def test_a_daisy_chain_with_the_shipped_noise_whose_relays_walk_on_once_released(tmp_path):
+    """Goal reports, the lander's answers and the relays' moves chase each other down the chain here."""
+    report = _compare(tmp_path, SCENARIOS / "daisy_chain.yaml", 400.0)
+    assert report["complete"] and report["rovers_holding_relay_spots"] == 0

@@ -7,7 +7,7 @@ import pytest
 from schemas import messages as m
 from schemas.mission import RoverMissions
 from schemas.scenario import parse_scenario
-from world_service.sim import all_finished
+from world_service.completion import all_finished
 from world_service.statistics import MissionStats
 
 SCENARIO = parse_scenario({

@@ -9,7 +9,6 @@ from __future__ import annotations
 import logging
 import uuid
 from collections import Counter
-from collections.abc import Callable
 from typing import ClassVar
 
 import numpy as np
@@ -24,6 +23,7 @@ from world_service import navigation as nav
 from world_service import statistics as stats
 from world_service.actions import ActionLedger
 from world_service.clock_hold import ClockHold
+from world_service.completion import FINISHED_STATES, Completion
 from world_service.energy import Energy
 from world_service.perception import Perceiver
 from world_service.photos import PhotoJob, render_photo
@@ -37,7 +37,6 @@ from world_service.world_radio import RadioLink
 log = logging.getLogger("lunarsim.world")
 
 Out = tuple[str, m.Message]
-FINISHED_STATES = ("done", "stuck", "stopped", "relay")
 KIND_NAMES = np.array(m.HIT_KINDS)
 CLOCK_HZ = 5.0
 """How often the clock is published in real time. Agents learn the time from every sample's stamp; the clock
@@ -56,24 +55,6 @@ def tick_length(params: RoverParams) -> float:
 
 def ticks_per_period(rate_hz: float, dt: float) -> int:
     return max(1, round(1.0 / (rate_hz * dt)))
-
-
-def all_finished(status: dict[int, m.RoverStatus], moving: dict[int, bool],
-                 reaches_lander: Callable[[], dict[int, bool]], stalled: frozenset[int] = frozenset()) -> bool:
-    """Every rover finished (or stalled: counted stuck by the world), none but a stalled one moving, and no photo
-    still on its way to a lander it can reach. A stalled rover may go on moving (walking to and fro across a
-    crater's bowl, say): that must not keep the mission from ending.
-
-    ``reaches_lander`` (rover id -> has a radio route to the lander) is asked only when a photo is pending.
-    """
-    if (not all(s.state in FINISHED_STATES or rid in stalled for rid, s in status.items())
-            or any(busy for rid, busy in moving.items() if rid not in stalled)):
-        return False
-    pending = [rid for rid, s in status.items() if s.photos_pending]
-    if not pending:
-        return True
-    reach = reaches_lander()
-    return not any(reach.get(rid, False) for rid in pending)
 
 
 class World(ActionInputs, RadioLink):
@@ -120,7 +101,7 @@ class World(ActionInputs, RadioLink):
         self.radio_lost = 0
         self.photo_jobs: list[PhotoJob] = []
         self._in_flight_radio: list[tuple[int, Out]] = []  # (due tick, delivery) with latency
-        self.completed_at: float | None = None
+        self.completion = Completion()
         self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.time_scale = 1.0  # what the clock announces; the service paces the ticks
         self.lockstep = False
@@ -381,12 +362,15 @@ class World(ActionInputs, RadioLink):
         return "rotate" if isinstance(body.action, nav.Rotate) else "idle"
 
     def _check_complete(self) -> None:
-        if self.completed_at is None and all_finished(self.status, {b.id: b.busy for b in self.bodies.values()},
-                                                      self._reaches_lander, self.stalled):
-            self.completed_at = self.sim_time
+        self.completion.check(self.sim_time, self.status, {b.id: b.busy for b in self.bodies.values()},
+                              self._reaches_lander, self.stalled)
 
     def _reaches_lander(self) -> dict[int, bool]:
         return dict(zip(self.graph.ids.tolist(), self.graph.connected_to_lander().tolist(), strict=True))
+
+    @property
+    def completed_at(self) -> float | None:
+        return self.completion.at
 
     @property
     def complete(self) -> bool:

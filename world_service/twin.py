@@ -28,8 +28,9 @@ from schemas.mission import RoverMissions
 from schemas.scenario import Scenario
 from world_service import statistics as stats
 from world_service.clock_hold import ClockHold
+from world_service.completion import Completion
 from world_service.radio import CommGraph, build_graph
-from world_service.sim import CLOCK_HZ, Out, all_finished, tick_length, ticks_per_period
+from world_service.sim import CLOCK_HZ, Out, tick_length, ticks_per_period
 
 log = logging.getLogger("lunarsim.world")
 
@@ -139,13 +140,17 @@ class TwinWorld:
         self.partners: dict[int, list[int]] = {}  # node (0 the lander) -> ids its radio hears
         self.graph = radio_graph([ks.LANDER_ID, *self.bodies], [])
         self.rejected: Counter[str] = Counter()
-        self.completed_at: float | None = None
+        self.completion = Completion()
         self.time_scale, self.lockstep = 1.0, False
         self.photo_jobs: list = []  # no camera: the drivers take the photos
 
     @property
     def sim_time(self) -> float:
         return self.tick * self.dt
+
+    @property
+    def completed_at(self) -> float | None:
+        return self.completion.at
 
     @property
     def complete(self) -> bool:
@@ -205,9 +210,8 @@ class TwinWorld:
             out.append((self.keys.state, self.observed_state()))
         if self.tick % self.stats_period == 0:
             out.append((self.keys.stats, m.WorldStats(stamp=self.sim_time, report=self.report())))
-        if self.completed_at is None and all_finished(self.status, {rid: r.in_motion for rid, r in self.bodies.items()},
-                                                      self._reaches_lander):
-            self.completed_at = self.sim_time
+        self.completion.check(self.sim_time, self.status, {rid: r.in_motion for rid, r in self.bodies.items()},
+                              self._reaches_lander)
         out.append((self.keys.clock, self.clock()))
         return out
 

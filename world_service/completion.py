@@ -1,0 +1,56 @@
+"""When a mission is over: every rover finished, none moving, no photo still on its way.
+
+A relay's state says it is finished, but at the last goal the lander may yet release it to walk on to the goal
+(``CommunicationParams.release_relays``), once the word that the last other rover is done has come down the chain.
+That word runs behind the rovers' own status, which the world hears at once: so with relays among the finished the
+mission ends only once all have stayed finished for ``RELAY_RELEASE_WAIT_S``, and is dated from when they first
+were, so the wait changes no figure.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from schemas import messages as m
+
+FINISHED_STATES = ("done", "stuck", "stopped", "relay")
+RELAY_RELEASE_WAIT_S = 10.0
+"""Simulated seconds for a release to reach the relays: a goal report sent again (every 2 s), the lander's
+direction sent again (every second), each over several hops of a radio that may lose some."""
+
+
+def all_finished(status: dict[int, m.RoverStatus], moving: dict[int, bool],
+                 reaches_lander: Callable[[], dict[int, bool]], stalled: frozenset[int] = frozenset()) -> bool:
+    """Every rover finished (or stalled: counted stuck by the world), none but a stalled one moving, and no photo
+    still on its way to a lander it can reach. A stalled rover may go on moving (walking to and fro across a
+    crater's bowl, say): that must not keep the mission from ending.
+
+    ``reaches_lander`` (rover id -> has a radio route to the lander) is asked only when a photo is pending.
+    """
+    if (not all(s.state in FINISHED_STATES or rid in stalled for rid, s in status.items())
+            or any(busy for rid, busy in moving.items() if rid not in stalled)):
+        return False
+    pending = [rid for rid, s in status.items() if s.photos_pending]
+    if not pending:
+        return True
+    reach = reaches_lander()
+    return not any(reach.get(rid, False) for rid in pending)
+
+
+class Completion:
+    """The moment the mission ended, once it has (``at``)."""
+
+    def __init__(self) -> None:
+        self.at: float | None = None
+        self._since: float | None = None  # every rover finished since then, relays among them
+
+    def check(self, now: float, status: dict[int, m.RoverStatus], moving: dict[int, bool],
+              reaches_lander: Callable[[], dict[int, bool]], stalled: frozenset[int] = frozenset()) -> None:
+        if self.at is not None:
+            return
+        if not all_finished(status, moving, reaches_lander, stalled):
+            self._since = None
+            return
+        self._since = now if self._since is None else self._since
+        if not any(s.state == "relay" for s in status.values()) or now - self._since >= RELAY_RELEASE_WAIT_S:
+            self.at = self._since
