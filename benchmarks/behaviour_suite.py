@@ -5,11 +5,12 @@ for every class value the generator labels (family, terrain, rock density, noise
 return) and for each rover's role (formation, in_crater, out_of_range):
 - reach: rovers that reached their final goal (``MissionReport``'s definition: done, at the final goal, and on the
   crest or within the perception radius) over all rovers; and "sent", over the rovers not holding a daisy chain's
-  relay spot at the end (a relay stops short of the goal by design: the report's figure counts it as not reached);
+  relay spot at the end (at the last goal a daisy chain's relays walk on once released, ``release_relays``; a
+  relay still on its spot counts as not reached, as in the report's figure);
 - collisions (rover and obstacle, per mission) and stuck rovers (said so, or counted stalled by the world);
 - path efficiency of the rovers that reached: their ideal path (the report's relative path length) over the
   distance they covered (the report's mission figure mixes in rovers that never moved); above 1 where a rover
-  skipped a leg: a daisy chain's relay is not sent on to the goal it relays for;
+  skipped a leg: a relay of a chain to a goal before the last is sent on to the next goal, not to that one;
 - end-of-mission pose error: from each rover's final true position to its final goal where it is reached (the
   crest for a crater goal, the waypoint otherwise: ``world_service.statistics.distance_to_goal``), median and p90;
 - localisation error: from each rover's own estimate of where it stands (``RoverAgent.pose``) to where it truly
@@ -25,9 +26,9 @@ Path: ``harness.loopback.run_mission``, the world, lander and rover agents wired
 handlers, every message still through the codec, the world waiting on each tick for exactly the agents it would
 wait for in lockstep (``AckPlan``); an agent publishing on a tick nobody waits for is an error there. It gives
 the same report.json as ``lunarsim run --lockstep`` but for ``wall_time_s`` and the map scores, which only the
-launcher adds (tests/test_loopback_equals_processes.py: the shipped crater mission and a generated one with a
-rover out of range). It needs no router, ports or processes: a generated maze took 5.9 s of wall against 21.6 s,
-crater_observation 1.5 s against 4.9 s.
+launcher adds (tests/test_loopback_equals_processes.py: the shipped crater mission, the daisy chain, a generated
+one with a rover out of range, a team of twelve). It needs no router, ports or processes: a generated maze took
+5.9 s of wall against 21.6 s, crater_observation 1.5 s against 4.9 s.
 
 Each mission stops at a simulated-time cap (``sim_cap``: from the longest rover's ideal path) so a rover that
 never finishes cannot hang the suite; the world's watchdog counts a rover stuck after 300 s without progress.

@@ -128,8 +128,10 @@ class Rounds:
             if self.drop is not None and self.drop(key, message):
                 continue
             payload = codec.encode(message)
-            if key in self._lander_inputs:
+            if key in self._lander_inputs or key == self.keys.ground_command:
                 (self._deferred if late else self._said).extend(self.lander.handle(key, payload))
+            if key == self.keys.ground_command:  # the world follows it for its statistics, with the tick's answers
+                self._said.append((key, message))
             elif (rover := self._rover_topic(key)) is not None:
                 heard.setdefault(rover[0], []).append((rover[1], payload))
         self._late_round = late and bool(heard)
@@ -144,8 +146,6 @@ class Rounds:
         for key, message in sorted(said, key=lambda sample: sample[0]):
             if self.drop is not None and self.drop(key, message):
                 continue
-            if key == self.keys.ground_command:  # the lander carries it out, the world follows it for its statistics
-                self._deferred += self.lander.handle(key, codec.encode(message))
             if key in self._world_inputs or key.startswith(self._rover_head):
                 late += self.world.receive(key, codec.encode(message))
         return self._route(late, late=True)

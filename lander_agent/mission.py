@@ -35,8 +35,7 @@ class MissionPlan:
         self.goal_of = dict.fromkeys(self.calibration, 0)
         self.outcome: dict[int, str] = {}
         self.chains: dict[int, Chain] = {}
-        self.finished: dict[int, dict[int, bool]] = {}  # goal index -> rover done with it -> its photos are in;
-        # held while a chain stands
+        self.finished: dict[int, dict[int, bool]] = {}  # goal index -> rover held done there -> its photos are in
         self.stations: dict[tuple[int, Goal], dict[int, tuple[float, float]]] = {}
         self._form_chain(0)
 

@@ -90,7 +90,10 @@ def test_rovers_answering_each_other_without_end_do_not_stop_the_clock():
     while env.agents:
         env.step(dict.fromkeys(env.agents, chatter))
     assert env.rounds.world.sim_time >= 3.0
-    assert env.cycles > 3.0 / env.rounds.world.dt * 10  # many rounds a tick, yet every tick came
+    # Each answer to a radio delivery reaches the world after its next step, as over Zenoh: the chatter goes on
+    # a hop a tick, in at most three rounds a tick (the step's samples, the clock, the late samples).
+    ticks = 3.0 / env.rounds.world.dt
+    assert ticks * 2 <= env.cycles <= ticks * 3 + 3
 
 
 def test_an_actions_end_is_observed_once_because_the_array_rover_says_it_heard_it():

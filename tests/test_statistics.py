@@ -7,7 +7,7 @@ import pytest
 from schemas import messages as m
 from schemas.mission import RoverMissions
 from schemas.scenario import parse_scenario
-from world_service.completion import all_finished
+from world_service.completion import RELAY_RELEASE_WAIT_S, Completion, all_finished
 from world_service.statistics import MissionStats
 
 SCENARIO = parse_scenario({
@@ -71,3 +71,22 @@ def test_a_stalled_rover_still_moving_does_not_keep_the_mission_from_ending():
     assert not all_finished(status, {1: False, 2: True}, no_route)
     assert all_finished(status, {1: False, 2: True}, no_route, stalled=frozenset({2}))
     assert not all_finished(status, {1: True, 2: True}, no_route, stalled=frozenset({2}))
+
+
+def test_a_mission_with_relays_among_the_finished_ends_once_they_stayed_so_dated_from_the_first():
+    """At the last goal the lander may yet release the relays, and its word comes down the chain after the
+    rovers' own status: the world must not end the mission in between, nor count the wait in its duration."""
+    done, relay = m.RoverStatus(stamp=0.0, state="done"), m.RoverStatus(stamp=0.0, state="relay")
+    walking = m.RoverStatus(stamp=0.0, state="migration")
+    no_route, still = dict, {1: False, 2: False}
+    completion = Completion()
+    completion.check(50.0, {1: done, 2: relay}, still, no_route)
+    completion.check(50.0 + RELAY_RELEASE_WAIT_S / 2, {1: done, 2: walking}, still, no_route)  # released
+    completion.check(70.0, {1: done, 2: relay}, still, no_route)
+    completion.check(70.0 + RELAY_RELEASE_WAIT_S / 2, {1: done, 2: relay}, still, no_route)
+    assert completion.at is None
+    completion.check(70.0 + RELAY_RELEASE_WAIT_S, {1: done, 2: relay}, still, no_route)
+    assert completion.at == 70.0
+    at_once = Completion()
+    at_once.check(30.0, {1: done, 2: done}, still, no_route)  # no relay: nothing more can come
+    assert at_once.at == 30.0
