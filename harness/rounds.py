@@ -84,7 +84,8 @@ class Rounds:
         phase = self._phase
         if phase == "samples":
             self._phase = "clock"
-            return self._route(self._queue)
+            samples, self._queue = self._queue, []
+            return self._route(samples)
         if phase == "clock":
             self._phase = "take"
             return self._send_clock()
@@ -121,8 +122,7 @@ class Rounds:
     def _route(self, samples: list[Out], late: bool = False) -> Heard:
         """Hand samples the world published to the rovers (returned) and the lander (answered here); the lander's
         answers to late samples wait for the next tick, as the rovers' do."""
-        samples, heard = list(samples), {}
-        self._queue = []
+        heard: Heard = {}
         for key, message in samples:
             self.plan.note(key)
             if self.drop is not None and self.drop(key, message):

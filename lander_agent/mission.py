@@ -48,8 +48,10 @@ class MissionPlan:
         goal = self.missions.goal(rover_id, index)
         lx, lz = self.scenario.lander.x, self.scenario.lander.z
         x, z, kind = goal.x - lx, goal.z - lz, goal.kind
-        chain = self.chains.get(index)
+        chain, relay_for = self.chains.get(index), None
         if chain and rover_id in chain.spots:
+            relay_for = m.GoalPlace(kind=kind, bearing_deg=round(bearing_deg(x, z), 6),
+                                    distance_m=round(math.hypot(x, z), 6))
             (x, z), kind = chain.spots[rover_id], "relay"
         shared = kind in ("waypoint", "crater") and len(self._team(rover_id, index)) > 1
         relayed = chain is not None and kind != "relay"
@@ -57,7 +59,7 @@ class MissionPlan:
         return m.MissionDirection(goal_index=index, goals_total=self.missions.final_index(rover_id) + 1,
                                   kind=kind, bearing_deg=round(bearing_deg(x, z), 6),
                                   distance_m=round(math.hypot(x, z), 6), station=station, shared=shared,
-                                  relayed=relayed)
+                                  relayed=relayed, relay_for=relay_for)
 
     def _team(self, rover_id: int, index: int) -> list[int]:
         """The rovers that share this rover's goal ``index`` and stand at stations there, in formation at a

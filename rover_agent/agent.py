@@ -19,6 +19,7 @@ from rover_agent.in_flight import ActionIds, InFlight, Pace
 from rover_agent.localising import Localising
 from rover_agent.map_report import MapRecorder
 from rover_agent.navigation_feedback import NavigationFeedback
+from rover_agent.relaying import Relaying
 from rover_agent.resuming import Resuming
 from rover_agent.saved_state import SavedState, load_state
 from rover_agent.sightings import Teammate
@@ -46,7 +47,7 @@ a 20-rover formation (8.5 m in radius at the default spacing), so stations go ou
 STATION_ASK_RETRY_S = 2.0
 
 
-class RoverAgent(NavigationFeedback, Localising, Resuming):
+class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
     def __init__(self, rover_id: int, keys: ks.Keyspace, params: RoverParams,
                  behaviour: BaseBehaviour | None = None, state_file: Path | None = None,
                  dispatch: m.Calibration | None = None) -> None:
@@ -161,6 +162,8 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
         if self.contact.seeking:  # back in contact: wait for (or take up) the lander's word again
             self.behaviour.state = "waiting"
         self.contact.heard(self.now)
+        if not self._note_relay(msg):
+            return []
         rad = math.radians(msg.bearing_deg)
         goal = Goal(msg.goal_index, msg.goals_total, msg.kind, msg.distance_m * math.sin(rad),
                     msg.distance_m * math.cos(rad), msg.station, msg.shared, msg.relayed)
@@ -177,10 +180,6 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
                 self.behaviour.start_goal(goal)
             return [self._status()]
         return []
-
-    def _relay_released(self, goal: Goal) -> bool:
-        """The goal this rover held a relay spot for, now its own: the chain was released at the last goal."""
-        return self.finished_goal == (goal.index, "relay") and goal.kind != "relay"
 
     def _on_comm_partners(self, msg: m.CommPartners) -> list[Out]:
         self.partners = msg.ids
@@ -279,6 +278,8 @@ class RoverAgent(NavigationFeedback, Localising, Resuming):
         ask = self._ask_station(hits) + self._share_estimate()
         if self.in_flight is not None:
             return ask + self._watch(hits)
+        if self._walk_on_if_cut_off():
+            ask.append(self._status())
         heading_out = (self.goal is not None and self.finished_goal is None) or self._seek_contact()
         ready = (self.pose is not None and heading_out and not self.lost
                  and self.state not in ("done", "stuck", "stopped") and not self.powered_off

@@ -161,6 +161,14 @@ class CommPartners(Message):
     ids: list[int]
 
 
+class GoalPlace(Message):
+    """A goal's kind and place, as a mission direction gives them: bearing and distance from the lander."""
+
+    kind: GoalKind
+    bearing_deg: float
+    distance_m: float = Field(ge=0)
+
+
 class MissionDirection(Message):
     """Where the lander sends a rover now: bearing and distance from the lander (report 10.4.3).
 
@@ -181,6 +189,8 @@ class MissionDirection(Message):
                          "near it")
     relayed: bool = Field(False, description="a daisy chain stands for this goal: the rover's radio route to the "
                           "lander runs through relays holding on the way to it")
+    relay_for: GoalPlace | None = Field(None, description="for a relay: the goal it holds the route for, which it "
+                                        "walks on to at the last goal once cut off from the lander")
 
 
 class Calibration(Message):

@@ -105,6 +105,10 @@ class CommunicationParams(Params):
         True, description="at the last goal, once every other rover is done there and its photos are in, the daisy "
         "chain's relays walk on to the goal too, out of the lander's reach; false keeps them on their spots (N3)"
     )
+    relay_cut_off_s: float = Field(
+        60.0, gt=0, le=3600, description="with release_relays, a relay at the last goal that hears no word from the "
+        "lander for this long (a wall between two spots cuts the chain) walks on to the goal by itself"
+    )
 
 
 class BehaviourParams(Params):

@@ -7,7 +7,7 @@ import pytest
 from schemas import messages as m
 from schemas.mission import RoverMissions
 from schemas.scenario import parse_scenario
-from world_service.completion import RELAY_RELEASE_WAIT_S, Completion, all_finished
+from world_service.completion import Completion, all_finished
 from world_service.statistics import MissionStats
 
 SCENARIO = parse_scenario({
@@ -79,14 +79,15 @@ def test_a_mission_with_relays_among_the_finished_ends_once_they_stayed_so_dated
     done, relay = m.RoverStatus(stamp=0.0, state="done"), m.RoverStatus(stamp=0.0, state="relay")
     walking = m.RoverStatus(stamp=0.0, state="migration")
     no_route, still = dict, {1: False, 2: False}
-    completion = Completion()
+    wait = 65.0
+    completion = Completion(wait)
     completion.check(50.0, {1: done, 2: relay}, still, no_route)
-    completion.check(50.0 + RELAY_RELEASE_WAIT_S / 2, {1: done, 2: walking}, still, no_route)  # released
+    completion.check(50.0 + wait / 2, {1: done, 2: walking}, still, no_route)  # released
     completion.check(70.0, {1: done, 2: relay}, still, no_route)
-    completion.check(70.0 + RELAY_RELEASE_WAIT_S / 2, {1: done, 2: relay}, still, no_route)
+    completion.check(70.0 + wait / 2, {1: done, 2: relay}, still, no_route)
     assert completion.at is None
-    completion.check(70.0 + RELAY_RELEASE_WAIT_S, {1: done, 2: relay}, still, no_route)
+    completion.check(70.0 + wait, {1: done, 2: relay}, still, no_route)
     assert completion.at == 70.0
-    at_once = Completion()
+    at_once = Completion(wait)
     at_once.check(30.0, {1: done, 2: done}, still, no_route)  # no relay: nothing more can come
     assert at_once.at == 30.0

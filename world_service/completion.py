@@ -1,10 +1,11 @@
 """When a mission is over: every rover finished, none moving, no photo still on its way.
 
-A relay's state says it is finished, but at the last goal the lander may yet release it to walk on to the goal
-(``CommunicationParams.release_relays``), once the word that the last other rover is done has come down the chain.
-That word runs behind the rovers' own status, which the world hears at once: so with relays among the finished the
-mission ends only once all have stayed finished for ``RELAY_RELEASE_WAIT_S``, and is dated from when they first
-were, so the wait changes no figure.
+A relay's state says it is finished, but at the last goal it may yet walk on to the goal
+(``CommunicationParams.release_relays``): when the lander releases it, once the word that the last other rover is
+done has come down the chain, or by itself once it has been cut off from the lander for ``relay_cut_off_s``. Both
+run behind the rovers' own status, which the world hears at once: so with relays among the finished the mission
+ends only once all have stayed finished for the cut-off and a margin (``relay_wait_s``), and is dated from when
+they first were, so the wait changes no figure.
 """
 
 from __future__ import annotations
@@ -12,11 +13,18 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from schemas import messages as m
+from schemas.params import RoverParams
 
 FINISHED_STATES = ("done", "stuck", "stopped", "relay")
-RELAY_RELEASE_WAIT_S = 10.0
-"""Simulated seconds for a release to reach the relays: a goal report sent again (every 2 s), the lander's
-direction sent again (every second), each over several hops of a radio that may lose some."""
+RELEASE_MARGIN_S = 5.0
+"""Simulated seconds past the cut-off for a relay to set off: its next perception, or the lander's release, sent
+again every second over a radio that may lose some."""
+
+
+def relay_wait_s(params: RoverParams) -> float:
+    """How long relays among the finished keep a mission from ending: none if nothing can release them."""
+    radio = params.communication
+    return radio.relay_cut_off_s + RELEASE_MARGIN_S if radio.release_relays else 0.0
 
 
 def all_finished(status: dict[int, m.RoverStatus], moving: dict[int, bool],
@@ -40,7 +48,8 @@ def all_finished(status: dict[int, m.RoverStatus], moving: dict[int, bool],
 class Completion:
     """The moment the mission ended, once it has (``at``)."""
 
-    def __init__(self) -> None:
+    def __init__(self, relay_wait: float = 0.0) -> None:
+        self.relay_wait = relay_wait
         self.at: float | None = None
         self._since: float | None = None  # every rover finished since then, relays among them
 
@@ -52,5 +61,5 @@ class Completion:
             self._since = None
             return
         self._since = now if self._since is None else self._since
-        if not any(s.state == "relay" for s in status.values()) or now - self._since >= RELAY_RELEASE_WAIT_S:
+        if not any(s.state == "relay" for s in status.values()) or now - self._since >= self.relay_wait:
             self.at = self._since

@@ -23,7 +23,7 @@ from world_service import navigation as nav
 from world_service import statistics as stats
 from world_service.actions import ActionLedger
 from world_service.clock_hold import ClockHold
-from world_service.completion import FINISHED_STATES, Completion
+from world_service.completion import FINISHED_STATES, Completion, relay_wait_s
 from world_service.energy import Energy
 from world_service.perception import Perceiver
 from world_service.photos import PhotoJob, render_photo
@@ -101,7 +101,7 @@ class World(ActionInputs, RadioLink):
         self.radio_lost = 0
         self.photo_jobs: list[PhotoJob] = []
         self._in_flight_radio: list[tuple[int, Out]] = []  # (due tick, delivery) with latency
-        self.completion = Completion()
+        self.completion = Completion(relay_wait_s(scenario.rover_params))
         self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.time_scale = 1.0  # what the clock announces; the service paces the ticks
         self.lockstep = False

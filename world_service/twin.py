@@ -28,7 +28,7 @@ from schemas.mission import RoverMissions
 from schemas.scenario import Scenario
 from world_service import statistics as stats
 from world_service.clock_hold import ClockHold
-from world_service.completion import Completion
+from world_service.completion import Completion, relay_wait_s
 from world_service.radio import CommGraph, build_graph
 from world_service.sim import CLOCK_HZ, Out, tick_length, ticks_per_period
 
@@ -140,7 +140,7 @@ class TwinWorld:
         self.partners: dict[int, list[int]] = {}  # node (0 the lander) -> ids its radio hears
         self.graph = radio_graph([ks.LANDER_ID, *self.bodies], [])
         self.rejected: Counter[str] = Counter()
-        self.completion = Completion()
+        self.completion = Completion(relay_wait_s(scenario.rover_params))
         self.time_scale, self.lockstep = 1.0, False
         self.photo_jobs: list = []  # no camera: the drivers take the photos
 
