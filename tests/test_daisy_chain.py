@@ -94,13 +94,60 @@ def test_a_rover_set_down_out_of_radio_reach_is_not_made_a_relay_while_others_ca
     assert plan.direction_for(2).kind == "crater"
 
 
-def _relay_on_its_spot() -> RoverAgent:
-    agent = RoverAgent(1, KEYS, RoverParams())
+RELAY_DIRECTION = m.MissionDirection(goal_index=0, goals_total=1, kind="relay", bearing_deg=0.0, distance_m=26.0,
+                                     relay_for=m.GoalPlace(kind="crater", bearing_deg=0.0, distance_m=130.0))
+
+
+def _relay_on_its_spot(params: RoverParams | None = None) -> RoverAgent:
+    agent = RoverAgent(1, KEYS, params or RoverParams())
     agent.on_clock(m.Clock(tick=0, sim_time=0.0, time_scale=1.0, run="r1"))
     _feed(agent, m.Calibration(x=0.0, z=5.0, heading_deg=0.0))
-    _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="relay", bearing_deg=0.0, distance_m=26.0))
+    _feed(agent, RELAY_DIRECTION)
     agent._finish("relay")
     return agent
+
+
+def _sense(agent: RoverAgent, t: float) -> list:
+    agent.on_clock(m.Clock(tick=int(t * 20), sim_time=t, time_scale=1.0, run="r1"))
+    _feed(agent, m.Gyroscope(stamp=t, pitch_deg=0.0))
+    return _feed(agent, m.Perception(stamp=t + 0.01, angles_deg=[], distances_m=[], kinds=[]))
+
+
+def _quiet_until(agent: RoverAgent, end_s: float, heard_every_s: float | None = None) -> None:
+    for t in range(1, int(end_s) + 1):
+        if heard_every_s is not None and t % heard_every_s == 0:
+            _feed(agent, RELAY_DIRECTION)
+        _sense(agent, float(t))
+
+
+def test_the_lander_tells_a_relay_the_goal_it_holds_the_route_for():
+    plan = MissionPlan(load_scenario(SCENARIOS / "daisy_chain.yaml"))
+    relay, observer = plan.direction_for(2), plan.direction_for(5)
+    assert relay.relay_for == m.GoalPlace(kind="crater", bearing_deg=observer.bearing_deg,
+                                          distance_m=observer.distance_m)
+    assert observer.relay_for is None
+
+
+def test_a_relay_cut_off_from_the_lander_at_the_last_goal_walks_on_to_it_and_not_back():
+    params = RoverParams()
+    agent = _relay_on_its_spot(params)
+    cut_off = params.communication.relay_cut_off_s
+    _quiet_until(agent, cut_off - 5)
+    assert agent.state == "relay"  # a quiet spell is not yet a cut chain
+    _quiet_until(agent, cut_off + 2)
+    assert agent.state == "migration" and agent.goal.kind == "crater" and agent.goal.z == pytest.approx(130.0)
+    _feed(agent, RELAY_DIRECTION)  # the chain's word again, say a link came back: it does not walk back
+    assert agent.goal.kind == "crater" and agent.finished_goal is None
+
+
+@pytest.mark.parametrize("release", [True, False])
+def test_a_relay_that_hears_the_lander_or_is_told_to_hold_stays(release):
+    params = RoverParams()
+    params = params.model_copy(update={"communication": params.communication.model_copy(
+        update={"release_relays": release})})
+    agent = _relay_on_its_spot(params)
+    _quiet_until(agent, params.communication.relay_cut_off_s * 2, heard_every_s=1 if release else None)
+    assert agent.state == "relay"
 
 
 def test_a_relay_goes_on_to_the_last_goal_once_the_lander_releases_it_and_not_before():
