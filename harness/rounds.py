@@ -91,11 +91,11 @@ class Rounds:
             return self._send_clock()
         if phase == "take":
             self._phase = "step"
+            if self.world.sim_time >= self.max_sim_time or self.world.complete:
+                self.over = True  # as the world service: the tick that ends the mission goes out, its answers unread
+                return {}
             return self._take()
-        if self.world.sim_time >= self.max_sim_time or self.world.complete:
-            self.over = True
-        else:
-            self._step_world()
+        self._step_world()
         return {}
 
     def finish(self) -> World:

@@ -45,7 +45,8 @@ class Relaying:
 
     def _walk_on_if_cut_off(self) -> bool:
         """A relay on its spot at the last goal, with no word from the lander for ``relay_cut_off_s``, takes up the
-        goal it held the route for. True when it did (its status changed)."""
+        goal it held the route for, with no station (none can come): the report's rule, it stops where it meets
+        the goal. True when it did (its status changed)."""
         goal, radio = self.relay_goal, self.params.communication
         if (goal is None or not goal.final or self.finished_goal != (goal.index, "relay") or not radio.release_relays
                 or self.now - self.contact.heard_at < radio.relay_cut_off_s):
