@@ -91,6 +91,11 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
     def state(self) -> str:
         return self.behaviour.state
 
+    @property
+    def reporting(self) -> bool:
+        """A finished goal the lander is told of, again every ``GOAL_REPORT_RETRY_S`` (a stop is not reported)."""
+        return self.finished_goal is not None and self.finished_goal[1] != "stopped"
+
     def handle(self, topic: str, payload: bytes) -> list[Out]:
         handler = getattr(self, f"_on_{topic}", None)
         if handler is None:
@@ -115,8 +120,7 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
             out.append(self.in_flight.query(self.now, self.keys, self.id))
             self.queries += 1
             log.info("rover %d: no word of action %d for a while; asking again", self.id, self.in_flight.action_id)
-        reporting = self.finished_goal is not None and self.finished_goal[1] != "stopped"
-        if reporting and self.now - self._last_report >= GOAL_REPORT_RETRY_S:
+        if self.reporting and self.now - self._last_report >= GOAL_REPORT_RETRY_S:
             out += self._report_goal()
         if self.now - self._last_status >= STATUS_PERIOD_S:
             out.append(self._status())
@@ -140,7 +144,7 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
         timers = [self._last_status + STATUS_PERIOD_S]
         if self.in_flight:
             timers.append(self.in_flight.query_due())
-        if self.finished_goal is not None and self.finished_goal[1] != "stopped":
+        if self.reporting:
             timers.append(self._last_report + GOAL_REPORT_RETRY_S)
         if self.in_flight and isinstance(self.in_flight.decision, TakePhoto):
             timers.append(self.in_flight.sent_at + PHOTO_TIMEOUT_S)
@@ -193,7 +197,7 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
                 self.photo_outbox.pop(label, None)
             if len(self.photo_outbox) == pending:
                 return []
-            all_in = not self.photo_outbox and self.finished_goal is not None and self.finished_goal[1] != "stopped"
+            all_in = not self.photo_outbox and self.reporting
             return [self._status(), *(self._report_goal() if all_in else [])]  # the lander waits for all to be in
         elif isinstance(message, radio.MapAck) and msg.sender == ks.LANDER_ID:
             self.map.ack(message.seqs)
