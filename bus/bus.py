@@ -29,6 +29,9 @@ PER_KEY_LIMIT = 64
 world drains its inbox 20 times a second); a flooding one is cut off here, counted, and cannot fill the memory."""
 TOTAL_LIMIT = 50_000
 """Samples of all keys waiting in an inbox: against a flood spread over forged keys."""
+BYTES_LIMIT = 256 * 2**20
+"""Payload bytes waiting in an inbox: against a flood of large samples (a photo may be tens of MB, and fifty
+thousand of them would not fit any machine). A legitimate backlog is a few ticks of a thousand rovers' traffic."""
 
 
 def zenoh_callback(function: Callable[[zenoh.Sample], None]) -> zenoh.handlers.Callback:
@@ -64,8 +67,9 @@ class Inbox:
     table), so a client publishing as fast as it can costs the process the callback, never memory or a backlog.
     """
 
-    def __init__(self, per_key: int = PER_KEY_LIMIT, total: int = TOTAL_LIMIT) -> None:
-        self.per_key, self.total = per_key, total
+    def __init__(self, per_key: int = PER_KEY_LIMIT, total: int = TOTAL_LIMIT, max_bytes: int = BYTES_LIMIT) -> None:
+        self.per_key, self.total, self.max_bytes = per_key, total, max_bytes
+        self._bytes = 0
         self.dropped: Counter[str] = Counter()
         self._queue: queue.SimpleQueue[Received] = queue.SimpleQueue()
         self._pending: dict[str, int] = {}
@@ -76,11 +80,13 @@ class Inbox:
         key = item.key
         with self._lock:
             n = self._pending.get(key, 0)
-            if n >= self.per_key or self._size >= self.total:
+            size = len(item.payload)
+            if n >= self.per_key or self._size >= self.total or self._bytes + size > self.max_bytes:
                 self._drop(key)
                 return
             self._pending[key] = n + 1
             self._size += 1
+            self._bytes += size
         self._queue.put(item)
 
     def _drop(self, key: str) -> None:
@@ -100,6 +106,7 @@ class Inbox:
             else:
                 del self._pending[item.key]
             self._size -= 1
+            self._bytes -= len(item.payload)
         return item
 
     def get_nowait(self) -> Received:

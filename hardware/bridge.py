@@ -25,6 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar, TypeVar
 
+from bus.rejections import Rejections
 from hardware.clock import MissionClock
 from hardware.driver import ActionRefused, ActionStatus, Driver, DriverError, Transmission
 from schemas import codec
@@ -93,7 +94,7 @@ class Bridge:
         self.pitch = 0.0
         self.last_stamp: dict[str, float] = {}
         self.errors: Counter[str] = Counter()
-        self.rejected: Counter[str] = Counter()
+        self.rejected = Rejections(log, f"rover {rover_id}")
         self.agent_present = False
 
     @property
@@ -114,8 +115,7 @@ class Bridge:
                 raise ValueError(f"topic {topic!r} is not an input of the bridge")
             return handler(self, codec.decode(m.TOPIC_MODELS[topic], payload))
         except (codec.DecodeError, ValueError) as exc:
-            self.rejected[topic] += 1
-            log.warning("rover %d: rejected sample on %s: %s", self.id, topic, exc)
+            self.rejected.count(topic, exc)
             return []
 
     def _on_move(self, msg: m.MoveAction) -> list[Out]:
@@ -253,8 +253,7 @@ class Bridge:
                 raise ValueError(f"rover {t.sender} may not send on channel {t.channel!r}")
             return [(self.key(t.channel), codec.decode(m.RADIO_CHANNEL_MODELS[t.channel], t.payload))]
         except (codec.DecodeError, ValueError, KeyError) as exc:
-            self.rejected[f"radio {t.channel}"] += 1
-            log.warning("rover %d: rejected a radio transmission: %s", self.id, exc)
+            self.rejected.count(f"radio {t.channel}", exc)
             return []
 
     # ---- the action in flight ----

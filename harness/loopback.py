@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from harness.rounds import Drop, Out, Rounds
-from lander_agent.runtime import PhotoArchive
+from lander_agent.archive import PhotoArchive
 from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import BaseBehaviour
 from schemas import codec

@@ -19,8 +19,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from lander_agent.archive import PhotoArchive
 from lander_agent.mission import MissionPlan
-from lander_agent.runtime import Lander, PhotoArchive
+from lander_agent.runtime import Lander
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m

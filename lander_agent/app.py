@@ -19,8 +19,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_from_args(args: argparse.Namespace) -> int:
     from bus.bus import Bus
+    from lander_agent.archive import PhotoArchive
     from lander_agent.mission import MissionPlan
-    from lander_agent.runtime import Lander, PhotoArchive, run
+    from lander_agent.runtime import Lander, run
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario
 

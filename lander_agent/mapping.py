@@ -43,6 +43,9 @@ COLOURS = np.array([[40, 40, 40], [200, 200, 190], [220, 40, 30], [90, 110, 200]
 """PNG colour per class: unknown dark grey, free light grey, obstacle red, crater blue, rover green."""
 MARGIN_M = MAP_MARGIN_M
 PNG_MIN_SIDE_PX = 600
+FOLDED_KEPT = 4096
+"""Sequence numbers of one rover's folded reports the map remembers, to skip resends: a bound, so a sender of
+endless new numbers costs the lander no memory."""
 """Cells are drawn as squares of several pixels until the picture's longer side reaches this."""
 NPZ_FILE, PNG_FILE = "map.npz", "map.png"
 
@@ -91,7 +94,7 @@ class TraverseMap:
         self.lander_xz = lander_xz
         self.seen = np.zeros((len(CLASSES), *spec.shape), bool)
         self.rovers: dict[int, tuple[int, float, float]] = {}  # id -> (seq, x, z) of its newest report
-        self.folded: set[tuple[int, int]] = set()
+        self.folded: dict[int, set[int]] = {}  # rover -> seqs folded lately (``FOLDED_KEPT`` at most)
         self.cells_outside = 0
 
     @classmethod
@@ -101,9 +104,12 @@ class TraverseMap:
 
     def fold(self, rover_id: int, report: radio.MapReport) -> bool:
         """Add a rover's report (lander frame); False when it was folded before (a resend whose ack was lost)."""
-        if (rover_id, report.seq) in self.folded:
+        folded = self.folded.setdefault(rover_id, set())
+        if report.seq in folded:
             return False
-        self.folded.add((rover_id, report.seq))
+        if len(folded) >= FOLDED_KEPT:  # folding is idempotent: forgetting only costs a resend's work
+            folded.clear()
+        folded.add(report.seq)
         cells = np.frombuffer(report.cells, "<i2").reshape(-1, 2).astype(float)
         kinds = CLASS_OF_KIND[np.frombuffer(report.kinds, np.uint8)]
         x = self.lander_xz[0] + (cells[:, 0] + 0.5) * report.cell_m
@@ -137,8 +143,8 @@ class TraverseMap:
 
 def from_message(msg: m.LanderMap) -> tuple[GridSpec, np.ndarray]:
     """The grid and class codes a LanderMap carries; a payload that does not fit its shape is a ValueError."""
-    try:
-        raw = zlib.decompress(msg.cells)
+    try:  # unpacked no further than the grid needs: a small sample must not expand to gigabytes
+        raw = zlib.decompressobj().decompress(msg.cells, msg.width * msg.height + 1)
     except zlib.error as exc:
         raise ValueError(f"lander map: cells are not zlib data ({exc})") from None
     if len(raw) != msg.width * msg.height:

@@ -3,14 +3,15 @@ its radio (rovers that were out of range catch up), and it answers goal reports 
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 from pathlib import Path
 
 from bus.bus import Bus
 from bus.process import freeze_start_up_heap
+from bus.rejections import Rejections
 from bus.world_watch import ClockWatch
+from lander_agent.archive import PhotoArchive
 from lander_agent.mapping import TraverseMap
 from lander_agent.mission import MissionPlan
 from schemas import codec, radio
@@ -27,28 +28,6 @@ MAP_SAVE_PERIOD_S = 30.0
 """Simulated seconds between two writes of map.npz / map.png; they are written once more at the end."""
 
 
-class PhotoArchive:
-    """Crater photos the lander received: PNG files per rover plus ``index.jsonl``, one line per photo."""
-
-    def __init__(self, folder: Path | None) -> None:
-        self.folder = folder
-        self.received: set[tuple[int, str]] = set()
-
-    def store(self, rover_id: int, report: radio.PhotoReport) -> None:
-        if (rover_id, report.label) in self.received:
-            return  # a resend whose ack was lost: already archived
-        self.received.add((rover_id, report.label))
-        if self.folder is None:
-            return
-        path = self.folder / f"rover{rover_id}" / f"{report.label}.png"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(report.png)
-        entry = {"rover": rover_id, "goal_index": report.goal_index, "label": report.label,
-                 "stamp": report.stamp, "file": str(path.relative_to(self.folder))}
-        with open(self.folder / "index.jsonl", "a", encoding="utf-8") as index:
-            index.write(json.dumps(entry) + "\n")
-
-
 class Lander:
     def __init__(self, plan: MissionPlan, keys: ks.Keyspace, archive: PhotoArchive | None = None,
                  map_folder: Path | None = None) -> None:
@@ -62,7 +41,7 @@ class Lander:
         self.now = 0.0
         self.partners: list[int] = []
         self.next_send = 0.0
-        self.rejected = 0
+        self.rejected = Rejections(log, "lander")
 
     def _transmit(self, targets: list[int], message: m.Message, channel: str) -> tuple[str, m.Message]:
         out = m.OutboundComm(targets=targets, payload=codec.encode(message), channel=channel)
@@ -71,7 +50,7 @@ class Lander:
     def broadcast(self, now: float) -> list[tuple[str, m.Message]]:
         out = [self._transmit([rid], cal, "calibration") for rid, cal in self.plan.calibration.items()]
         out += [self._transmit(rids, d, "mission_direction") for d, rids in self.plan.directions().items()]
-        status = self.plan.status(now, self.partners).model_copy(update={"rejected": self.rejected})
+        status = self.plan.status(now, self.partners).model_copy(update={"rejected": self.rejected.reported})
         out.append((self.keys.lander(ks.STATUS), status))
         return out
 
@@ -111,7 +90,9 @@ class Lander:
             ack = radio.pack(radio.MapAck(seqs=[report.seq]))
             return [(self.keys.lander(ks.COMM_OUT), m.OutboundComm(targets=[msg.sender], payload=ack))]
         if isinstance(report, radio.PhotoReport):
-            self.archive.store(msg.sender, report)
+            if not self.archive.store(msg.sender, report):
+                self.rejected.count("photo_report", f"rover {msg.sender} is over its share of the archive")
+                return []
             ack = radio.pack(radio.PhotoAck(labels=[report.label]))
             return [(self.keys.lander(ks.COMM_OUT), m.OutboundComm(targets=[msg.sender], payload=ack))]
         if isinstance(report, radio.StationRequest):
@@ -157,8 +138,7 @@ class Lander:
                 self.partners = codec.decode(m.CommPartners, payload).ids
             return []
         except (codec.DecodeError, ValueError) as exc:  # ValueError: a valid sample no plan can follow
-            self.rejected += 1
-            log.warning("lander: rejected sample on %s: %s", key, exc)
+            self.rejected.count(key.rsplit("/", 1)[-1], exc, key)
             return []
 
 

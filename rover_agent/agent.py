@@ -10,6 +10,7 @@ import logging
 import math
 from pathlib import Path
 
+from bus.rejections import Rejections
 from rover_agent import relocalise
 from rover_agent.behaviour import DefaultBehaviour
 from rover_agent.contact import ContactSearch
@@ -76,7 +77,7 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
         self.finished_goal: tuple[int, str] | None = None  # (index, outcome) reported but not yet followed up
         self.stuck_why = ""  # what stopped it, from the behaviour (``Finish.why``), shown in its status
         self._last_report = self._last_status = -math.inf
-        self.rejected = 0
+        self.rejected = Rejections(log, f"rover {rover_id}")
         self.partners: list[int] = []
         self.photo_outbox: dict[str, radio.PhotoReport] = {}
         self._last_photo_send = -math.inf
@@ -99,14 +100,12 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
     def handle(self, topic: str, payload: bytes) -> list[Out]:
         handler = getattr(self, f"_on_{topic}", None)
         if handler is None:
-            self.rejected += 1
-            log.warning("rover %d: no handler for topic %r", self.id, topic)
+            self.rejected.count(topic, "no handler for this topic")
             return []
         try:
             return handler(codec.decode(m.TOPIC_MODELS[topic], payload))
         except codec.DecodeError as exc:
-            self.rejected += 1
-            log.warning("rover %d: rejected sample on %s: %s", self.id, topic, exc)
+            self.rejected.count(topic, exc)
             return []
 
     def on_clock(self, clock: m.Clock) -> list[Out]:
@@ -386,4 +385,4 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
             detail = relocalise.DETAIL
         return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(
             stamp=self.now, state=self.state, goal_index=index, detail=detail, photos_pending=len(self.photo_outbox),
-            action_id=self.heard_action, rejected=self.rejected)
+            action_id=self.heard_action, rejected=self.rejected.reported)

@@ -16,6 +16,7 @@ from rover_agent.decisions import MoveTo, Rotate, TakePhoto
 from rover_agent.saved_state import SavedFlight
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.wire_limits import ACTION_ID_STRIDE
 
 SLOW_LEVEL, FULL_LEVEL = 1, 3
 """``SpeedAction`` levels (report 10): 1.5 and 3.5 m/s with the default parameters; the world starts at full."""
@@ -26,10 +27,6 @@ lost message does not leave it slow for the rest of the mission."""
 Out = tuple[str, m.Message]
 ACTION_QUERY_S = 2.0
 """Silence after which the agent asks again: ten navigation status periods at the report's 5 Hz."""
-ID_STRIDE = 2**20
-"""Ids are ``base * ID_STRIDE + n`` with ``base`` the simulated millisecond of the agent's first action: an agent
-restarted without its saved state never reuses an id of its earlier life, which the world would answer with the
-end of an old action."""
 
 
 UNDER_WAY_M = 0.5
@@ -120,7 +117,10 @@ class ActionIds:
 
 
 def _first_id(now: float) -> int:
-    return max(0, int(now * 1000)) * ID_STRIDE + 1
+    """Based on the simulated millisecond (``schemas.wire_limits.ACTION_ID_STRIDE``): an agent restarted without its
+    saved state never reuses an id of its earlier life, which the world would answer with the end of an old
+    action."""
+    return max(0, int(now * 1000)) * ACTION_ID_STRIDE + 1
 
 
 @dataclass

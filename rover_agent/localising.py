@@ -145,7 +145,7 @@ class Localising:
         elif (known := self.teammates.get(sender)) is not None and estimate.stamp < known.estimate.stamp:
             why = f"stamped {estimate.stamp:.1f}, older than the last one ({known.estimate.stamp:.1f})"
         if why is not None:
-            self.rejected += 1
+            self.rejected.count("pose_estimate", why)
             log.debug("rover %d: dropped a pose estimate %s", self.id, why)
             return
         self.teammates = {rid: mate for rid, mate in self.teammates.items()

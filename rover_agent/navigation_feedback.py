@@ -67,8 +67,9 @@ class NavigationFeedback:
             return []
         if msg.action not in ("move", "rotate"):
             return []
-        if msg.reason == "stale":  # the world has a later action of this rover than the agent knows of (one sent
-            self.ids.renew()  # in an earlier life): nothing about the ground, only the ids to renew
+        if msg.reason in ("stale", "out_of_sequence"):  # the world has a later action of this rover than the agent
+            self.ids.renew()  # knows of (one sent in an earlier life), or a run restarted its clock: nothing about the
+            # ground, only the ids to renew
         elif isinstance(flight.decision, MoveTo):
             self.behaviour.rejected(math.degrees(math.atan2(flight.decision.x, flight.decision.z)))
         log.info("rover %d: %s rejected (%s): %s", self.id, msg.action, msg.reason, msg.detail)

@@ -11,6 +11,7 @@ from bus.world_watch import ClockWatch
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
 from rover_agent.saved_state import STATE_WRITER
 from schemas import codec
+from schemas import keyspace as ks
 from schemas import messages as m
 
 log = logging.getLogger("lunarsim.rover")
@@ -62,6 +63,6 @@ def _decode_clock(agents: list[RoverAgent], payload: bytes) -> m.Clock | None:
         return codec.decode(m.Clock, payload)
     except codec.DecodeError as exc:
         for agent in agents:
-            agent.rejected += 1
+            agent.rejected.count(ks.CLOCK, exc)
         log.warning("rover(s) %s: rejected clock sample: %s", ",".join(str(a.id) for a in agents), exc)
         return None

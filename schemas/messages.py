@@ -16,6 +16,26 @@ from schemas import keyspace as ks
 from schemas.base import HIT_KINDS, DirectionKind, GoalKind, HitKind, Message, RoverState
 from schemas.scenario_limits import Coordinate
 from schemas.truth import MissionReport, RoverTruth, WorldCounters, WorldState, WorldStats
+from schemas.wire_limits import (
+    INDEX_LIMIT,
+    MAX_CELL_M,
+    MAX_MAP_BYTES,
+    MAX_PNG_BYTES,
+    MAX_RADIO_PAYLOAD,
+    MAX_RAYS,
+    MAX_TARGETS,
+    ActionId,
+    Count,
+    Degrees,
+    GoalIndex,
+    Label,
+    Metres,
+    RoverId,
+    RoverIds,
+    Seconds,
+    Text,
+    Tick,
+)
 
 __all__ = ["HIT_KINDS", "DirectionKind", "GoalKind", "HitKind", "Message", "MissionReport", "RoverState",
            "RoverTruth", "WorldCounters", "WorldState", "WorldStats"]
@@ -27,10 +47,11 @@ __all__ = ["HIT_KINDS", "DirectionKind", "GoalKind", "HitKind", "Message", "Miss
 class Perception(Message):
     """PerceptionData: one scan of rays; columns rather than a list of hit objects to keep decoding cheap."""
 
-    stamp: float
-    angles_deg: list[float] = Field(description="angle of each hit relative to the rover, negative left")
-    distances_m: list[float]
-    kinds: list[HitKind]
+    stamp: Seconds
+    angles_deg: list[Degrees] = Field(max_length=MAX_RAYS, description="angle of each hit relative to the rover, "
+                                      "negative left")
+    distances_m: list[Metres] = Field(max_length=MAX_RAYS)
+    kinds: list[HitKind] = Field(max_length=MAX_RAYS)
 
     @model_validator(mode="after")
     def _same_length(self) -> Perception:
@@ -40,7 +61,7 @@ class Perception(Message):
 
 
 def _action_id():
-    return Field(0, ge=0, lt=2**63, description="the agent's id of the action (0: none): the world answers a "
+    return Field(0, description="the agent's id of the action (0: none): the world answers a "
                  "repeated id with how that action stands instead of starting it again, so a lost sample is "
                  "recovered by sending the same action again")
 
@@ -48,42 +69,42 @@ def _action_id():
 class MoveAction(Message):
     """Move to a point relative to the rover (+x right, +z ahead); must be in view."""
 
-    x: float
-    z: float
-    action_id: int = _action_id()
+    x: Metres
+    z: Metres
+    action_id: ActionId = _action_id()
 
 
 class RotateAction(Message):
     """Rotate in place; negative is left, positive right."""
 
-    degrees: float
-    action_id: int = _action_id()
+    degrees: Degrees
+    action_id: ActionId = _action_id()
 
 
 class NavigationStatus(Message):
     """Metres (move) or degrees (rotate) still to go; the last one of an action has remaining 0."""
 
-    stamp: float
+    stamp: Seconds
     action: Literal["move", "rotate"]
-    remaining: float
+    remaining: Metres
     outcome: Literal["running", "completed", "cancelled", "collided"] = "running"
-    action_id: int = _action_id()
+    action_id: ActionId = _action_id()
 
 
 class CancelAction(Message):
     """Cancel the move in progress (empty in the report; ``action_id`` names it, 0 whichever is running)."""
 
-    action_id: int = _action_id()
+    action_id: ActionId = _action_id()
 
 
 class CancelResult(Message):
     """Where the rover stopped, relative to the start of the move that ended early."""
 
-    x: float
-    z: float
-    angle_deg: float
+    x: Metres
+    z: Metres
+    angle_deg: Degrees
     reason: Literal["cancelled", "collided"] = "cancelled"
-    action_id: int = _action_id()
+    action_id: ActionId = _action_id()
 
 
 class SpeedAction(Message):
@@ -95,14 +116,14 @@ class ActionRejected(Message):
 
     action: Literal["move", "rotate", "cancel", "speed", "photo"]
     reason: Literal["out_of_view", "out_of_range", "blocked", "action_in_progress", "no_action", "collided",
-                    "no_power", "too_cold", "stale"]
-    detail: str = ""
-    action_id: int = _action_id()
+                    "no_power", "too_cold", "stale", "out_of_sequence"]
+    detail: Text = ""
+    action_id: ActionId = _action_id()
 
 
 class Gyroscope(Message):
-    stamp: float
-    pitch_deg: float = Field(description="positive nose up")
+    stamp: Seconds
+    pitch_deg: Degrees = Field(description="positive nose up")
 
 
 # ---- power (report 7.1.2, needs N9 and N10) ----
@@ -111,7 +132,7 @@ class Gyroscope(Message):
 class Battery(Message):
     """The rover's battery monitor. ``empty``: the rover is off until it has recharged above its threshold."""
 
-    stamp: float
+    stamp: Seconds
     charge_wh: float = Field(ge=0)
     capacity_wh: float = Field(gt=0)
     solar_w: float = Field(0.0, ge=0, description="what the panel delivers now")
@@ -125,7 +146,7 @@ class Battery(Message):
 class Temperature(Message):
     """The rover's internal temperature. ``shutdown``: below its operating minimum, off until warm again (N9)."""
 
-    stamp: float
+    stamp: Seconds
     celsius: float
     shutdown: bool = False
 
@@ -133,7 +154,7 @@ class Temperature(Message):
 class Sunlight(Message):
     """Whether the rover's solar panel is lit (its sun sensor)."""
 
-    stamp: float
+    stamp: Seconds
     lit: bool
 
 
@@ -145,28 +166,28 @@ RadioChannel = Literal["comm_in", "mission_direction", "calibration"]
 class OutboundComm(Message):
     """A radio transmission. ``channel`` says which key of the target it lands on; the payload is opaque."""
 
-    targets: list[int]
-    payload: bytes
+    targets: RoverIds
+    payload: bytes = Field(max_length=MAX_RADIO_PAYLOAD)
     channel: RadioChannel = "comm_in"
 
 
 class InboundComm(Message):
-    sender: int
-    payload: bytes
+    sender: RoverId
+    payload: bytes = Field(max_length=MAX_RADIO_PAYLOAD)
 
 
 class CommPartners(Message):
     """Ids in direct radio range and line of sight (0 is the lander)."""
 
-    ids: list[int]
+    ids: RoverIds
 
 
 class GoalPlace(Message):
     """A goal's kind and place, as a mission direction gives them: bearing and distance from the lander."""
 
     kind: GoalKind
-    bearing_deg: float
-    distance_m: float = Field(ge=0)
+    bearing_deg: Degrees
+    distance_m: Metres = Field(ge=0)
 
 
 class MissionDirection(Message):
@@ -178,12 +199,12 @@ class MissionDirection(Message):
     in formation round a waypoint, on the crest round a crater.
     """
 
-    goal_index: int = Field(ge=0)
-    goals_total: int = Field(ge=1)
+    goal_index: GoalIndex
+    goals_total: GoalIndex = Field(ge=1)
     kind: DirectionKind
-    bearing_deg: float
-    distance_m: float = Field(ge=0)
-    station: tuple[float, float] | None = Field(
+    bearing_deg: Degrees
+    distance_m: Metres = Field(ge=0)
+    station: tuple[Metres, Metres] | None = Field(
         None, description="offset (x, z) in metres from the goal, lander axes, of this rover's spot at it")
     shared: bool = Field(False, description="a waypoint or crater the team shares: ask the lander for a station "
                          "near it")
@@ -196,23 +217,23 @@ class MissionDirection(Message):
 class Calibration(Message):
     """Where the lander set the rover down (dispatch), relative to the lander: the origin of dead reckoning."""
 
-    x: float
-    z: float
-    heading_deg: float
+    x: Coordinate
+    z: Coordinate
+    heading_deg: Degrees
 
 
 # ---- observation (report 10.5) ----
 
 
 class PhotoAction(Message):
-    label: str = ""
-    action_id: int = _action_id()
+    label: Label = ""
+    action_id: ActionId = _action_id()
 
 
 class Photo(Message):
-    stamp: float
-    label: str = ""
-    png: bytes
+    stamp: Seconds
+    label: Label = ""
+    png: bytes = Field(max_length=MAX_PNG_BYTES)
 
 
 # ---- agent telemetry, lander, ground, world ----
@@ -222,24 +243,25 @@ class Photo(Message):
 class RoverStatus(Message):
     """Agent telemetry for the ground and viewers: what the behaviour is doing."""
 
-    stamp: float
+    stamp: Seconds
     state: RoverState
-    goal_index: int = -1
-    detail: str = ""
-    photos_pending: int = Field(0, ge=0, description="photos taken but not yet acknowledged by the lander")
-    action_id: int = Field(0, ge=0, lt=2**63, description="the last action whose end the agent has heard: the world "
+    goal_index: int = Field(-1, ge=-1, lt=INDEX_LIMIT)
+    detail: Text = ""
+    photos_pending: Count = Field(0, description="photos taken but not yet acknowledged by the lander")
+    action_id: ActionId = Field(0, description="the last action whose end the agent has heard: the world "
                            "re-sends that end until it shows here")
-    rejected: int = Field(0, ge=0, description="samples the agent has rejected since it started (malformed, "
+    rejected: Count = Field(0, description="samples the agent has rejected since it started (malformed, "
                           "unknown topic)")
 
 
 class LanderStatus(Message):
-    stamp: float
+    stamp: Seconds
     phase: Literal["dispatch", "calibration", "migration", "observation", "complete"]
-    rover_goals: dict[int, int] = Field(default_factory=dict, description="rover id -> goal index")
-    connected: list[int] = Field(default_factory=list)
-    relay_chain: list[int] = Field(default_factory=list)
-    rejected: int = Field(0, ge=0, description="samples the lander has rejected since it started")
+    rover_goals: dict[RoverId, GoalIndex] = Field(default_factory=dict, max_length=MAX_TARGETS,
+                                                  description="rover id -> goal index")
+    connected: RoverIds = Field(default_factory=list)
+    relay_chain: RoverIds = Field(default_factory=list)
+    rejected: Count = Field(0, description="samples the lander has rejected since it started")
 
 
 class LanderMap(Message):
@@ -250,14 +272,20 @@ class LanderMap(Message):
     order z; ``classes`` names each code.
     """
 
-    stamp: float
-    cell_m: float = Field(gt=0)
-    origin_x: float
-    origin_z: float
-    width: int = Field(ge=1)
-    height: int = Field(ge=1)
-    classes: list[str]
-    cells: bytes
+    stamp: Seconds
+    cell_m: float = Field(gt=0, le=MAX_CELL_M)
+    origin_x: Coordinate
+    origin_z: Coordinate
+    width: int = Field(ge=1, le=MAX_MAP_BYTES)
+    height: int = Field(ge=1, le=MAX_MAP_BYTES)
+    classes: list[Label] = Field(max_length=256)
+    cells: bytes = Field(max_length=MAX_MAP_BYTES)
+
+    @model_validator(mode="after")
+    def _bounded_grid(self) -> LanderMap:
+        if self.width * self.height > MAX_MAP_BYTES:
+            raise ValueError(f"a {self.width} x {self.height} grid is more than {MAX_MAP_BYTES:,} cells")
+        return self
 
 
 MISSION_COMMANDS = ("set_target", "stop", "return")
@@ -274,30 +302,30 @@ class GroundCommand(Message):
     Each process carries out the commands that are its own and ignores the rest.
     """
 
-    request_id: str = ""
+    request_id: Label = ""
     command: Literal["set_target", "stop", "return", "snapshot", "pause", "resume", "step", "seek"]
-    rover_id: int | None = Field(None, description="None: every rover (set_target only)")
+    rover_id: RoverId | None = Field(None, description="None: every rover (set_target only)")
     x: Coordinate | None = Field(None, description="set_target: the target in map coordinates, m")
     z: Coordinate | None = None
     kind: GoalKind = "waypoint"
-    seconds: float | None = Field(None, ge=0, description="seek: seconds from the start of the recording")
+    seconds: Seconds | None = Field(None, ge=0, description="seek: seconds from the start of the recording")
 
 
 class CommandResult(Message):
-    request_id: str
+    request_id: Label
     accepted: bool
-    detail: str = ""
+    detail: Text = ""
 
 
 class Clock(Message):
-    tick: int
-    sim_time: float
-    time_scale: float
+    tick: Tick
+    sim_time: Seconds = Field(ge=0)
+    time_scale: float = Field(ge=0, le=1e6)
     running: bool = True
     lockstep: bool = False
-    run: str = Field("", description="names this run of the world: a restarted agent resumes only a state saved "
+    run: Label = Field("", description="names this run of the world: a restarted agent resumes only a state saved "
                      "in the same run")
-    acks: list[int] | None = Field(None, description="lockstep: the agents whose ack this tick waits for (rover "
+    acks: RoverIds | None = Field(None, description="lockstep: the agents whose ack this tick waits for (rover "
                                    "ids, 0 the lander); None: every agent's")
 
 
@@ -306,26 +334,26 @@ class Telemetry(Message):
     started: the driver bridge publishes it and the world service in twin mode places it on the map from the
     scenario's start pose. Rover agents never read it: they dead-reckon, as in simulation."""
 
-    stamp: float
-    x: float
-    z: float
-    heading_deg: float
-    pitch_deg: float = 0.0
+    stamp: Seconds
+    x: Coordinate
+    z: Coordinate
+    heading_deg: Degrees
+    pitch_deg: Degrees = 0.0
     moving: bool = False
 
 
 class RoverIdGrant(Message):
     """The world's answer to ``--id auto``: the lowest scenario rover id no running agent holds, or why none."""
 
-    id: int | None
-    detail: str = ""
+    id: RoverId | None
+    detail: Text = ""
 
 
 class Ack(Message):
     """Lockstep: everything up to and including this tick has been handled (and answered)."""
 
-    tick: int
-    wake: float | None = Field(None, description="simulated time at which the agent will next act on its own "
+    tick: Tick
+    wake: Seconds | None = Field(None, description="simulated time at which the agent will next act on its own "
                                "timers; None: it may act on any tick")
 
 

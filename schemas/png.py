@@ -9,6 +9,8 @@ from __future__ import annotations
 import struct
 import zlib
 
+from schemas.wire_limits import MAX_IMAGE_SIDE
+
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
 COLOUR_TYPES = {1: 0, 3: 2}  # channels -> PNG colour type: grey, RGB
 
@@ -44,11 +46,13 @@ def decode(data: bytes) -> tuple[int, int, int, bytes]:
     if depth != 8 or channels is None or (compression, filtering, interlace) != (0, 0, 0) or not width or not height:
         raise ValueError(f"unsupported PNG format (bit depth {depth}, colour type {colour}, interlace "
                          f"{interlace}): only 8-bit grey or RGB without interlacing is read")
-    try:
-        raw = zlib.decompress(chunks[1][1])
+    if width > MAX_IMAGE_SIDE or height > MAX_IMAGE_SIDE:
+        raise ValueError(f"a {width} x {height} PNG is larger than any camera's ({MAX_IMAGE_SIDE} pixels a side)")
+    stride = width * channels
+    try:  # unpacked no further than the header says: a small file must not expand to gigabytes
+        raw = zlib.decompressobj().decompress(chunks[1][1], height * (1 + stride) + 1)
     except zlib.error as exc:
         raise ValueError(f"PNG image data is corrupt: {exc}") from None
-    stride = width * channels
     if len(raw) != height * (1 + stride):
         raise ValueError(f"PNG image data has {len(raw)} bytes, expected {height * (1 + stride)}")
     rows = [raw[row * (1 + stride):(row + 1) * (1 + stride)] for row in range(height)]

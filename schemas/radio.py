@@ -16,36 +16,47 @@ from pydantic import Field, model_validator
 from schemas import codec
 from schemas.messages import Message
 from schemas.scenario_limits import COORDINATE_LIMIT_M, Coordinate
+from schemas.wire_limits import (
+    MAX_ACKED_SEQS,
+    MAX_CELL_M,
+    MAX_LABELS,
+    MAX_MAP_REPORT_CELLS,
+    MAX_PNG_BYTES,
+    Count,
+    GoalIndex,
+    Label,
+    Seconds,
+)
 
 
 class GoalReport(Message):
     """A rover tells the lander it finished (or gave up on) a goal, so the lander sends the next one."""
 
-    goal_index: int
+    goal_index: GoalIndex
     outcome: Literal["reached", "stuck", "relay"]
-    photos_pending: int = Field(0, ge=0, description="its crater photos not yet acknowledged: a daisy chain "
+    photos_pending: Count = Field(0, description="its crater photos not yet acknowledged: a daisy chain "
                                 "stands until they are in")
 
 
 class PhotoReport(Message):
     """A crater photo on its way to the lander; the rover holds it until a PhotoAck comes back."""
 
-    goal_index: int
-    label: str
-    stamp: float
-    png: bytes
+    goal_index: GoalIndex
+    label: Label
+    stamp: Seconds
+    png: bytes = Field(max_length=MAX_PNG_BYTES)
 
 
 class PhotoAck(Message):
     """The lander archived these photos (by label): the rover may forget them."""
 
-    labels: list[str]
+    labels: list[Label] = Field(max_length=MAX_LABELS)
 
 
 class CraterFound(Message):
     """Told to the rovers in range when a rover stands on the rim of the crater of a goal (report 6.4)."""
 
-    goal_index: int
+    goal_index: GoalIndex
 
 
 class MapReport(Message):
@@ -57,12 +68,12 @@ class MapReport(Message):
     position when it built the report.
     """
 
-    seq: int = Field(ge=0)
-    cell_m: float = Field(gt=0)
-    x: float
-    z: float
-    cells: bytes
-    kinds: bytes
+    seq: Count
+    cell_m: float = Field(gt=0, le=MAX_CELL_M)
+    x: Coordinate
+    z: Coordinate
+    cells: bytes = Field(max_length=4 * MAX_MAP_REPORT_CELLS)
+    kinds: bytes = Field(max_length=MAX_MAP_REPORT_CELLS)
 
     @model_validator(mode="after")
     def _one_kind_per_cell(self) -> MapReport:
@@ -93,7 +104,7 @@ the lander), or crater terrain (crater ground or ground too steep to climb)."""
 class MapAck(Message):
     """The lander folded these map reports (by ``seq``) into its map: the rover may forget them."""
 
-    seqs: list[int]
+    seqs: list[Count] = Field(max_length=MAX_ACKED_SEQS)
 
 
 class StationRequest(Message):
@@ -105,9 +116,9 @@ class StationRequest(Message):
     the rover's dead-reckoned position in the lander's frame.
     """
 
-    goal_index: int = Field(ge=0)
-    x: float
-    z: float
+    goal_index: GoalIndex
+    x: Coordinate
+    z: Coordinate
 
 
 MAX_VARIANCE_M2 = COORDINATE_LIMIT_M ** 2
@@ -122,7 +133,7 @@ class PoseEstimate(Message):
     seconds); ``moving``: the rover was walking then, or may have set off since, so it may be elsewhere by now
 (``rover_agent.sightings``)."""
 
-    stamp: float = Field(ge=0)
+    stamp: Seconds = Field(ge=0)
     x: Coordinate
     z: Coordinate
     cov_xx: float = Field(ge=0, le=MAX_VARIANCE_M2)

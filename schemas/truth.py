@@ -8,12 +8,14 @@ from typing import Literal
 from pydantic import Field
 
 from schemas.base import Message, RoverState
+from schemas.scenario_limits import MAX_ROVERS
+from schemas.wire_limits import MAX_TARGETS, RoverId, Seconds, Tally
 
 
 class RoverTruth(Message):
     """Ground truth of one rover: for viewers, recorder and statistics, never for agents."""
 
-    id: int
+    id: RoverId
     x: float
     z: float
     heading_deg: float
@@ -37,16 +39,16 @@ class RoverTruth(Message):
 class WorldCounters(Message):
     """Events the world has counted since the start: ground truth a recording must carry for its statistics."""
 
-    rover_collisions: int = 0
-    obstacle_collisions: int = 0
-    rejected_messages: int = 0
-    radio_dropped: int = 0
-    radio_lost: int = 0
-    power_shutdowns: int = Field(0, description="times a rover's battery ran empty")
-    cold_shutdowns: int = Field(0, description="times a rover fell below its operating temperature (N9)")
-    agent_rejected: int = Field(0, description="samples the rover agents and the lander rejected, as their statuses "
+    rover_collisions: Tally = 0
+    obstacle_collisions: Tally = 0
+    rejected_messages: Tally = 0
+    radio_dropped: Tally = 0
+    radio_lost: Tally = 0
+    power_shutdowns: Tally = Field(0, description="times a rover's battery ran empty")
+    cold_shutdowns: Tally = Field(0, description="times a rover fell below its operating temperature (N9)")
+    agent_rejected: Tally = Field(0, description="samples the rover agents and the lander rejected, as their statuses "
                                 "last said")
-    dropped_messages: int = Field(0, description="samples the world dropped unread: over its inbox's bound for "
+    dropped_messages: Tally = Field(0, description="samples the world dropped unread: over its inbox's bound for "
                                   "their key (a flood)")
 
 
@@ -54,10 +56,11 @@ class WorldState(Message):
     """Ground truth at the perception rate; the mission statistics are computed from this stream alone
     (``world_service.statistics.MissionStats``), live and from a recording alike."""
 
-    stamp: float
-    rovers: list[RoverTruth]
-    comm_links: list[tuple[int, int]] = Field(default_factory=list)
-    relays: list[int] = Field(default_factory=list, description="rovers relaying for others: the daisy chain")
+    stamp: Seconds
+    rovers: list[RoverTruth] = Field(max_length=MAX_ROVERS)
+    comm_links: list[tuple[RoverId, RoverId]] = Field(default_factory=list, max_length=MAX_TARGETS ** 2 // 2)
+    relays: list[RoverId] = Field(default_factory=list, max_length=MAX_TARGETS,
+                                  description="rovers relaying for others: the daisy chain")
     counters: WorldCounters = WorldCounters()
     completed_at: float | None = Field(None, description="when every rover had finished, if they have")
 

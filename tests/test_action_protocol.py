@@ -256,6 +256,8 @@ def test_an_action_refused_as_older_than_the_rovers_latest_renews_the_agents_ids
     """The world has a later action of this rover than the agent knows of (an earlier life's): the agent's next
     ids must outrank it, or every action it sends is refused as stale."""
     world = _world()
+    while world.sim_time < 12.5:  # the earlier life ran past 10 s, and the agent's clock (12 s) lags the world's
+        world.step()
     earlier = ActionIds().take(10.0)
     _send(world, ks.MOVE_ACTION, m.MoveAction(x=0.0, z=1.0, action_id=earlier))
     _until_idle(world)

@@ -854,7 +854,7 @@ def test_garbage_payloads_are_counted_and_answered_with_nothing():
     assert agent.handle(ks.PERCEPTION, b"\x93garbage") == []
     assert agent.handle(ks.GYROSCOPE, codec.encode(m.MoveAction(x=1.0, z=1.0))) == []
     assert agent.handle("no_such_topic", b"") == []
-    assert agent.rejected == 3
+    assert agent.rejected.total == 3
     assert agent.pose == Pose(0.0, 20.0, 180.0)
 
 

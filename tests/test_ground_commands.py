@@ -132,7 +132,7 @@ def test_a_target_beyond_any_scenario_is_dropped_as_malformed_and_the_lander_car
 
     lander = Lander(MissionPlan(load_scenario(SCENARIOS / "crater_observation.yaml")), ks.Keyspace("far"))
     far = msgpack.packb([1, {"command": "set_target", "x": 1e12, "z": 0.0, "request_id": "a"}])
-    assert lander.handle(lander.keys.ground_command, far) == [] and lander.rejected == 1
+    assert lander.handle(lander.keys.ground_command, far) == [] and lander.rejected.total == 1
     stop = m.GroundCommand(request_id="b", command="stop", rover_id=1)
     (key, result), *_ = [o for o in lander.handle(lander.keys.ground_command, codec.encode(stop))
                          if isinstance(o[1], m.CommandResult)]

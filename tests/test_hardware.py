@@ -224,8 +224,8 @@ def test_the_bridge_keeps_the_worlds_action_rules(emulator):
         assert [msg.reason for _, msg in refused] == ["out_of_view"]
         assert bridge.handle(ks.COMM_OUT, codec.encode(m.OutboundComm(targets=[2], payload=b"x",
                                                                       channel="mission_direction"))) == []
-        assert bridge.rejected[ks.COMM_OUT] == 1
-        assert bridge.handle(ks.MOVE_ACTION, b"\x93garbage") == [] and bridge.rejected[ks.MOVE_ACTION] == 1
+        assert bridge.rejected.by_topic[ks.COMM_OUT] == 1
+        assert bridge.handle(ks.MOVE_ACTION, b"\x93garbage") == [] and bridge.rejected.by_topic[ks.MOVE_ACTION] == 1
         assert not any(isinstance(msg, m.CancelResult) for msg in out)  # a completed move has no CancelResult
     finally:
         driver.close()

@@ -291,7 +291,8 @@ def test_noise_free_missions_run_exactly_as_plain_dead_reckoning():
 
 
 def _heard(agent: RoverAgent, sender: int, estimate: radio.PoseEstimate) -> list:
-    return _feed(agent, m.InboundComm(sender=sender, payload=radio.pack(estimate)))
+    """Built unchecked: a hostile sender id is the receiver's to refuse."""
+    return _feed(agent, m.InboundComm.model_construct(sender=sender, payload=radio.pack(estimate)))
 
 
 def test_a_teammates_estimate_that_is_no_covariance_is_rejected_and_corrupts_nothing():
@@ -305,7 +306,7 @@ def test_a_teammates_estimate_that_is_no_covariance_is_rejected_and_corrupts_not
     bad = radio.PoseEstimate.model_construct(stamp=3.0, x=round(x, 3), z=round(z, 3), cov_xx=0.0, cov_xz=0.25,
                                              cov_zz=0.0, moving=False)
     _heard(agent, 2, bad)
-    assert agent.rejected == 1 and 2 not in agent.teammates
+    assert agent.rejected.total == 1 and 2 not in agent.teammates
     out = _feed(agent, m.Perception(stamp=3.2, angles_deg=[0.0], distances_m=[4.5], kinds=["rover"]))
     assert min(agent.localisation.cov[i][i] for i in range(3)) > 0 and _estimates(out)
 
@@ -314,14 +315,14 @@ def test_an_estimate_from_the_future_does_not_lock_the_teammates_real_ones_out()
     agent = _walked(NOISY)  # its clock: 3.1
     _heard(agent, 3, radio.PoseEstimate(stamp=1e9, x=50.0, z=50.0, cov_xx=0.01, cov_xz=0.0, cov_zz=0.01))
     _heard(agent, 3, radio.PoseEstimate(stamp=3.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
-    assert agent.teammates[3].estimate.stamp == 3.0 and agent.rejected == 1
+    assert agent.teammates[3].estimate.stamp == 3.0 and agent.rejected.total == 1
 
 
 @pytest.mark.parametrize("sender", [ks.LANDER_ID, 1, -4, 10**12])
 def test_an_estimate_from_the_lander_itself_or_no_rover_is_dropped_and_counted(sender):
     agent = _walked(NOISY)
     _heard(agent, sender, radio.PoseEstimate(stamp=3.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
-    assert agent.teammates == {} and agent.rejected == 1
+    assert agent.teammates == {} and agent.rejected.total == 1
 
 
 def test_teammates_not_heard_for_long_are_forgotten():
@@ -353,11 +354,10 @@ def test_a_restart_with_a_corrupt_saved_covariance_resumes_without_it(tmp_path, 
 
 
 def test_a_goal_any_distance_off_is_decided_at_once():
-    """The way by the lander was weighed by walking the direct way move by move: a MissionDirection 1e300 m off
-    (its distance is any finite number) hung the agent."""
-    import time
+    """The way by the lander was weighed by walking the direct way move by move: a MissionDirection as far off as
+    the wire allows hung the agent (a regression hangs this test)."""
+    from schemas.wire_limits import DISTANCE_LIMIT_M
 
-    agent = _unsure_with_a_return(1e300)
-    started = time.perf_counter()
+    agent = _unsure_with_a_return(DISTANCE_LIMIT_M)
     _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
-    assert time.perf_counter() - started < 1.0 and not agent.fix.active
+    assert not agent.fix.active

@@ -87,7 +87,7 @@ def test_an_ack_counts_only_from_the_lander_s_key_or_a_rover_the_scenario_has():
     ack = codec.encode(m.Ack(tick=world.tick))
     for key in (KEYS.rover(0, ks.ACK), KEYS.rover(99, ks.ACK)):
         _note_ack(world, agents, Received(key, ack))
-    assert agents.waiting == {ks.LANDER_ID, 1} and world.rejected[ks.ACK] == 2
+    assert agents.waiting == {ks.LANDER_ID, 1} and world.rejected.by_topic[ks.ACK] == 2
     _note_ack(world, agents, Received(KEYS.lander(ks.ACK), ack))
     _note_ack(world, agents, Received(KEYS.rover(1, ks.ACK), ack))
     assert agents.waiting == set()

@@ -80,7 +80,7 @@ def test_a_team_too_large_for_the_near_side_of_a_small_crater_meets_its_crest_sp
 def test_crater_photos_reach_the_lander_archive(tmp_path):
     import json
 
-    from lander_agent.runtime import PhotoArchive
+    from lander_agent.archive import PhotoArchive
     from world_service.camera import decode_png
 
     archive = PhotoArchive(tmp_path)

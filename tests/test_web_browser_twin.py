@@ -8,6 +8,7 @@ statistics carry the decimals a reader needs; goals are numbered from 1 wherever
 
 from __future__ import annotations
 
+import json
 import math
 import re
 
@@ -235,8 +236,10 @@ def test_a_real_run_ends_on_the_page_with_photos_and_goals_numbered_from_one(rou
         for field in ("rovers_reached_final_goal", "rover_collisions", "radio_lost"):
             assert re.fullmatch(r"\d+", page.inner_text(f"#simstats td[data-field={field}]")), field
         shot(page, "live_view_run_ended")
-        archived = sorted(p.name for p in (out / "lander_archive" / "rover1").glob("*.png"))
-        assert archived and all(name.startswith("goal1_") for name in archived), archived
+        index = [json.loads(line) for line in (out / "lander_archive" / "index.jsonl").read_text().splitlines()]
+        rover1 = [entry for entry in index if entry["rover"] == 1]
+        assert rover1 and all(entry["label"].startswith("goal1_") for entry in rover1), rover1
+        assert all((out / "lander_archive" / entry["file"]).is_file() for entry in rover1)
         assert not page.failed, page.failed
         assert not page.errors, page.errors
     finally:

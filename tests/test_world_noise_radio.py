@@ -11,6 +11,7 @@ from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.scenario import parse_scenario
 from world_service import navigation as nav
+from world_service.airtime import DELIVERIES_PER_S_PER_RADIO
 from world_service.sim import World
 
 KEYS = ks.Keyspace("unit")
@@ -76,9 +77,25 @@ def test_radio_latency_delays_delivery_by_the_configured_time():
 def test_radio_loss_drops_about_the_configured_share():
     world = _world(rovers=((0.0, 0.0, 0.0), (5.0, 0.0, 0.0)), communication={"loss_probability": 0.3})
     msg = codec.encode(m.OutboundComm(targets=[2], payload=b"x"))
-    delivered = sum(len(world.receive(KEYS.rover(1, ks.COMM_OUT), msg)) for _ in range(2000))
+    delivered = 0
+    for _ in range(2000):  # one a tick: within the sender's airtime
+        world.step()
+        delivered += len(world.receive(KEYS.rover(1, ks.COMM_OUT), msg))
     assert world.radio_lost + delivered == 2000
     assert 0.25 < world.radio_lost / 2000 < 0.35
+
+
+def test_a_sender_flooding_the_radio_gets_its_airtime_and_the_rest_is_counted():
+    world = _world(rovers=((0.0, 0.0, 0.0), (5.0, 0.0, 0.0)))
+    msg = codec.encode(m.OutboundComm(targets=[2], payload=b"x"))
+    delivered = sum(len(world.receive(KEYS.rover(1, ks.COMM_OUT), msg)) for _ in range(1000))
+    capacity = DELIVERIES_PER_S_PER_RADIO * 3  # two rovers and the lander: a second's worth at once
+    assert delivered == capacity and world.rejected.by_topic[ks.COMM_OUT] == 1000 - capacity
+    for _ in range(round(1.0 / world.dt)):  # a second later the airtime is back, for the lander's traffic too
+        world.step()
+    assert len(world.receive(KEYS.rover(1, ks.COMM_OUT), msg)) == 1
+    lander = codec.encode(m.OutboundComm(targets=[1, 2], payload=b"x"))
+    assert len(world.receive(KEYS.lander(ks.COMM_OUT), lander)) == 2
 
 
 def test_a_low_wall_does_not_hide_a_rover_from_the_lander_mast_but_a_high_one_does():

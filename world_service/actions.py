@@ -16,9 +16,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from schemas import messages as m
+from schemas.wire_limits import highest_action_id
 
 Out = tuple[str, m.Message]
 STALE = "stale"
+FUTURE = "out_of_sequence"
+REFUSED_KINDS = (STALE, FUTURE)
 
 
 @dataclass
@@ -41,11 +44,15 @@ class ActionLedger:
         self.resent = 0  # ends sent again because the agent had not heard them
         self.stale = 0  # actions below their rover's floor, refused
 
-    def known(self, rover: int, action_id: int) -> ActionRecord | None:
+    def known(self, rover: int, action_id: int, sim_time: float) -> ActionRecord | None:
         """The record of an action the world has already had, if ``action_id`` names one; a ``STALE`` record for
-        an id below the rover's floor (a late duplicate), which must never start."""
+        an id below the rover's floor (a late duplicate), which must never start; a ``FUTURE`` record for an id no
+        agent can have taken by ``sim_time`` (``schemas.wire_limits.highest_action_id``), which must never raise
+        the floor: it would refuse every action of the rover's own agent as stale."""
         if action_id == 0:
             return None
+        if action_id > highest_action_id(sim_time):
+            return ActionRecord(action_id, FUTURE)
         for record in (self.started.get(rover), self.refused.get(rover)):
             if record is not None and record.action_id == action_id:
                 self.repeats += 1
@@ -56,11 +63,11 @@ class ActionLedger:
         self.floor[rover] = action_id
         return None
 
-    def cancelled_unseen(self, rover: int, action_id: int) -> None:
+    def cancelled_unseen(self, rover: int, action_id: int, sim_time: float) -> None:
         """A cancel naming an action the world never had: its agent, told so, settles where it stood, so the action
         must never start if a copy of it comes after all (a link delivers late as well as loses): started then,
         the rover would drive where its agent does not watch, towards whatever it had cancelled for."""
-        if action_id:
+        if action_id and action_id <= highest_action_id(sim_time):
             self.floor[rover] = max(self.floor.get(rover, 0), action_id + 1)
 
     def start(self, rover: int, action_id: int, kind: str, tick: int) -> None:

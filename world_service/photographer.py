@@ -6,6 +6,7 @@ goes out, in real time and in lockstep, and what happens when the camera process
 
 from __future__ import annotations
 
+import json
 import logging
 import threading
 import time
@@ -24,6 +25,16 @@ CAMERA_START_TIMEOUT_S = 60.0
 """How long the clock waits for the camera process to start (about a second here; Numba compiles its loops on a
 first run without a cache, a few seconds)."""
 
+
+
+def save_photo(folder: Path, job: PhotoJob, photo: m.Photo) -> None:
+    """The world's copy of a photo. The file is named by the world (the rover and the simulated time it was taken):
+    the label came from the rover's agent, so it is data, kept in ``index.jsonl``, never part of a path."""
+    folder.mkdir(parents=True, exist_ok=True)
+    name = f"rover{job.rover_id}_t{job.stamp:09.2f}.png"
+    (folder / name).write_bytes(photo.png)
+    with open(folder / "index.jsonl", "a", encoding="utf-8") as index:
+        index.write(json.dumps({"rover": job.rover_id, "stamp": job.stamp, "label": job.label, "file": name}) + "\n")
 
 
 class Photographer:
@@ -101,9 +112,7 @@ class Photographer:
     def _publish(self, job: PhotoJob, photo: m.Photo) -> None:
         self.publish(self.world.keys.rover(job.rover_id, ks.PHOTO), photo)
         if self.photo_dir is not None:
-            self.photo_dir.mkdir(parents=True, exist_ok=True)
-            name = f"rover{job.rover_id}_t{job.stamp:09.2f}{'_' + job.label if job.label else ''}.png"
-            (self.photo_dir / name).write_bytes(photo.png)
+            save_photo(self.photo_dir, job, photo)
 
     def close(self) -> None:
         """Publish the photos still on their way, then stop the camera process."""

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import logging
 import uuid
-from collections import Counter
 from typing import ClassVar
 
 import numpy as np
 
+from bus.rejections import Rejections
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -22,6 +22,7 @@ from schemas.scenario import Scenario
 from world_service import navigation as nav
 from world_service import statistics as stats
 from world_service.actions import ActionLedger
+from world_service.airtime import Airtime
 from world_service.clock_hold import ClockHold
 from world_service.completion import FINISHED_STATES, Completion, relay_wait_s
 from world_service.energy import Energy
@@ -42,7 +43,6 @@ CLOCK_HZ = 5.0
 """How often the clock is published in real time. Agents learn the time from every sample's stamp; the clock
 drives their own timers, the shortest of which is a second, and tells them the world is there. At the tick rate
 (20 Hz) it was 40% of what every agent received. In lockstep it goes out on every tick that waits for an ack."""
-REJECTION_LOGS = 20
 ACTION_RESEND_S = 1.0
 """How often the world re-sends the end of a rover's last action until its agent's status says it has heard it."""
 
@@ -96,7 +96,7 @@ class World(ActionInputs, RadioLink):
         self.rover_collisions = 0
         self.camera_free_at: dict[int, int] = {}  # rover -> first tick its camera may take another photo
         self.obstacle_collisions = 0
-        self.rejected: Counter[str] = Counter()
+        self.rejected = Rejections(log)
         self.radio_dropped = 0
         self.radio_lost = 0
         self.photo_jobs: list[PhotoJob] = []
@@ -108,6 +108,7 @@ class World(ActionInputs, RadioLink):
         self.hold = ClockHold()  # the ground's pause: the service holds the clock
         self.run_id = uuid.uuid4().hex[:12]  # not the seed's: two runs of one seed are still two runs
         self.graph = self._build_graph()
+        self.airtime = Airtime(len(self.bodies) + 1, self.dt)
         self.energy = Energy(scenario, self.terrain, self.scene, keyspace, self.dt, list(self.bodies),
                              self.perception_period, self._period(p.power.publish_frequency)) if scenario.sun else None
 
@@ -144,13 +145,8 @@ class World(ActionInputs, RadioLink):
             return []
 
     def count_rejected(self, key: str, exc: Exception) -> None:
-        """Counted per topic (not per key: forged rover ids would grow the table without end), and logged at
-        most ``REJECTION_LOGS`` times a topic, then once every thousandth: a flood must not flood the log too."""
         topic = key.rsplit("/", 1)[-1] if key.startswith(self.keys.prefix + "/") else "<other world>"
-        self.rejected[topic] += 1
-        n = self.rejected[topic]
-        if n <= REJECTION_LOGS or n % 1000 == 0:
-            log.warning("rejected sample on %s: %s (%d on %s so far)", key, exc, n, topic)
+        self.rejected.count(topic, exc, key)
 
     def render(self, job: PhotoJob) -> m.Photo:
         """The photo rendered here (tests, the loopback); the service renders in a ``photos.CameraProcess``."""
@@ -330,7 +326,7 @@ class World(ActionInputs, RadioLink):
         rovers = [self._truth(b) for b in self.bodies.values()]
         self.stalled = frozenset(r.id for r in rovers if r.stalled)
         counters = m.WorldCounters(rover_collisions=self.rover_collisions, obstacle_collisions=self.obstacle_collisions,
-                                   rejected_messages=sum(self.rejected.values()), radio_dropped=self.radio_dropped,
+                                   rejected_messages=self.rejected.total, radio_dropped=self.radio_dropped,
                                    radio_lost=self.radio_lost, dropped_messages=self.dropped_messages,
                                    agent_rejected=self.lander_rejected + sum(s.rejected for s in self.status.values()),
                                    **(self.energy.counters() if self.energy is not None else {}))

@@ -15,11 +15,11 @@ from __future__ import annotations
 import logging
 import math
 import uuid
-from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from bus.rejections import Rejections
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -139,7 +139,7 @@ class TwinWorld:
         self.alive = dict.fromkeys(self.bodies, True)
         self.partners: dict[int, list[int]] = {}  # node (0 the lander) -> ids its radio hears
         self.graph = radio_graph([ks.LANDER_ID, *self.bodies], [])
-        self.rejected: Counter[str] = Counter()
+        self.rejected = Rejections(log)
         self.completion = Completion(relay_wait_s(scenario.rover_params))
         self.time_scale, self.lockstep = 1.0, False
         self.photo_jobs: list = []  # no camera: the drivers take the photos
@@ -163,8 +163,7 @@ class TwinWorld:
         try:
             self._receive(key, payload)
         except (codec.DecodeError, ValueError) as exc:
-            self.rejected[key] += 1
-            log.warning("rejected sample on %s: %s", key, exc)
+            self.rejected.count(key.rsplit("/", 1)[-1], exc, key)
         return []
 
     def _receive(self, key: str, payload: bytes) -> None:
@@ -227,7 +226,7 @@ class TwinWorld:
     def world_state(self) -> m.WorldState:
         rovers = [rover_truth(r, self.status[rid], self._goal_distance(r), self.alive[rid])
                   for rid, r in self.bodies.items()]
-        counters = m.WorldCounters(rejected_messages=sum(self.rejected.values()))
+        counters = m.WorldCounters(rejected_messages=self.rejected.total)
         return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links(),
                             relays=self.graph.relays(), counters=counters, completed_at=self.completed_at)
 

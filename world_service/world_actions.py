@@ -15,16 +15,18 @@ import numpy as np
 from schemas import keyspace as ks
 from schemas import messages as m
 from world_service import navigation as nav
-from world_service.actions import STALE, ActionRecord
+from world_service.actions import REFUSED_KINDS, ActionRecord
 from world_service.photos import PhotoJob
 from world_service.scene import in_view
 
 Out = tuple[str, m.Message]
+ACTION_ID_PROBLEMS = {"stale": "older than the rover's latest action",
+                      "out_of_sequence": "beyond any id its agent can have taken by now"}
 
 
 class ActionInputs:
     def _on_move(self, rid: int, msg: m.MoveAction) -> list[Out]:
-        if (record := self.actions.known(rid, msg.action_id)) is not None:
+        if (record := self.actions.known(rid, msg.action_id, self.sim_time)) is not None:
             return self._again(rid, record, "move")
         body = self.bodies[rid]
         reason = self._power_problem(rid) or self._move_problem(body, msg)
@@ -36,9 +38,12 @@ class ActionInputs:
         return [self._nav_status(body, "move")]
 
     def _again(self, rid: int, record: ActionRecord, action: str) -> list[Out]:
-        """An action sent again (its agent heard nothing of it): how it stands, never a second start."""
-        if record.kind == STALE:
-            return [self._reject(rid, action, "stale", "older than the rover's latest action", record.action_id)]
+        """An action sent again (its agent heard nothing of it): how it stands, never a second start. One whose id
+        is stale or from the future is refused, and counted as any other rejected sample."""
+        if record.kind in REFUSED_KINDS:
+            detail = ACTION_ID_PROBLEMS[record.kind]
+            self.rejected.count(f"{action}_action", f"action id {record.action_id}: {detail}")
+            return [self._reject(rid, action, record.kind, detail, record.action_id)]
         if record.answer is not None:
             return list(record.answer)
         body = self.bodies[rid]
@@ -83,7 +88,7 @@ class ActionInputs:
         return bool(np.any(pitch > self.params.navigation.max_slope_deg))
 
     def _on_rotate(self, rid: int, msg: m.RotateAction) -> list[Out]:
-        if (record := self.actions.known(rid, msg.action_id)) is not None:
+        if (record := self.actions.known(rid, msg.action_id, self.sim_time)) is not None:
             return self._again(rid, record, "rotate")
         body = self.bodies[rid]
         if body.busy:
@@ -106,7 +111,7 @@ class ActionInputs:
         record = self.actions.started.get(rid)
         if msg.action_id and record is not None and record.action_id == msg.action_id and record.answer:
             return list(record.answer)
-        self.actions.cancelled_unseen(rid, msg.action_id)
+        self.actions.cancelled_unseen(rid, msg.action_id, self.sim_time)
         return [self._reject(rid, "cancel", "no_action", "nothing to cancel", msg.action_id)]
 
     def _on_speed(self, rid: int, msg: m.SpeedAction) -> list[Out]:
@@ -118,9 +123,9 @@ class ActionInputs:
 
     def _on_photo_action(self, rid: int, msg: m.PhotoAction) -> list[Out]:
         """Queue a photo of what the rover sees now; rendering is slow, so the service decides when."""
-        if (record := self.actions.known(rid, msg.action_id)) is not None:
+        if (record := self.actions.known(rid, msg.action_id, self.sim_time)) is not None:
             # taken already: the photo is on its way (or lost, and the agent gives up on it in time)
-            return self._again(rid, record, "photo") if record.kind == STALE else []
+            return self._again(rid, record, "photo") if record.kind in REFUSED_KINDS else []
         body = self.bodies[rid]
         if reason := self._power_problem(rid):
             return self._refuse(rid, "photo", msg.action_id, *reason)

@@ -23,12 +23,14 @@ class RadioLink:
             raise ValueError(f"only the lander may transmit on channel {msg.channel!r}")
         model = m.RADIO_CHANNEL_MODELS.get(msg.channel)
         inner = codec.decode(model, msg.payload) if model else None
+        if not self.airtime.take(sender, len(msg.targets), self.tick):
+            raise ValueError(f"{sender} is over its airtime ({len(msg.targets)} deliveries)")
         if self.energy is not None and not from_lander:
             self.energy.spend(sender, self.params.power.radio_transmit_j)
         out: list[Out] = []
         for target in msg.targets:
             if target != ks.LANDER_ID and target not in self.bodies:
-                self.rejected["radio target"] += 1
+                self.rejected.count("radio target", f"no rover {target} in the scenario")
                 continue
             if not self.graph.connected(sender, target):
                 self.radio_dropped += 1

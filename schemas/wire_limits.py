@@ -1,0 +1,92 @@
+"""The bounds of every field that travels between processes: what a receiver can hold, sum, index and show.
+
+A sample is untrusted even from a process holding a valid certificate (a rover may be buggy or taken over), so a
+well-formed value must still fit what the receiver does with it: an integer the codec can encode once summed over
+every rover, a label that can be logged and shown, bytes that fit in memory a thousand rovers over. A value out of
+these bounds fails the message model's validation, and the receiver counts it as any other rejected sample.
+
+Bounds are generous, not physical, as in ``schemas.scenario_limits``: each only rules out what no mission uses.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import Field
+
+from schemas.scenario_limits import COORDINATE_LIMIT_M, MAX_ROVERS
+
+COUNT_LIMIT = 2**31 - 1
+"""A counter a process reports (samples rejected, photos pending): summed over every rover and the lander, the total
+stays far inside the codec's int64, and a sender saturates here rather than fail to encode."""
+INDEX_LIMIT = 100_000
+"""Goal indices and goal counts: far beyond any mission plan, small enough to index and to print."""
+ACTION_ID_LIMIT = 2**63
+"""Action ids travel as int64."""
+ACTION_ID_STRIDE = 2**20
+"""Action ids are ``base * ACTION_ID_STRIDE + n``, ``base`` the simulated millisecond of the agent's first action of
+a life and ``n`` counting its actions from 1. So the world knows the highest id an agent can have taken by now, and
+refuses an id from the future (``highest_action_id``) instead of letting it lock the rover's own ids out as stale."""
+ACTION_ID_LEAD_S = 1.0
+"""How far ahead of the world's clock an action id may be based: an agent's clock comes from the world's samples and
+lags it; nothing legitimate leads it."""
+MAX_ID = MAX_ROVERS
+"""Rover ids are 1..MAX_ROVERS; 0 is the lander."""
+MAX_TARGETS = MAX_ROVERS + 1
+"""Ids one radio transmission, partner list or chain can name: every rover and the lander."""
+MAX_RAYS = 4096
+"""Hits in one perception scan: one per ray, and ``perception_granularity`` is at most 4096."""
+MAX_TEXT = 200
+"""A free-text field (a status detail, a refusal's reason): one log or table line."""
+MAX_LABEL = 64
+"""A photo label: a name to index and show, never a file name."""
+MAX_LABELS = 4096
+"""Labels in one PhotoAck."""
+MAX_IMAGE_SIDE = 4096
+"""Pixels along a photo's side: the camera's ``width`` and ``height`` are at most this."""
+MAX_PNG_BYTES = MAX_IMAGE_SIDE * MAX_IMAGE_SIDE * 3 + 2**20
+"""A photo of the largest camera, not compressed at all, and its PNG framing."""
+MAX_RADIO_PAYLOAD = MAX_PNG_BYTES + 2**16
+"""One radio transmission: a photo report is the largest thing a rover sends."""
+MAX_MAP_REPORT_CELLS = 20_000
+"""Cells in one MapReport: ``mapping.max_cells_per_report`` is at most this."""
+MAX_MAP_BYTES = 2**30
+"""One compressed LanderMap, and the cells it unpacks to (``lander_agent.mapping.from_message``)."""
+MAX_CELL_M = 100.0
+"""A map cell's side: ``mapping.cell_m`` is at most this."""
+MAX_ACKED_SEQS = 4096
+"""Sequence numbers in one MapAck."""
+SECONDS_LIMIT = 1e9
+"""Simulated seconds anywhere (stamps, seek positions, wake times): 31 years."""
+ANGLE_LIMIT_DEG = 3600.0
+"""A rotation or bearing in degrees: ten turns, more than any behaviour asks for in one action."""
+DISTANCE_LIMIT_M = 4 * COORDINATE_LIMIT_M
+"""A distance or relative offset: across the whole frame and back."""
+
+_NO_CONTROL = r"^[^\x00-\x1f\x7f]*$"
+"""Printable text: no newline, escape or other control character that would forge a log line or a table row."""
+
+Count = Annotated[int, Field(ge=0, le=COUNT_LIMIT)]
+Tally = Annotated[int, Field(ge=0, lt=2**63)]
+"""A sum of counts (the world's counters over every rover): what int64 holds."""
+GoalIndex = Annotated[int, Field(ge=0, lt=INDEX_LIMIT)]
+RoverId = Annotated[int, Field(ge=0, le=MAX_ID)]
+ActionId = Annotated[int, Field(ge=0, lt=ACTION_ID_LIMIT)]
+Tick = Annotated[int, Field(ge=0, lt=2**63)]
+Seconds = Annotated[float, Field(ge=-SECONDS_LIMIT, le=SECONDS_LIMIT)]
+Degrees = Annotated[float, Field(ge=-ANGLE_LIMIT_DEG, le=ANGLE_LIMIT_DEG)]
+Metres = Annotated[float, Field(ge=-DISTANCE_LIMIT_M, le=DISTANCE_LIMIT_M)]
+Text = Annotated[str, Field(max_length=MAX_TEXT, pattern=_NO_CONTROL)]
+Label = Annotated[str, Field(max_length=MAX_LABEL, pattern=_NO_CONTROL)]
+RoverIds = Annotated[list[RoverId], Field(max_length=MAX_TARGETS)]
+
+
+def saturate(count: int) -> int:
+    """A sender's counter as it may travel: at most ``COUNT_LIMIT``."""
+    return min(count, COUNT_LIMIT)
+
+
+def highest_action_id(sim_time: float) -> int:
+    """The highest action id an agent can have taken by ``sim_time``: its base is at most the current millisecond
+    (plus ``ACTION_ID_LEAD_S``), and no agent takes ``ACTION_ID_STRIDE`` actions in one millisecond."""
+    return min(ACTION_ID_LIMIT - 1, (int((sim_time + ACTION_ID_LEAD_S) * 1000) + 1) * ACTION_ID_STRIDE)
