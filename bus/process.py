@@ -13,11 +13,13 @@ import gc
 import importlib
 import logging
 import math
+import os
 import signal
 import sys
 import threading
 import traceback
 from collections.abc import Iterator
+from pathlib import Path
 
 from bus.errors import RouterUnreachable, UsageError
 
@@ -128,3 +130,10 @@ def main_for(name: str, module_name: str) -> None:
     args = parser.parse_args()
     setup_logging(args.verbose)
     sys.exit(run_guarded(module.run_from_args, args))
+
+
+def state_folder(world: str) -> Path:
+    """Where a process started alone keeps what a restart resumes from, one folder per world:
+    ``$XDG_STATE_HOME/lunarsim/<world>`` (``~/.local/state`` without it)."""
+    home = Path(os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state")
+    return home / "lunarsim" / world

@@ -10,6 +10,8 @@ from collections.abc import Callable
 
 WAIT_NOTICE_S = 3.0
 """Silence before the first notice: the world normally answers within a clock period."""
+JOINED_LATE_S = 2.0
+"""A process whose first clock of a run is later than this joined the run under way: a restart."""
 LOST_AFTER_S = 5.0
 """The world publishes its clock at least twice a second, running or not: this long without it is an outage."""
 

@@ -17,8 +17,8 @@ from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from bus.lifeline import die_with_parent
 from bus.priority import Priority, lower
-from deploy.lifeline import die_with_parent
 
 if TYPE_CHECKING:
     from deploy.warm_start import WarmProcess

@@ -28,8 +28,8 @@ from pathlib import Path
 
 import setproctitle
 
+from bus.lifeline import die_with_parent
 from bus.priority import Priority, lower
-from deploy.lifeline import die_with_parent
 
 _context: ForkServerContext | None = None
 

@@ -14,6 +14,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--archive", type=Path, metavar="DIR", help="archive received photos here (PNG + index)")
     parser.add_argument("--map-out", type=Path, metavar="DIR", help="write the traverse map here (map.npz, map.png)")
+    state = parser.add_mutually_exclusive_group()
+    state.add_argument("--state", type=Path, metavar="DIR",
+                       help="keep the lander's plan and map here every simulated second, and resume them when started "
+                            "again in the same run (default: $XDG_STATE_HOME/lunarsim/<world>/, ~/.local/state "
+                            "without it)")
+    state.add_argument("--no-state", action="store_true", help="keep no state: a restart begins its plan and map again")
     add_zenoh_arguments(parser, agent=True)
 
 
@@ -21,12 +27,14 @@ def run_from_args(args: argparse.Namespace) -> int:
     from bus.bus import Bus
     from lander_agent.archive import PhotoArchive
     from lander_agent.mission import MissionPlan
+    from lander_agent.resume import FILE_NAME, LanderMemory
     from lander_agent.runtime import Lander, run
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario
 
     plan = MissionPlan(load_scenario(args.scenario))
+    memory = LanderMemory(None if args.no_state else (args.state or process.state_folder(args.world)) / FILE_NAME)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="lander")
     with Bus(session) as bus, process.stop_on_signals() as stop:
-        run(Lander(plan, Keyspace(args.world), PhotoArchive(args.archive), args.map_out), bus, stop)
+        run(Lander(plan, Keyspace(args.world), PhotoArchive(args.archive), args.map_out, memory), bus, stop)
     return 0

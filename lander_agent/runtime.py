@@ -14,6 +14,7 @@ from bus.world_watch import ClockWatch
 from lander_agent.archive import PhotoArchive
 from lander_agent.mapping import TraverseMap
 from lander_agent.mission import MissionPlan
+from lander_agent.resume import LanderMemory
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -30,7 +31,7 @@ MAP_SAVE_PERIOD_S = 30.0
 
 class Lander:
     def __init__(self, plan: MissionPlan, keys: ks.Keyspace, archive: PhotoArchive | None = None,
-                 map_folder: Path | None = None) -> None:
+                 map_folder: Path | None = None, memory: LanderMemory | None = None) -> None:
         self.plan = plan
         self.keys = keys
         self.archive = archive or PhotoArchive(None)
@@ -42,6 +43,9 @@ class Lander:
         self.partners: list[int] = []
         self.next_send = 0.0
         self.rejected = Rejections(log, "lander")
+        self.memory = memory or LanderMemory(None)
+        self.run: str | None = None  # the world's run, once heard
+        self.map_lost = False  # joined this run under way without a saved state: the map began again
 
     def _transmit(self, targets: list[int], message: m.Message, channel: str) -> tuple[str, m.Message]:
         out = m.OutboundComm(targets=targets, payload=codec.encode(message), channel=channel)
@@ -50,11 +54,14 @@ class Lander:
     def broadcast(self, now: float) -> list[tuple[str, m.Message]]:
         out = [self._transmit([rid], cal, "calibration") for rid, cal in self.plan.calibration.items()]
         out += [self._transmit(rids, d, "mission_direction") for d, rids in self.plan.directions().items()]
-        status = self.plan.status(now, self.partners).model_copy(update={"rejected": self.rejected.reported})
+        status = self.plan.status(now, self.partners).model_copy(update={"rejected": self.rejected.reported,
+                                                                           "map_lost": self.map_lost})
         out.append((self.keys.lander(ks.STATUS), status))
         return out
 
     def on_clock(self, clock: m.Clock) -> list[tuple[str, m.Message]]:
+        if clock.run != self.run:
+            self._join(clock)
         if not clock.running:  # the world waiting for agents, or done: nothing moves, nothing to answer
             return self.final_map() if self.now > 0 else []
         out = []
@@ -68,10 +75,18 @@ class Lander:
         if self.map_folder is not None and clock.sim_time >= self.next_map_save:
             self.next_map_save = clock.sim_time + MAP_SAVE_PERIOD_S
             self.map.save(self.map_folder)
+        self.memory.keep(self.run, clock.sim_time, self.plan, self.map, self.archive)
         if clock.lockstep:  # its timers: the next broadcast and the next map
             wake = min(self.next_send, self.next_map)
             out = lockstep_answer(out, clock, ks.LANDER_ID, self.keys.lander(ks.ACK), wake)
         return out
+
+    def _join(self, clock: m.Clock) -> None:
+        """The first clock of a run: the plan and map a killed lander saved of it, if there are any."""
+        first, self.run = self.run is None, clock.run
+        self.plan, traverse, self.map_lost = self.memory.join(clock, self.plan, self.archive, first)
+        if traverse is not None:
+            self.map = traverse
 
     def final_map(self) -> list[tuple[str, m.Message]]:
         """Once, when the mission is over (the world stopped its clock, or the lander is stopped): the map as

@@ -64,6 +64,7 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
         self.ids_heard = False  # the world's answers name this agent's action ids (a driver's may not)
         self.queries = 0  # actions sent again after silence
         self.lost = False  # restarted mid-mission with no saved state of this run: it does not know where it is
+        self.lost_why = ""
         self.contact = ContactSearch(rover_id, dispatch)  # what it does while the lander is silent
         self.fix = relocalise.LanderFix()  # going by the lander to fix its estimate first (``rover_agent.relocalise``)
         self.pose = None  # the estimate's mean (``rover_agent.localising``), once calibrated
@@ -378,11 +379,11 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
         if self.powered_off:
             detail = "off: battery empty" if self.battery and self.battery.empty else "off: too cold"
         if self.lost:
-            detail = "restarted without a saved pose: position unknown"
+            detail = f"{self.lost_why}: position unknown"
         elif self.contact.seeking:
             detail = self.contact.detail
         elif self.fix.active:
             detail = relocalise.DETAIL
         return self.keys.rover(self.id, ks.STATUS), m.RoverStatus(
             stamp=self.now, state=self.state, goal_index=index, detail=detail, photos_pending=len(self.photo_outbox),
-            action_id=self.heard_action, rejected=self.rejected.reported)
+            action_id=self.heard_action, rejected=self.rejected.reported, lost=self.lost)

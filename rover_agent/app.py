@@ -99,13 +99,10 @@ def _dispatch(params: Path | None, rover_ids: list[int]) -> dict[int, m.Calibrat
 def _state_file(args: argparse.Namespace, rover_id: int) -> Path | None:
     """Where the agent keeps its state: ``--state``, or by default a file per world and rover (a state saved in
     another run of the world is not resumed: it names its run)."""
-    from rover_agent.saved_state import default_state_file
-
     if args.no_state:
         return None
     if args.state is None:
-        home = Path(os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state")
-        path = default_state_file(home, args.world, rover_id)
+        path = process.state_folder(args.world) / f"rover{rover_id}.json"
     elif args.ids is None:
         path = args.state
     else:

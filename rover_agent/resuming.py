@@ -9,20 +9,22 @@ from __future__ import annotations
 
 import logging
 
+from bus.world_watch import JOINED_LATE_S
 from rover_agent.in_flight import ActionIds, InFlight
 from rover_agent.saved_state import STATE_WRITER, SavedState
 from schemas import messages as m
 
 log = logging.getLogger("lunarsim.rover")
 
-JOINED_LATE_S = 2.0
-"""An agent whose first clock is later than this joined a mission already under way: a restart."""
 
 
 class Resuming:
     def _join(self, clock: m.Clock) -> None:
-        """The first clock of a run: resume the saved state if it is this run's; a restart without one is lost."""
-        first, self.run = self.run is None, clock.run
+        """The first clock of a run: resume the saved state if it is this run's; a restart without one is lost, and
+        so is an agent under which the world began a new run (a world restarted without its saved state: it put
+        every rover back at its start, and what the agent knew of its place belongs to the run that ended)."""
+        earlier, self.run = self.run, clock.run
+        first = earlier is None
         self.contact.heard_at = clock.sim_time  # silence is counted from the first clock of a run
         saved, self.saved = self.saved, None
         if saved is not None and saved.run == clock.run:
@@ -32,12 +34,21 @@ class Resuming:
                 self.in_flight = InFlight.resumed(saved.flight, self.now)
             log.info("rover %d: resumed at %s from %s", self.id, self.pose, self.state_file)
         elif first and clock.sim_time > JOINED_LATE_S:
-            self.lost = True
+            self._lose("restarted without a saved pose of this run")
             log.error("rover %d: joined a mission %.0f s under way with no saved pose of this run (%s): it does not "
                       "know where it is, so it will not drive; start it with the --state it ran with", self.id,
                       clock.sim_time, self.state_file or "no --state")
+        elif not first and self.pose is not None:
+            self._lose("the world began a new run under it")
+            log.error("rover %d: the world began a new run (%s) while this agent ran in %s: it does not know where it "
+                      "is, so it will not drive; restart the world with the state it saved to resume", self.id,
+                      clock.run, earlier)
         elif saved is not None:
             log.info("rover %d: the saved state in %s is from another run; starting afresh", self.id, self.state_file)
+
+    def _lose(self, why: str) -> None:
+        self.lost, self.lost_why = True, why
+        self.in_flight = None
 
     def _save(self) -> None:
         """Pose, action in flight and next id, written in the background: what a restart resumes from."""

@@ -99,11 +99,6 @@ def load_state(path: Path) -> SavedState | None:
         return None
 
 
-def default_state_file(state_home: Path, world: str, rover_id: int) -> Path:
-    """Where an agent started alone keeps its state unless told otherwise: one file per world and rover."""
-    return state_home / "lunarsim" / world / f"rover{rover_id}.json"
-
-
 class StateWriter:
     """Saves states on a thread of its own, the latest state per file, so an agent never waits for storage.
 

@@ -250,6 +250,8 @@ class RoverStatus(Message):
     photos_pending: Count = Field(0, description="photos taken but not yet acknowledged by the lander")
     action_id: ActionId = Field(0, description="the last action whose end the agent has heard: the world "
                            "re-sends that end until it shows here")
+    lost: bool = Field(False, description="the agent does not know where it is (restarted without a saved pose of "
+                       "this run, or the world began a new run under it), so it does not drive")
     rejected: Count = Field(0, description="samples the agent has rejected since it started (malformed, "
                           "unknown topic)")
 
@@ -262,6 +264,8 @@ class LanderStatus(Message):
     connected: RoverIds = Field(default_factory=list)
     relay_chain: RoverIds = Field(default_factory=list)
     rejected: Count = Field(0, description="samples the lander has rejected since it started")
+    map_lost: bool = Field(False, description="the lander joined this run under way without a saved state of it: "
+                           "its plan and traverse map began again")
 
 
 class LanderMap(Message):

@@ -50,6 +50,10 @@ class WorldCounters(Message):
                                 "last said")
     dropped_messages: Tally = Field(0, description="samples the world dropped unread: over its inbox's bound for "
                                   "their key (a flood)")
+    world_resumes: Tally = Field(0, description="times the world service was restarted and resumed this run from "
+                                 "its saved state (``world_service.resume``)")
+    rovers_lost: Tally = Field(0, description="rovers whose agents say they do not know where they are")
+    lander_map_lost: bool = Field(False, description="the lander joined the run under way without its saved state")
 
 
 class WorldState(Message):
@@ -94,6 +98,12 @@ class MissionReport(Message):
     rejected_messages: int = 0
     agent_rejected_messages: int = Field(0, description="samples the agents and the lander rejected")
     dropped_messages: int = Field(0, description="samples the world dropped unread (over its inbox's bound)")
+    world_resumes: int = Field(0, description="times the world was restarted mid-mission and resumed this run from "
+                               "its saved state; rovers may have lost up to a second of motion each time")
+    rovers_lost: int = Field(0, description="rovers whose agents said at the end that they did not know where they "
+                             "were (restarted without their state, or the world began a new run under them)")
+    lander_map_lost: bool = Field(False, description="the lander was restarted mid-mission without its saved state: "
+                                  "its plan and traverse map began again, and the map figures miss what came before")
     lander_connection_losses: int = Field(0, description="times a rover lost its route to the lander (6.3.3)")
     disconnected_time_s: float = Field(0.0, description="rover-seconds without a route to the lander")
     worst_rover_connected_fraction: float = Field(1.0, description="share of the mission the least connected "

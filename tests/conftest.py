@@ -10,6 +10,15 @@ from procs import free_port, module, stop
 from deploy.children import wait_for_port
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _own_state_home(tmp_path_factory):
+    """Processes started alone keep what a restart resumes from under ``$XDG_STATE_HOME``: the tests' own, so no
+    test resumes a state another run of the suite left, and none is left in the user's home."""
+    import os
+
+    os.environ["XDG_STATE_HOME"] = str(tmp_path_factory.mktemp("state-home"))
+
+
 @pytest.fixture
 def router():
     """Endpoint of a fresh router (``python -m deploy.router``), stopped after the test."""

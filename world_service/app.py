@@ -4,12 +4,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import zenoh
 
 from bus import process
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_router, open_session
+
+if TYPE_CHECKING:
+    from schemas.keyspace import Keyspace
+    from schemas.scenario import Scenario
+    from world_service.sim import World
+
+log = logging.getLogger("lunarsim.world")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,6 +45,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fault-loss", type=float, default=0.0, metavar="P",
                         help="fault injection: drop this share (0-1) of the samples the world publishes, seeded by "
                              "the scenario's seed, as a bad link would")
+    state = parser.add_mutually_exclusive_group()
+    state.add_argument("--state", type=Path, metavar="FILE",
+                       help="keep the world's state here every simulated second, and resume this run from it when "
+                            "started again (default: $XDG_STATE_HOME/lunarsim/<world>/world.state, ~/.local/state "
+                            "without it)")
+    state.add_argument("--no-state", action="store_true", help="keep no state: a restart begins a new run")
+    parser.add_argument("--fresh", action="store_true", help="begin a new run even if a saved state could be resumed")
     add_zenoh_arguments(parser, listen=True, agent=True)
     parser.epilog = ("--listen makes the world the Zenoh router of the run: agents connect straight to it, one "
                      "hop less each way than through a router process (what 'lunarsim run' does).")
@@ -46,7 +62,6 @@ def run_from_args(args: argparse.Namespace) -> int:
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario
     from world_service import service
-    from world_service.sim import World
 
     if args.time_scale < 0:
         raise process.UsageError(f"--time-scale must be 0 or more, got {args.time_scale}")
@@ -57,8 +72,9 @@ def run_from_args(args: argparse.Namespace) -> int:
         from world_service import twin_service
 
         twin_service.check_settings(args.lockstep, args.time_scale, args.photos)
+    state_file = None if args.no_state or args.twin else args.state or process.state_folder(args.world) / "world.state"
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
-                                     lockstep=args.lockstep, photo_dir=args.photos)
+                                     lockstep=args.lockstep, photo_dir=args.photos, state_file=state_file)
     session = _open(args)  # before the terrain is built: agents may connect meanwhile
     bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen,  # a router puts undeclared
               loss=args.fault_loss, loss_seed=scenario.seed)
@@ -68,7 +84,7 @@ def run_from_args(args: argparse.Namespace) -> int:
 
             world, declare_io = TwinWorld(scenario, Keyspace(args.world)), twin_service.declare_io
         else:
-            world, declare_io = World(scenario, Keyspace(args.world)), service.declare_io
+            world, declare_io = _world(scenario, Keyspace(args.world), state_file, args.fresh), service.declare_io
         declare_io(bus, world.keys)
         report = service.run(world, bus, settings, stop)
         if args.report:
@@ -76,6 +92,19 @@ def run_from_args(args: argparse.Namespace) -> int:
         if not args.exit_when_done:
             service.linger(world, bus, report, stop)
     return 0
+
+
+def _world(scenario: Scenario, keys: Keyspace, state_file: Path | None, fresh: bool) -> World:
+    """This run resumed from the state a killed world saved, or a new run."""
+    from world_service import resume
+    from world_service.sim import World
+
+    world = resume.load(state_file, scenario) if state_file is not None and not fresh else None
+    if world is not None and world.keys == keys:
+        log.warning("resumed run %s at %.1f s from %s (--fresh begins a new run)", world.run_id, world.sim_time,
+                    state_file)
+        return world
+    return World(scenario, keys)
 
 
 def _open(args: argparse.Namespace) -> zenoh.Session:

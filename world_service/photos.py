@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
+from bus.lifeline import exit_when_orphaned
 from bus.priority import Priority, lower
 from schemas import messages as m
 from schemas.params import RoverParams
@@ -74,7 +76,7 @@ class CameraProcess:
 
     def __init__(self, scenario: Scenario, priority: Priority = "equal") -> None:
         self.pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
-                                        initializer=_start, initargs=(scenario, priority))
+                                        initializer=_start, initargs=(scenario, priority, os.getpid()))
         self.started = self.pool.submit(int)  # start the process now, not at the first photo
 
     def submit(self, job: PhotoJob) -> Future:
@@ -87,8 +89,9 @@ class CameraProcess:
 _ground: tuple[camera.HeightField, Scene, RoverParams] | None = None
 
 
-def _start(scenario: Scenario, priority: Priority) -> None:
+def _start(scenario: Scenario, priority: Priority, world_pid: int) -> None:
     global _ground
+    exit_when_orphaned(world_pid)  # a world killed with SIGKILL cannot shut its pool down
     lower(priority)
     from world_service import height_grid  # Numba: loaded in the camera process, not in the world's
 

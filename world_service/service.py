@@ -23,7 +23,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bus import priority
+from bus import priority, snapshot
 from bus.bus import Bus, Received
 from bus.process import freeze_start_up_heap
 from schemas import codec
@@ -51,6 +51,7 @@ class ClockSettings:
     lockstep: bool = False
     ack_timeout: float = 30.0
     photo_dir: Path | None = None
+    state_file: Path | None = None
 
 
 @dataclass
@@ -173,11 +174,13 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
         log.warning("starting without %d agent(s): %s", len(missing), ", ".join(missing))
 
 
-def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents) -> None:
+def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents, state_file: Path | None) -> None:
     """One tick: due photos, the world's samples, then the clock, naming in lockstep whose ack it waits for."""
     photographer.take(world.tick + 1)
     world.dropped_messages = sum(bus.inbox.dropped.values())
     out = world.step()
+    if state_file is not None and world.RENDERS_PHOTOS and world.tick % world.save_period == 0:
+        snapshot.save(world, state_file)
     clock_key = world.keys.clock
     clock = next(message for key, message in out if key == clock_key)
     for key, message in out:
@@ -224,6 +227,8 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
     finally:
         photographer.close()
+    if settings.state_file is not None:  # over, or stopped on purpose: a state is kept only by a world killed
+        snapshot.discard(settings.state_file)
     bus.publish(world.keys.state, world.observed_state())  # the final state, then the report computed from it
     report = world.report()
     bus.publish(world.keys.stats, m.WorldStats(stamp=world.sim_time, report=report, final=True))
@@ -241,7 +246,7 @@ def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threadi
             _hold(world, bus, agents, stop)
             next_tick = time.monotonic()
             continue
-        _step(world, bus, photographer, agents)
+        _step(world, bus, photographer, agents, settings.state_file)
         if _finished(world, settings):
             return
         next_tick += period
@@ -260,7 +265,7 @@ def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threadi
             while world.hold.held() and not stop.is_set():
                 _hold(world, bus, agents, stop)
             t0 = time.perf_counter()
-            _step(world, bus, photographer, agents)
+            _step(world, bus, photographer, agents, settings.state_file)
             tally.stepping += time.perf_counter() - t0
             if _finished(world, settings):
                 return

@@ -44,6 +44,9 @@ CLOCK_HZ = 5.0
 drives their own timers, the shortest of which is a second, and tells them the world is there. At the tick rate
 (20 Hz) it was 40% of what every agent received. In lockstep it goes out on every tick that waits for an ack."""
 ACTION_RESEND_S = 1.0
+SAVE_PERIOD_S = 1.0
+"""Simulated seconds between two saves of the world's state (``world_service.resume``): a rover walks at most 3.5 m
+in that time, which a restart may cost it."""
 """How often the world re-sends the end of a rover's last action until its agent's status says it has heard it."""
 
 
@@ -74,6 +77,7 @@ class World(ActionInputs, RadioLink):
         self.status_period = self._period(p.navigation.publish_frequency)
         self.partners_period = self._period(p.communication.partners_frequency)
         self.stats_period = self._period(1.0)
+        self.save_period = self._period(1.0 / SAVE_PERIOD_S)
         self.clock_period = self._period(CLOCK_HZ)
         self.activation_range = scenario.terrain_spec().chunk_activation_range_m
         self.tick = 0
@@ -89,7 +93,8 @@ class World(ActionInputs, RadioLink):
         self.actions = ActionLedger(self._period(ACTION_RESEND_S))
         self.progress = ProgressWatch(p.watchdog.stall_after_s)
         self.stalled: frozenset[int] = frozenset()
-        self.lander_rejected = 0
+        self.lander_status: m.LanderStatus | None = None
+        self.resumes = 0  # restarts of the world service that resumed this run (``world_service.resume``)
         self._refused_on: dict[int, int] = {}  # rover -> the tick its last refusal was answered on
         self.refusals_held = 0
         self.dropped_messages = 0  # counted by the service's inbox, reported here
@@ -130,7 +135,7 @@ class World(ActionInputs, RadioLink):
             if key == self.keys.lander(ks.COMM_OUT):
                 return self._radio(ks.LANDER_ID, codec.decode(m.OutboundComm, payload), from_lander=True)
             if key == self.keys.lander(ks.STATUS):
-                self.lander_rejected = codec.decode(m.LanderStatus, payload).rejected
+                self.lander_status = codec.decode(m.LanderStatus, payload)
                 return []
             rover_id, topic = self.keys.parse_rover_key(key)
             if rover_id not in self.bodies:
@@ -166,6 +171,14 @@ class World(ActionInputs, RadioLink):
         self.alive[rover_id] = alive
         if not alive:
             self.bodies[rover_id].cancel()
+
+    def resumed(self) -> None:
+        """Loaded from a saved state by a restarted world service: every agent counts as gone until its liveliness
+        token shows again (an agent that died meanwhile sent no word of it); the service waits for the tokens
+        before the clock runs, as at the start."""
+        self.resumes += 1
+        self.alive = dict.fromkeys(self.bodies, False)
+        self._positions = None
 
     def _activate_terrain(self) -> None:
         """Chunk activation (report 10.7.1): keep terrain tiles near rovers loaded, let far ones go."""
@@ -324,11 +337,14 @@ class World(ActionInputs, RadioLink):
 
     def world_state(self) -> m.WorldState:
         rovers = [self._truth(b) for b in self.bodies.values()]
+        lander = (self.lander_status,) if self.lander_status is not None else ()
         self.stalled = frozenset(r.id for r in rovers if r.stalled)
         counters = m.WorldCounters(rover_collisions=self.rover_collisions, obstacle_collisions=self.obstacle_collisions,
                                    rejected_messages=self.rejected.total, radio_dropped=self.radio_dropped,
                                    radio_lost=self.radio_lost, dropped_messages=self.dropped_messages,
-                                   agent_rejected=self.lander_rejected + sum(s.rejected for s in self.status.values()),
+                                   agent_rejected=sum(s.rejected for s in (*self.status.values(), *lander)),
+                                   world_resumes=self.resumes, rovers_lost=sum(s.lost for s in self.status.values()),
+                                   lander_map_lost=any(s.map_lost for s in lander),
                                    **(self.energy.counters() if self.energy is not None else {}))
         return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links(),
                             relays=self.graph.relays(), counters=counters, completed_at=self.completed_at)

@@ -135,7 +135,9 @@ def build_report(
         rejected_messages=rejected_messages,
         radio_dropped=radio_dropped,
         radio_lost=radio_lost,
-        **({"agent_rejected_messages": counters.agent_rejected, "dropped_messages": counters.dropped_messages}
+        **({"agent_rejected_messages": counters.agent_rejected, "dropped_messages": counters.dropped_messages,
+            "world_resumes": counters.world_resumes, "rovers_lost": counters.rovers_lost,
+            "lander_map_lost": counters.lander_map_lost}
            if counters is not None else {}),
         **(links.as_fields() if links else {}),
         **(power or {}),
