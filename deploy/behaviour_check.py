@@ -4,17 +4,88 @@ Two parts. Scripted views, no world: every decision is one of the allowed kinds;
 and within the perception radius; the same inputs give the same decisions; a goal behind is turned
 towards; a goal in view is finished. Then a short mission in one process (no router) on a scenario,
 reporting what a run reports. Problems are listed one per line; the exit status is 1 if there is any.
+
+A ``package.module:Class`` is found as ``python -m`` finds modules: from the folder the command runs in
+first (``lunarsim check-behaviour my_rovers.slow:Slow`` in a project's folder), then the installed packages.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
 from bus import process
 
 DEFAULT_SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "crater_observation.yaml"
+PROBE_TIMEOUT_S = 60.0
+"""How long importing a behaviour's module may take when it is checked; a module that takes longer is refused
+(its import would hold up every rover agent's start as long)."""
+_VERDICT = "lunarsim-behaviour-verdict:"
+_PROBE = f"""
+import os, sys
+out = os.fdopen(os.dup(1), "w")
+quiet = os.open(os.devnull, os.O_WRONLY)
+os.dup2(quiet, 1)
+os.dup2(quiet, 2)
+from rover_agent.behaviours import UnknownBehaviour, load_behaviour
+try:
+    load_behaviour(sys.argv[1])
+    verdict = ""
+except UnknownBehaviour as exc:
+    verdict = str(exc)
+except BaseException as exc:
+    verdict = f"behaviour {{sys.argv[1]!r}} cannot be loaded: importing it raised {{type(exc).__name__}}: {{exc}}"
+out.write({_VERDICT!r} + " ".join(verdict.split()) + "\\n")
+out.flush()
+os._exit(0)
+"""
+"""Run in a child Python (``python -c``: the current folder first on its path, as the agents' ``python -m``):
+importing a module runs its code, which may exit, hang, print or open a browser (``antigravity`` does), none of
+it in the command that checks it."""
+
+
+def behaviour_problem(name: str) -> str | None:
+    """Why the rover agents could not load behaviour ``name``, in one line, or None when they can.
+
+    A built-in is known good; anything else is loaded as ``rover_agent.behaviours.load_behaviour`` loads it, in a
+    child process given ``PROBE_TIMEOUT_S``. The current folder joins this process's module path too, so the
+    agents this process starts (forked from it, ``deploy.warm_start``) find what the check found."""
+    from rover_agent.behaviours import BUILT_IN
+    from schemas.scenario_errors import LINE_CHARS
+    from schemas.scenario_limits import behaviour_spec, clip
+
+    try:
+        behaviour_spec(name)
+    except ValueError as exc:
+        return str(exc)
+    if name in BUILT_IN:
+        return None
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    probe = subprocess.Popen([sys.executable, "-c", _PROBE, name], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                             stderr=subprocess.DEVNULL, text=True, errors="replace", start_new_session=True)
+    try:
+        out, _ = probe.communicate(timeout=PROBE_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(probe.pid, signal.SIGKILL)  # its own session: the probe and whatever it started
+        probe.communicate()
+        return f"behaviour {clip(repr(name))} cannot be loaded: importing it took more than {PROBE_TIMEOUT_S:g} s"
+    verdicts = [line.removeprefix(_VERDICT) for line in out.splitlines() if line.startswith(_VERDICT)]
+    if not verdicts:
+        return f"behaviour {clip(repr(name))} cannot be loaded: importing it ended Python (exit {probe.returncode})"
+    return clip(verdicts[-1], LINE_CHARS) or None
+
+
+def require_behaviour(name: str, source: str) -> None:
+    """``behaviour_problem`` as the one-line error of a command (exit 2), naming where ``name`` came from."""
+    problem = behaviour_problem(name)
+    if problem is not None:
+        raise process.UsageError(f"{source}: {problem}")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -75,8 +146,11 @@ def run_from_args(args: argparse.Namespace) -> int:
     from rover_agent.behaviours import UnknownBehaviour, load_behaviour
     from schemas.scenario import load_scenario
 
+    problem = behaviour_problem(args.behaviour)
+    if problem is not None:
+        raise process.UsageError(problem)
     try:
-        cls = load_behaviour(args.behaviour)
+        cls = load_behaviour(args.behaviour)  # what the check above found, from the same folders
     except UnknownBehaviour as exc:
         raise process.UsageError(str(exc)) from None
     scenario = load_scenario(args.scenario).with_overrides(rovers=args.rovers)

@@ -81,12 +81,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run_from_args(args: argparse.Namespace) -> int:
     from rich.console import Console
 
+    from deploy.behaviour_check import require_behaviour
     from schemas.scenario import dump_scenario, load_rover_params
 
     if args.time_scale <= 0:
         raise process.UsageError(f"--time-scale must be positive for a live run, got {args.time_scale}")
     params = load_rover_params(args.params) if args.params else None
     scenario = _base_scenario(args).with_overrides(seed=args.seed, rovers=args.rovers, rover_params=params)
+    require_behaviour(scenario.behaviour, str(args.scenario or args.from_recording))  # before any process starts
     if not args.connect:
         _check_port_free(args.port)  # before the run folder is made: a run that cannot start leaves nothing
     out = args.out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
@@ -209,7 +211,8 @@ class Mission:
 
     def _world_args(self) -> list[str]:
         args = [str(self.scenario_file), "--world", self.args.world, "--time-scale", str(self.args.time_scale),
-                "--start-timeout", str(START_TIMEOUT_S), "--photos", str(self.out / "photos")]
+                "--start-timeout", str(START_TIMEOUT_S), "--photos", str(self.out / "photos"),
+                "--state", str(self.out / "state" / "world.state")]
         if self.args.max_sim_time is not None:
             args += ["--max-sim-time", str(self.args.max_sim_time)]
         if self.args.lockstep:

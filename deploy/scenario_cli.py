@@ -21,7 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     exp = sub.add_parser("export", help="scenario-editor profile (JSON) from a scenario YAML")
     exp.add_argument("scenario", type=Path, help="scenario YAML")
     exp.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.json", help="the profile to write")
-    chk = sub.add_parser("check", help="validate a scenario file and summarise it")
+    chk = sub.add_parser("check", help="validate a scenario file, and the terrain mesh and behaviour it names; "
+                         "summarise it")
     chk.add_argument("scenario", type=Path, help="scenario YAML")
     gen = sub.add_parser("generate", help="a varied, valid mission drawn from a seed (scenarios/generator.py)")
     gen.add_argument("--seed", type=int, required=True, metavar="N", help="the same seed gives the same scenario")
@@ -46,10 +47,32 @@ def run_from_args(args: argparse.Namespace) -> int:
         _generate(args)
     else:
         s = load_scenario(args.scenario)
+        _check_files(args.scenario, s)
         print(f"{args.scenario}: ok: {s.name!r}, seed {s.seed}, {len(s.rovers)} rovers, {len(s.craters)} craters, "
               f"{len(s.obstacles.rocks) + sum(f.count for f in s.obstacles.rock_fields)} rocks, "
               f"{len(s.obstacles.walls)} walls, {len(s.mission)} goals")
     return 0
+
+
+def _check_files(path: Path, scenario) -> None:
+    """What loading leaves to the processes that use a scenario, tried now: its terrain mesh is read and made
+    into triangles as the world will, its behaviour imported as each rover agent will (in a child process)."""
+    from deploy.behaviour_check import require_behaviour
+    from schemas.scenario import ScenarioError
+    from schemas.scenario_limits import clip
+
+    mesh = scenario.terrain.mesh if scenario.terrain is not None else None
+    if mesh is not None:
+        from world_service.terrain_mesh import load_vertices_faces
+
+        try:
+            load_vertices_faces(mesh, scenario.terrain.mesh_scale, scenario.terrain.mesh_offset)
+        except ScenarioError as exc:
+            raise ScenarioError(f"{path}: terrain.mesh: {exc}") from None
+        except Exception as exc:  # trimesh raises many kinds; all mean a file it cannot make triangles of
+            raise ScenarioError(f"{path}: terrain.mesh: {clip(mesh)}: not a mesh the world can load: "
+                                f"{clip(str(exc).removeprefix(f'{mesh}: ') or type(exc).__name__)}") from None
+    require_behaviour(scenario.behaviour, str(path))
 
 
 def _generate(args: argparse.Namespace) -> None:

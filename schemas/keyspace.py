@@ -57,15 +57,16 @@ so in lockstep the world waits for an agent's ack only after a tick that sent it
 agent's own timers are due (``Ack.wake``)."""
 
 
-_WORLD_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")
+_WORLD_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
 
 
 def check_world_name(world: str) -> str:
     """Reject world names that would break or widen key expressions: besides '/', '*', '$', '#' and '?', a chunk
-    starting with '@' is verbatim in Zenoh 1.x, so ``lunar/**`` (the recorder, the viewers) would not match it."""
+    starting with '@' is verbatim in Zenoh 1.x, so ``lunar/**`` (the recorder, the viewers) would not match it. A
+    name also starts with a letter or digit, as a recording's file and folder names must (``SafeName``)."""
     if not _WORLD_NAME.fullmatch(world):
-        raise ValueError(f"invalid world name {world!r}: use 1 to 64 letters, digits, '-' or '_' (no '/', '*', '$', "
-                         "'#', '?', '@', spaces)")
+        raise ValueError(f"invalid world name {world!r}: use 1 to 64 letters, digits, '-' or '_', starting with a "
+                         "letter or digit (no '/', '*', '$', '#', '?', '@', spaces)")
     return world
 
 

@@ -11,6 +11,8 @@ import math
 from pathlib import Path
 
 from schemas.scenario import Goal, Scenario, ScenarioError, parse_scenario
+from schemas.scenario_files import read_regular_file
+from schemas.scenario_limits import MAX_SCENARIO_BYTES
 
 
 def _heading_from_quaternion(rot: dict) -> float:
@@ -79,10 +81,9 @@ def scenario_to_profile(scenario: Scenario) -> dict:
 
 def load_profile(path: str | Path, name: str | None = None) -> Scenario:
     path = Path(path)
+    raw = read_regular_file(path, "profile", MAX_SCENARIO_BYTES)  # a FIFO or a device is refused, not read
     try:
-        profile = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read profile: {exc.strerror or exc}") from None
+        profile = json.loads(raw.decode("utf-8"))
     except json.JSONDecodeError as exc:
         raise ScenarioError(f"{path}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
     except UnicodeDecodeError as exc:

@@ -8,16 +8,18 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Literal, TypeVar
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
 
 from schemas import scenario_limits as limits
 from schemas.params import RoverParams, SpawnParams
-from schemas.scenario_errors import ScenarioError, error_lines, format_error, read_yaml
-from schemas.scenario_limits import Coordinate, SafeName
+from schemas.scenario_errors import ScenarioError, error_lines, format_error
+from schemas.scenario_files import check_mesh, read_yaml
+from schemas.scenario_limits import BehaviourSpec, Coordinate, SafeName
 
+M = TypeVar("M", bound=BaseModel)
 Side = Annotated[float, Field(gt=0, le=limits.MAX_TERRAIN_SIDE_M)]
 
 
@@ -37,9 +39,24 @@ class TerrainSpec(Spec):
         500.0, gt=0, description="tiles within this distance of a rover stay loaded (report Table 6 "
                                  "rover_chunk_activation_range; 1000 m there)")
     mesh: str | None = Field(None, description="OBJ/STL/PLY/GLB surface (y up) rasterised into the heights; "
-                                               "replaces the plain, so scenario craters are not carved into it")
+                                               "replaces the plain, so scenario craters are not carved into it. "
+                                               f"A regular file of at most {limits.MAX_MESH_BYTES // 1024**2} MiB, "
+                                               "relative to the scenario's folder")
     mesh_scale: float | tuple[float, float, float] = Field(1.0, description="mesh vertex scale (x, y, z or one)")
     mesh_offset: tuple[float, float, float] = Field((0.0, 0.0, 0.0), description="added to scaled vertices, m")
+
+    @field_validator("mesh")
+    @classmethod
+    def _mesh_file(cls, mesh: str | None, info: ValidationInfo) -> str | None:
+        """Read from a file (``load_scenario``), the mesh must be a readable mesh file, made an absolute path;
+        validated from data alone (a page, a recording), only its name is checked: no file is looked at."""
+        if mesh is None:
+            return None
+        base_dir = (info.context or {}).get("base_dir")
+        if base_dir is None:
+            limits.mesh_suffix(mesh)
+            return mesh
+        return check_mesh(mesh, Path(base_dir))
 
     @model_validator(mode="after")
     def _fits(self) -> TerrainSpec:
@@ -104,7 +121,7 @@ class Rock(Spec):
 
 
 class Wall(Spec):
-    points: list[tuple[Coordinate, Coordinate]] = Field(min_length=2, max_length=100_000)
+    points: list[tuple[Coordinate, Coordinate]] = Field(min_length=2, max_length=limits.MAX_WALL_POINTS)
     thickness_m: float = Field(0.5, gt=0, le=1000)
     height_m: float = Field(1.0, gt=0, le=10_000, description="a radio line passing above the wall is not blocked")
 
@@ -115,7 +132,7 @@ class RockField(Spec):
     x: Coordinate
     z: Coordinate
     radius_m: float = Field(gt=0, le=limits.MAX_TERRAIN_SIDE_M, description="radius of the area the rocks fall in")
-    count: int = Field(ge=0, le=100_000)
+    count: int = Field(ge=0, le=limits.MAX_ROCKS)
     min_radius_m: float = Field(0.3, gt=0, le=limits.MAX_ROCK_RADIUS_M)
     max_radius_m: float = Field(1.2, gt=0, le=limits.MAX_ROCK_RADIUS_M)
 
@@ -127,9 +144,17 @@ class RockField(Spec):
 
 
 class Obstacles(Spec):
-    rocks: list[Rock] = Field(default_factory=list)
-    walls: list[Wall] = Field(default_factory=list)
-    rock_fields: list[RockField] = Field(default_factory=list)
+    rocks: list[Rock] = Field(default_factory=list, max_length=limits.MAX_ROCKS)
+    walls: list[Wall] = Field(default_factory=list, max_length=limits.MAX_WALLS)
+    rock_fields: list[RockField] = Field(default_factory=list, max_length=limits.MAX_ROCK_FIELDS)
+
+    @model_validator(mode="after")
+    def _rocks_in_all(self) -> Obstacles:
+        total = len(self.rocks) + sum(f.count for f in self.rock_fields)
+        if total > limits.MAX_ROCKS:
+            raise ValueError(f"{total:,} rocks in all (listed, and every rock field's count): at most "
+                             f"{limits.MAX_ROCKS:,}")
+        return self
 
 
 class Goal(Spec):
@@ -188,13 +213,14 @@ class Scenario(Spec):
     terrain: TerrainSpec | None = None
     lander: LanderSpec
     rovers: list[RoverSpawn] = Field(min_length=1, max_length=limits.MAX_ROVERS)
-    craters: list[Crater] = Field(default_factory=list)
+    craters: list[Crater] = Field(default_factory=list, max_length=limits.MAX_CRATERS)
     obstacles: Obstacles = Obstacles()
-    mission: list[Goal] = Field(min_length=1)
+    mission: list[Goal] = Field(min_length=1, max_length=limits.MAX_GOALS)
     rover_params: RoverParams = RoverParams()
     spawn: SpawnParams | None = Field(None, description="Table 3; used by --rovers N")
     formation: Formation = Formation()
-    behaviour: str = "default"
+    behaviour: BehaviourSpec = Field("default", description="default, straight, an installed plugin's name or "
+                                      "package.module:Class (importable from the folder lunarsim runs in)")
     sun: SunSpec | None = Field(None, description="sunlight, shadows, battery and temperature; none: off")
 
     @model_validator(mode="after")
@@ -275,13 +301,15 @@ def _dump(value: object) -> object:
     return value
 
 
-def parse_scenario(data: object, source: str = "<scenario>") -> Scenario:
+def parse_scenario(data: object, source: str = "<scenario>", base_dir: Path | None = None) -> Scenario:
+    """A scenario from parsed data; ``base_dir``, the folder of the file it was read from, is where the files it
+    names are looked for and checked (without it, they are not looked at)."""
     if not isinstance(data, dict):
         raise ScenarioError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
     try:
-        return Scenario.model_validate(data)
+        return Scenario.model_validate(data, context={"base_dir": base_dir} if base_dir is not None else None)
     except ValidationError as exc:
-        raise ScenarioError(format_error(source, exc)) from None
+        raise ScenarioError(format_error(source, exc, Scenario)) from None
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -290,13 +318,7 @@ def load_scenario(path: str | Path) -> Scenario:
     if data is None:
         raise ScenarioError(f"{path}: the scenario file is empty (it should be a YAML mapping with name, lander, "
                             "rovers and mission)")
-    scenario = parse_scenario(data, str(path))
-    terrain = scenario.terrain
-    if terrain is not None and terrain.mesh and not Path(terrain.mesh).is_absolute():
-        # Relative to the scenario file, so a copy of the scenario (a run folder) still finds the mesh.
-        mesh = str((path.parent / terrain.mesh).resolve())
-        scenario = scenario.model_copy(update={"terrain": terrain.model_copy(update={"mesh": mesh})})
-    return scenario
+    return parse_scenario(data, str(path), path.parent)
 
 
 def dump_scenario(scenario: Scenario) -> str:
@@ -314,11 +336,8 @@ def load_dispatch_plan(path: str | Path | None) -> tuple[LanderSpec, list[RoverS
     data = read_yaml(Path(path), "rover parameters")
     if not isinstance(data, dict) or "mission" not in data:
         return None
-    try:
-        return LanderSpec.model_validate(data.get("lander")), [RoverSpawn.model_validate(r)
-                                                              for r in data.get("rovers") or []]
-    except ValidationError as exc:
-        raise ScenarioError(format_error(str(path), exc)) from None
+    return _validated(LanderSpec, data.get("lander"), path), [_validated(RoverSpawn, r, path)
+                                                               for r in data.get("rovers") or []]
 
 
 def load_rover_params(path: str | Path | None) -> RoverParams:
@@ -333,7 +352,11 @@ def load_rover_params(path: str | Path | None) -> RoverParams:
     data = read_yaml(path, "rover parameters") or {}
     if isinstance(data, dict) and ("rover_params" in data or "mission" in data):
         data = data.get("rover_params") or {}
+    return _validated(RoverParams, data, path)
+
+
+def _validated(model: type[M], data: object, path: str | Path) -> M:
     try:
-        return RoverParams.model_validate(data)
+        return model.model_validate(data)
     except ValidationError as exc:
-        raise ScenarioError(format_error(str(path), exc)) from None
+        raise ScenarioError(format_error(str(path), exc, model)) from None

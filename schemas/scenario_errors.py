@@ -1,46 +1,63 @@
 """What is wrong with a scenario or parameter file, said so the user can fix it all in one edit: the file named
 once, then every problem on a line of its own starting with its field path.
 
-Reading is here too, since a file that is missing, a directory, not UTF-8 or not YAML must fail the same way.
+Every value of the user's repeated in a message goes through ``clip``: a name of 10 MB is named by its start.
 """
 
 from __future__ import annotations
 
 import difflib
-from pathlib import Path
+import types
+import typing
 
-import yaml
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
+
+from schemas.scenario_limits import clip
+
+LINE_CHARS = 1000
+"""Longest problem line: a message that repeats values it did not clip is cut here all the same."""
+LISTED_PROBLEMS = 50
+"""Problems listed one a line; past them, how many more there are. A list of 100,000 bad rocks is fixed by
+reading the first few."""
+GUESS_CHARS = 100
+"""Unknown field names longer than this get no 'did you mean': no field is that long, and matching costs their
+length squared."""
 
 
 class ScenarioError(ValueError):
     """A scenario that cannot be used; the message names the file and is meant for the user as it is."""
 
 
-def format_error(source: str, exc: ValidationError) -> str:
-    """``source: path: problem``; with several problems, the file on a line and each problem on its own."""
-    lines = error_lines(exc)
+def format_error(source: str, exc: ValidationError, model: type[BaseModel] | None = None) -> str:
+    """``source: path: problem``; with several problems, the file on a line and each problem on its own.
+
+    ``model``, the class validated, lets an unknown field be matched against every field at its level."""
+    lines = [clip(line, LINE_CHARS) for line in error_lines(exc, model)]
     if len(lines) == 1:
         return f"{source}: {lines[0]}"
-    return f"{source}: {len(lines)} problems:\n" + "\n".join(f"  {line}" for line in lines)
+    shown = lines[:LISTED_PROBLEMS]
+    if len(lines) > len(shown):
+        shown.append(f"... and {len(lines) - len(shown):,} more")
+    return f"{source}: {len(lines):,} problems:\n" + "\n".join(f"  {line}" for line in shown)
 
 
-def error_lines(exc: ValidationError) -> list[str]:
+def error_lines(exc: ValidationError, model: type[BaseModel] | None = None) -> list[str]:
     """Every error as ``path: problem``, unknown fields first (a typo is the likeliest mistake) with the field
     each probably meant; a required field that a typo explains is not listed again."""
     errors = exc.errors()
-    extras = [e for e in errors if e["type"] == "extra_forbidden"]
+    missing: dict[tuple, list[str]] = {}
+    for e in errors:
+        if e["type"] == "missing":
+            missing.setdefault(e["loc"][:-1], []).append(str(e["loc"][-1]))
     lines: list[str] = []
     explained: set[str] = set()
-    for e in extras:
-        parent, name = _path(e["loc"][:-1]), str(e["loc"][-1])
-        missing = [str(m["loc"][-1]) for m in errors if m["type"] == "missing" and _path(m["loc"][:-1]) == parent]
-        guess = difflib.get_close_matches(name, [m for m in missing if f"{parent}.{m}" not in explained], n=1)
-        explained.update(f"{parent}.{g}" for g in guess)
-        lines.append(f"{_path(e['loc'])}: unknown field{f' (did you mean {guess[0]!r}?)' if guess else ''}")
     for e in errors:
-        if e["type"] == "extra_forbidden" or (e["type"] == "missing" and f"{_path(e['loc'][:-1])}.{e['loc'][-1]}"
-                                                                          in explained):
+        if e["type"] == "extra_forbidden":
+            wider = model if len(lines) < LISTED_PROBLEMS else None  # past those, the lines are not shown
+            guess = _guess(e["loc"], missing, explained, wider)
+            lines.append(f"{_path(e['loc'])}: unknown field{f' (did you mean {guess!r}?)' if guess else ''}")
+    for e in errors:
+        if e["type"] == "extra_forbidden" or (e["type"] == "missing" and _key(e["loc"]) in explained):
             continue
         message = e["msg"].removeprefix("Value error, ")
         if not e["loc"] and e["type"] == "value_error":  # a model check: its lines name their own paths
@@ -50,36 +67,46 @@ def error_lines(exc: ValidationError) -> list[str]:
     return lines
 
 
+def _guess(loc: tuple, missing: dict[tuple, list[str]], explained: set[str],
+           model: type[BaseModel] | None) -> str | None:
+    """The field an unknown one probably meant: a missing one at its level first (then it is not listed again as
+    missing), else any field of ``model`` there."""
+    name, parent = str(loc[-1]), loc[:-1]
+    if len(name) > GUESS_CHARS:
+        return None
+    unexplained = [m for m in missing.get(parent, []) if _key((*parent, m)) not in explained]
+    guess = difflib.get_close_matches(name, unexplained, n=1)
+    if guess:
+        explained.add(_key((*parent, guess[0])))
+        return guess[0]
+    known = sorted(fields_at(model, parent)) if model is not None else []
+    guess = difflib.get_close_matches(name, known, n=1)
+    return guess[0] if guess else None
+
+
+def fields_at(model: type[BaseModel], loc: tuple) -> set[str]:
+    """The field names of the models found at ``loc`` (a pydantic error location) under ``model``."""
+    kinds = _models(model)
+    for part in loc:
+        if isinstance(part, int):  # an item of a list or tuple: _models already looked inside those
+            continue
+        nxt = {m for kind in kinds if part in kind.model_fields for m in _models(kind.model_fields[part].annotation)}
+        kinds = nxt or {kind for kind in kinds if kind.__name__ == part} or kinds  # a union member's tag
+    return {name for kind in kinds for name in kind.model_fields}
+
+
+def _models(annotation: object) -> set[type[BaseModel]]:
+    """The pydantic models an annotation holds, through Optional, unions, lists, tuples and Annotated."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return {annotation}
+    if typing.get_origin(annotation) is None and not isinstance(annotation, types.UnionType):
+        return set()
+    return {m for arg in typing.get_args(annotation) for m in _models(arg)}
+
+
+def _key(loc: tuple) -> str:
+    return ".".join(str(p) for p in loc)
+
+
 def _path(loc: tuple) -> str:
-    return ".".join(str(p) for p in loc) or "<root>"
-
-
-MAX_FILE_BYTES = 64 * 1024**2
-"""Largest scenario or parameter file read: ample for 100,000 rocks, and a device or a wrong file named by
-mistake is refused instead of read into memory."""
-
-
-def read_yaml(path: Path, what: str) -> object:
-    """The YAML document in ``path``; anything that keeps it from being one is a ``ScenarioError`` naming the
-    file (missing, a directory, too large, not UTF-8, not YAML)."""
-    try:
-        with path.open("rb") as f:
-            raw = f.read(MAX_FILE_BYTES + 1)
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read {what}: {exc.strerror or exc}") from None
-    if len(raw) > MAX_FILE_BYTES:
-        raise ScenarioError(f"{path}: cannot read {what}: larger than {MAX_FILE_BYTES // 1024**2} MiB")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ScenarioError(f"{path}: cannot read {what}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset "
-                            f"{exc.start}); save it as UTF-8") from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise ScenarioError(f"{path}: cannot read {what}: not valid YAML{at}: {getattr(exc, 'problem', exc)}"
-                            ) from None
-    except (ValueError, RecursionError) as exc:  # a scalar YAML cannot build (a date 2024-13-01), deep nesting
-        raise ScenarioError(f"{path}: cannot read {what}: a YAML value cannot be read: {exc}") from None
+    return ".".join(clip(str(p)) for p in loc) or "<root>"

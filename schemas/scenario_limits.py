@@ -17,6 +17,46 @@ MAX_ROVERS = 1000
 """Rovers in one scenario (``rovers``, ``--rovers``, ``spawn.rover_count``): each is an OS process's worth of
 agent, and the world's per-tick work grows with their pairs."""
 
+MAX_SCENARIO_BYTES = 1024**2
+"""Largest scenario or rover parameter file read, checked before a byte is parsed: parsed YAML costs about 100
+times its size in memory and seconds per MB (a file at this bound, about 25,000 rocks, takes seconds and about
+120 MB on a 2-core machine: ``benchmarks/scenario_load.py``). A shipped or generated scenario is a few kB; many
+rocks are drawn by ``rock_fields`` rather than listed."""
+
+MAX_YAML_NODES = MAX_SCENARIO_BYTES // 2
+"""Values in a scenario file once its YAML aliases are expanded. A value takes at least two bytes (one character
+and a separator), so only aliases reach this: ten nested lists of ten aliases each make 10**10 values out of a
+few hundred bytes, which validation would walk one by one."""
+
+MAX_CRATERS = 10_000
+"""``craters``: each is carved into every terrain tile it touches and searched for every crater goal."""
+MAX_ROCKS = 100_000
+"""Rocks in a scenario, listed (``obstacles.rocks``) and scattered by rock fields together: the world makes an
+object of each and keeps arrays of them all (``world_service.scene``), and the web view draws them all."""
+MAX_ROCK_FIELDS = 1_000
+"""``obstacles.rock_fields``."""
+MAX_WALLS = 10_000
+"""``obstacles.walls``: every radio link and move is tested against the walls it crosses."""
+MAX_WALL_POINTS = 100_000
+"""Corners of one wall."""
+MAX_GOALS = 1_000
+"""``mission``: goals a team visits in turn; the lander sends each one over the radio."""
+
+MAX_MESH_BYTES = 256 * 1024**2
+"""Largest terrain mesh file: about 5 million triangles as binary STL, whose rasterising arrays (about 120 bytes
+a triangle, 600 MB) fit within ``MEMORY_LIMIT_BYTES``. A device (``/dev/zero``) or a wrong file named by mistake
+is refused instead of read without end."""
+MESH_SUFFIXES = (".obj", ".stl", ".ply", ".glb")
+"""The mesh formats ``world_service.terrain_mesh`` loads (with trimesh): self-contained files, so a mesh is
+read as one file and names no other."""
+
+MAX_BEHAVIOUR_CHARS = 200
+"""A behaviour's name or ``package.module:Class``."""
+
+MAX_ECHO_CHARS = 200
+"""Characters of a user's value repeated in an error line (``clip``): a 10 MB name is named by its start, not
+printed whole."""
+
 MAX_RATE_HZ = 100.0
 """Fastest sensor or status rate: the world's tick is 20 ms at its finest, so a faster rate only repeats samples
 while flooding the router."""
@@ -53,15 +93,49 @@ Coordinate = Annotated[float, Field(ge=-COORDINATE_LIMIT_M, le=COORDINATE_LIMIT_
 _SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,80}")
 
 
+def clip(text: str, limit: int = MAX_ECHO_CHARS) -> str:
+    """``text`` cut to ``limit`` characters and '...' when longer: how every error line about a scenario or a
+    user's file repeats a value it was given."""
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
 def _safe_name(name: str) -> str:
     """The name becomes a run folder (``runs/<name>-<time>``) and a file stem, so it may hold no path."""
     if not _SAFE_NAME.fullmatch(name) or ".." in name:
-        raise ValueError(f"{name!r} is not a safe name: use letters, digits, '_', '-' or '.' (no '..', no "
-                         "folders), starting with a letter or digit, at most 81 characters")
+        raise ValueError(f"{clip(repr(name))} is not a safe name: use letters, digits, '_', '-' or '.' (no '..', "
+                         "no folders), starting with a letter or digit, at most 81 characters")
     return name
 
 
 SafeName = Annotated[str, AfterValidator(_safe_name)]
+
+_PLUGIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
+
+
+def behaviour_spec(spec: str) -> str:
+    """A behaviour as the rover agent finds it (``rover_agent.behaviours``): a built-in or plugin name, or
+    ``package.module:Class``; checked here for its form only, since importing it is for the processes."""
+    module, colon, attr = spec.partition(":")
+    if colon:
+        ok = attr.isidentifier() and all(part.isidentifier() for part in module.split("."))
+    else:
+        ok = _PLUGIN_NAME.fullmatch(spec) is not None
+    if not ok or len(spec) > MAX_BEHAVIOUR_CHARS:
+        raise ValueError(f"{clip(repr(spec))} is not a behaviour: give a name (default, straight, an installed "
+                         "plugin) or 'package.module:Class'")
+    return spec
+
+
+BehaviourSpec = Annotated[str, AfterValidator(behaviour_spec)]
+
+
+def mesh_suffix(path: str) -> str:
+    """A terrain mesh's format, from its name: one ``world_service.terrain_mesh`` loads."""
+    suffix = path[path.rfind("."):].lower() if "." in path.rsplit("/", 1)[-1] else ""
+    if suffix not in MESH_SUFFIXES:
+        raise ValueError(f"{clip(repr(path))} is not a mesh file: its name must end in "
+                         f"{', '.join(MESH_SUFFIXES)}")
+    return suffix
 
 
 def nodes_along(side_m: float, resolution_m: float) -> int:

@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 
     from schemas.scenario import Scenario
     from sessions.format import Sample
+    from sessions.recording import Recording
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,70 +38,68 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    from sessions.format import scenario_for
+    from schemas.scenario import load_scenario
+    from sessions.format import embedded_scenario
+    from sessions.recording import check_recording
 
     check_paths(args.input, args.output)
-    scenario = scenario_for(args.input, args.scenario)
+    recording = check_recording(args.input)
+    scenario = load_scenario(args.scenario) if args.scenario else embedded_scenario(recording.metadata,
+                                                                                     str(args.input))
     if scenario is None:
         print(f"warning: {args.input} embeds no scenario and none was given (--scenario): "
               "exporting without terrain and obstacles", file=sys.stderr)
-    from mcap.exceptions import McapError
-
-    try:
-        counts = export_foxglove(args.input, args.output, scenario, keep_raw=args.keep_raw,
-                                 trail_points=0 if args.no_trails else 300, terrain_cells=args.terrain_cells,
-                                 progress=sys.stderr.isatty())
-    except McapError as exc:
-        raise process.UsageError(f"{args.input}: damaged MCAP recording ({exc}); try 'lunarsim recover'") from None
+    for note in (recording.foreign_note(), recording.gap_note()):
+        if note:
+            print(f"warning: {note}", file=sys.stderr)
+    counts = export_foxglove(recording, args.output, scenario, keep_raw=args.keep_raw,
+                             trail_points=0 if args.no_trails else 300, terrain_cells=args.terrain_cells,
+                             progress=sys.stderr.isatty())
     print(f"wrote {args.output}: " + ", ".join(f"{n} {what}" for what, n in counts.items()), flush=True)
     return 0
 
 
 def check_paths(source: Path, target: Path) -> None:
-    """Refuse what cannot work before any output exists, naming the file at fault."""
-    if not source.is_file():
-        raise process.UsageError(f"{source}: no such recording")
+    """Refuse an output that cannot work before any exists (the input is checked by ``check_recording``)."""
     if target.suffix != ".mcap":
         raise process.UsageError(f"{target}: the output file must end in .mcap")
     if target.exists() and target.resolve() == source.resolve():
         raise process.UsageError(f"{target}: the output would overwrite the input")
-    try:
-        with open(source, "rb") as stream:
-            magic = stream.read(8)
-    except OSError as exc:
-        raise process.UsageError(f"{source}: cannot read: {exc.strerror or exc}") from None
-    if magic != b"\x89MCAP0\r\n":
-        raise process.UsageError(f"{source}: not an MCAP file")
 
 
 class FoxgloveFile:
-    """The output MCAP: Foxglove channels registered on first use with the SDK's own protobuf schemas."""
+    """The output MCAP: Foxglove channels registered on first use with the SDK's own protobuf schemas, each schema
+    written once and shared by every channel of its type (one ``CompressedImage`` for all the rovers' photos)."""
 
     def __init__(self, writer: Writer) -> None:
         self.writer = writer
         self.channels: dict[str, int] = {}
+        self.schemas: dict[str, int] = {}
         self.counts: Counter[str] = Counter()
 
     def write(self, topic: str, message, ns: int) -> None:
         """``message`` is any ``foxglove.messages`` type: ``encode()`` gives the protobuf bytes."""
         channel = self.channels.get(topic)
         if channel is None:
-            schema = type(message).get_schema()
-            schema_id = self.writer.register_schema(schema.name, schema.encoding, schema.data)
-            channel = self.channels[topic] = self.writer.register_channel(topic, "protobuf", schema_id)
+            channel = self.channels[topic] = self.writer.register_channel(topic, "protobuf", self._schema(message))
         self.writer.add_message(channel, log_time=ns, publish_time=ns, data=message.encode())
         self.counts[type(message).__name__] += 1
 
+    def _schema(self, message) -> int:
+        schema = type(message).get_schema()
+        if schema.name not in self.schemas:
+            self.schemas[schema.name] = self.writer.register_schema(schema.name, schema.encoding, schema.data)
+        return self.schemas[schema.name]
 
-def export_foxglove(source: Path, target: Path, scenario: Scenario | None, keep_raw: bool = False,
+
+def export_foxglove(source: Recording, target: Path, scenario: Scenario | None, keep_raw: bool = False,
                     trail_points: int = 300, terrain_cells: int = 128, progress: bool = False) -> dict[str, int]:
-    """Convert a recording; written to a temporary file first, so a failure leaves no half file behind.
+    """Convert a checked recording (its LunarSim keys only); written to a temporary file first, so a failure leaves
+    no half file behind.
 
     Returns how many messages of each kind were written (for the summary line and tests).
     """
     from mcap.writer import CompressionType, Writer
-
-    from sessions.format import read_samples, time_range
 
     tmp = target.with_name(target.name + ".part")
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -109,13 +108,13 @@ def export_foxglove(source: Path, target: Path, scenario: Scenario | None, keep_
             writer = Writer(stream, compression=CompressionType.ZSTD)
             writer.start(profile="", library="lunarsim export-foxglove")
             out = FoxgloveFile(writer)
-            raw = _RawCopy(writer, source) if keep_raw else None
+            raw = _RawCopy(writer, source.metadata) if keep_raw else None
             converter = _Converter(scenario, out, trail_points, terrain_cells)
-            for sample in _with_progress(read_samples(source), _message_count(source), progress):
+            for sample in _with_progress(source.samples(), source.messages, progress):
                 converter.add(sample)
                 if raw is not None:
                     raw.write(sample)
-            converter.finish(time_range(source)[0])
+            converter.finish(source.first_ns)
             writer.finish()
         tmp.replace(target)
     except Exception:
@@ -194,14 +193,12 @@ def _terrain(scenario: Scenario, cells: int):
 class _RawCopy:
     """The original channels, schemas and metadata, copied unchanged (``--keep-raw``)."""
 
-    def __init__(self, writer: Writer, source: Path) -> None:
-        from sessions.format import read_metadata
-
+    def __init__(self, writer: Writer, metadata: dict[str, dict[str, str]]) -> None:
         self.writer = writer
         self.channels: dict[str, int] = {}
         self.schemas: dict[str, int] = {}
         self.count = 0
-        for name, data in read_metadata(source).items():
+        for name, data in metadata.items():
             writer.add_metadata(name, data)
 
     def write(self, sample: Sample) -> None:
@@ -221,14 +218,6 @@ class _RawCopy:
         self.writer.add_message(channel, log_time=sample.log_time_ns, publish_time=sample.publish_time_ns,
                                 data=sample.payload)
         self.count += 1
-
-
-def _message_count(source: Path) -> int | None:
-    from mcap.reader import make_reader
-
-    with open(source, "rb") as stream:
-        summary = make_reader(stream).get_summary()
-    return summary.statistics.message_count if summary and summary.statistics else None
 
 
 def _with_progress(samples, total: int | None, show: bool):

@@ -7,18 +7,24 @@ What a recording holds, so any MCAP tool can read it without our code:
 - per message, ``log_time`` = when the recorder received it and ``publish_time`` = the publisher's
   Zenoh timestamp (the receive time where a publisher sent none), both in Unix nanoseconds;
 - metadata ``lunarsim.session``: the scenario (YAML), seed, world, software version and command line, so
-  a recording says how to reproduce itself; ``lunarsim.drops``: samples lost per key, written at the end.
+  a recording says how to reproduce itself; ``lunarsim.drops``: samples lost per key, written at the end;
+  ``lunarsim.gaps``: the spans the recorder missed because it had lost its router (``sessions.gaps``).
+
+A file ends with MCAP's magic bytes once its writer has closed it: one that does not was cut short (its recorder was
+killed, the disk filled) and ``lunarsim recover`` rewrites what it holds.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
+import shlex
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
+from bus.errors import UsageError
 from schemas import codec
 from schemas.messages import Message, model_for_key
 
@@ -30,6 +36,16 @@ MESSAGE_ENCODING = "msgpack"
 SCHEMA_ENCODING = "jsonschema"
 SESSION_METADATA = "lunarsim.session"
 DROPS_METADATA = "lunarsim.drops"
+GAPS_METADATA = "lunarsim.gaps"
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+class BadRecording(UsageError):
+    """A session file a command cannot use; the message names the file and says why (exit 2)."""
+
+
+class CutShort(BadRecording):
+    """The file does not end as a closed MCAP file does: its writer was stopped before finishing it."""
 
 
 @dataclass(frozen=True)
@@ -73,9 +89,9 @@ class TopicFilter:
         return not any(fnmatchcase(key, g) for g in self.exclude)
 
 
-def read_samples(path: str | Path | BinaryIO, keep: TopicFilter | None = None,
+def read_samples(path: str | Path | BinaryIO, keep: Callable[[str], bool] | None = None,
                  start_ns: int | None = None) -> Iterator[Sample]:
-    """Every sample of a recording in log-time order (optionally filtered, from ``start_ns`` on)."""
+    """Every sample of a recording in log-time order (those whose key ``keep`` accepts, from ``start_ns`` on)."""
     from mcap.reader import make_reader
 
     with _open(path) as stream:
@@ -107,27 +123,83 @@ def time_range(path: str | Path) -> tuple[int, int]:
 def scenario_for(recording: str | Path, override: str | Path | None = None) -> Scenario | None:
     """The scenario of a recording: ``override`` (a file), else the YAML the recorder embedded, else None.
 
-    Raises ``ScenarioError`` naming the recording when it cannot be read or its scenario is broken.
+    Raises ``ScenarioError`` or ``BadRecording`` naming the file when it cannot be used.
     """
-    import yaml
-
-    from schemas.scenario import ScenarioError, load_scenario, parse_scenario
+    from schemas.scenario import load_scenario
 
     if override is not None:
         return load_scenario(override)
+    path = Path(recording)
+    check_file(path)
     try:
-        text = read_metadata(recording).get(SESSION_METADATA, {}).get("scenario")
-    except Exception as exc:  # the mcap reader raises many kinds; all mean an unreadable recording
-        empty = Path(recording).is_file() and Path(recording).stat().st_size == 0
-        detail = "the file is empty" if empty else str(exc) or type(exc).__name__
-        raise ScenarioError(f"{recording}: not a readable MCAP recording ({detail})") from None
+        metadata = read_metadata(path)
+    except Exception as exc:  # the mcap reader raises many kinds on damaged files
+        raise BadRecording(damaged(path, exc)) from None
+    return embedded_scenario(metadata, str(recording))
+
+
+def embedded_scenario(metadata: dict[str, dict[str, str]], source: str) -> Scenario | None:
+    """The scenario a recording's metadata holds, read with the bounds of a scenario file (None if it holds none)."""
+    import yaml
+
+    from schemas.scenario import ScenarioError, parse_scenario
+    from schemas.scenario_files import load_yaml_text
+    from schemas.scenario_limits import MAX_SCENARIO_BYTES, clip
+
+    text = metadata.get(SESSION_METADATA, {}).get("scenario")
     if not text:
         return None
+    if len(text.encode("utf-8", "replace")) > MAX_SCENARIO_BYTES:
+        raise ScenarioError(f"{source}: the embedded scenario is larger than {MAX_SCENARIO_BYTES // 1024**2} MiB")
     try:
-        data = yaml.safe_load(text)
+        data = load_yaml_text(text)
     except yaml.YAMLError as exc:
-        raise ScenarioError(f"{recording}: the embedded scenario is not valid YAML: {exc}") from None
-    return parse_scenario(data, f"{recording} (embedded scenario)")
+        problem = clip(str(getattr(exc, "problem", None) or exc))
+        raise ScenarioError(f"{source}: the embedded scenario is not valid YAML: {problem}") from None
+    except (ValueError, RecursionError) as exc:  # a scalar YAML cannot build, deep nesting
+        raise ScenarioError(f"{source}: the embedded scenario cannot be read: {clip(str(exc))}") from None
+    return parse_scenario(data, f"{source} (embedded scenario)")
+
+
+def check_file(path: Path) -> None:
+    """A path that can hold a recording: a regular, non-empty MCAP file that its writer finished (``CutShort``
+    otherwise, with the command that mends it). Says nothing of what the file holds (``sessions.recording``)."""
+    if not path.exists():
+        raise BadRecording(f"{path}: no such file")
+    if not path.is_file():
+        raise BadRecording(f"{path}: not a file")
+    size = path.stat().st_size
+    if size == 0:
+        raise BadRecording(f"{path}: not a readable MCAP recording (the file is empty)")
+    with path.open("rb") as stream:
+        head = stream.read(len(MCAP_MAGIC))
+        stream.seek(max(0, size - len(MCAP_MAGIC)))
+        tail = stream.read(len(MCAP_MAGIC))
+    if head != MCAP_MAGIC:
+        raise BadRecording(f"{path}: not an MCAP file (expected a recording made by 'lunarsim record' or "
+                           "'lunarsim run')")
+    if tail != MCAP_MAGIC or size < 2 * len(MCAP_MAGIC):
+        raise CutShort(cut_short(path))
+
+
+def cut_short(path: Path) -> str:
+    """The line for a file that ends early, with the command that mends it."""
+    fixed = path.with_name(f"{path.stem}-fixed{path.suffix or '.mcap'}")
+    return (f"{path}: the file ends early (its writer never finished it: a recorder killed, a disk full); run "
+            f"'lunarsim recover {shlex.quote(str(path))} -o {shlex.quote(str(fixed))}' and use the recovered file")
+
+
+def damaged(path: Path, exc: BaseException) -> str:
+    """The line for a file the reader fails on part way (a corrupt chunk, a record too long for the file)."""
+    text = str(exc).strip()
+    detail = escaped(text.splitlines()[0], 200) if text else type(exc).__name__
+    return f"{path}: damaged MCAP recording ({detail}); try 'lunarsim recover {shlex.quote(str(path))} -o FIXED.mcap'"
+
+
+def escaped(text: str, limit: int = 60) -> str:
+    """``text`` cut at ``limit``, as it is when printable, else as its ``repr``."""
+    cut = text[:limit] + ("..." if len(text) > limit else "")
+    return cut if cut.isprintable() else repr(cut)
 
 
 def decode(sample: Sample) -> Message | None:

@@ -24,6 +24,7 @@ import numpy as np
 from schemas import keyspace as ks
 from schemas.messages import LanderMap, Photo, WorldState
 from schemas.scenario import Scenario
+from schemas.wire_limits import MAX_ID
 
 FRAME = "world"
 SCENE_TOPIC = "/scene"
@@ -309,11 +310,15 @@ def photo_image(photo: Photo, rover_id: int, ns: int) -> fm.CompressedImage:
 
 
 def rover_of_key(key: str) -> int | None:
-    """Rover id of ``lunar/<w>/rover/<id>/...``, None for other keys."""
+    """Rover id of ``lunar/<w>/rover/<id>/...``, None for other keys and for ids no rover has (the id names a
+    Foxglove topic and frame: it must be a plain number in range)."""
     parts = key.split("/")
-    if len(parts) == 5 and parts[2] == "rover" and parts[3].isdigit():
-        return int(parts[3])
-    return None
+    if len(parts) != 5 or parts[2] != "rover":
+        return None
+    text = parts[3]
+    if not (text.isascii() and text.isdigit() and len(text) <= len(str(MAX_ID))):
+        return None
+    return int(text) if int(text) <= MAX_ID else None
 
 
 def is_state_key(key: str) -> bool:
@@ -323,7 +328,6 @@ def is_state_key(key: str) -> bool:
 
 def is_photo_key(key: str) -> bool:
     return rover_of_key(key) is not None and key.endswith("/photo")
-
 
 
 def is_map_key(key: str) -> bool:

@@ -21,7 +21,9 @@ DPI = 100
 
 
 def rover_paths(samples: Iterable[Sample]) -> tuple[dict[int, np.ndarray], WorldState | None]:
-    """Each rover's (x, z) path over the world states of a recording, and the last state."""
+    """Each rover's (x, z) path over the world states of a recording, and the last state (a state that does not
+    decode is skipped: ``lunarsim report`` counts it)."""
+    from schemas.codec import DecodeError
     from sessions.format import decode
     from sessions.foxglove import is_state_key
 
@@ -30,7 +32,10 @@ def rover_paths(samples: Iterable[Sample]) -> tuple[dict[int, np.ndarray], World
     for sample in samples:
         if not is_state_key(sample.key):
             continue
-        state = decode(sample)
+        try:
+            state = decode(sample)
+        except DecodeError:
+            continue
         if not isinstance(state, WorldState):
             continue
         last = state

@@ -1,7 +1,8 @@
 """``lunarsim record``: record every sample of a world (or a filtered set) into an MCAP session file.
 
-Stops on Ctrl-C or SIGTERM and prints what it wrote and what it dropped. With ``--snapshot N`` it keeps
-only the last N seconds and writes them to a new file on SIGUSR1 or a ``snapshot`` ground command.
+Stops on Ctrl-C or SIGTERM and prints what it wrote, what it dropped and the gaps it knows of (spans it missed
+while it had lost its router). With ``--snapshot N`` it keeps only the last N seconds and writes them to a new file
+on SIGUSR1 or a ``snapshot`` ground command.
 """
 
 from __future__ import annotations
@@ -73,10 +74,14 @@ def run_from_args(args: argparse.Namespace) -> int:
     from bus.zenoh_config import config_from_args, describe_endpoints, open_session
     from schemas.keyspace import Keyspace, check_world_name
     from sessions.format import TopicFilter
-    from sessions.recorder import Recorder, RollingBuffer
+    from sessions.gaps import GapTracker
+    from sessions.recorder import Recorder, RollingBuffer, RouterWatch
     from sessions.writer import SplittingWriter
 
-    check_world_name(args.world)
+    try:
+        check_world_name(args.world)
+    except ValueError as exc:
+        raise process.UsageError(f"--world: {exc}") from None
     if args.output.suffix != ".mcap":
         raise process.UsageError(f"{args.output}: the output file must end in .mcap")
     if args.snapshot is not None and (args.split_size or args.split_duration):
@@ -86,29 +91,35 @@ def run_from_args(args: argparse.Namespace) -> int:
     info = session_metadata(args.world, args.scenario)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
                            who="lunarsim record")
+    gaps = GapTracker()
     if args.snapshot is not None:
-        sink = RollingBuffer(args.snapshot, args.output, info, args.compression)
+        sink = RollingBuffer(args.snapshot, args.output, info, args.compression, gaps)
     else:
         sink = SplittingWriter(args.output, info, args.compression, args.split_size, args.split_duration)
     keep = TopicFilter(args.topics, args.exclude)
     with process.stop_on_signals() as stop:
         flush = sink.flush if isinstance(sink, SplittingWriter) else None
-        recorder = Recorder(session, keys.all, _with_triggers(sink, keys), keep, flush=flush)
+        recorder = Recorder(session, keys.all, _with_triggers(sink, keys), keep, flush=flush, clock_key=keys.clock,
+                            gaps=gaps)
+        watch = RouterWatch(session, gaps)
+        watch.poll()
         if isinstance(sink, RollingBuffer):
             signal.signal(signal.SIGUSR1, lambda *_: _snapshot(sink))
         print(f"recording {keys.all} to {args.output}", flush=True)
         deadline = time.monotonic() + args.duration if args.duration else None
         while not stop.wait(0.2):
+            watch.poll()
             if deadline is not None and time.monotonic() >= deadline:
                 break
         recorder.stop()
+        gaps.close(time.time_ns())
     if isinstance(sink, SplittingWriter):
-        sink.close(recorder.drops)
+        sink.close(recorder.drops, gaps.metadata())
         files = ", ".join(map(str, sink.files))
         print(f"recorded {sink.count} samples to {files}; dropped {sum(recorder.drops.values())}"
-              + (f" ({dict(recorder.drops)})" if recorder.drops else ""), flush=True)
+              + (f" ({dict(recorder.drops)})" if recorder.drops else "") + f"; {gaps.summary()}", flush=True)
     else:
-        print(f"snapshots written: {len(sink.snapshots)}", flush=True)
+        print(f"snapshots written: {len(sink.snapshots)}; {gaps.summary()}", flush=True)
     session.close()
     return 0
 

@@ -4,6 +4,10 @@ The Zenoh callback copies the payload and stamps it, nothing more, so the receiv
 disk or compression. The queue is bounded: if the writer ever falls that far behind, samples are dropped
 and counted per key (and written into the file's metadata), rather than memory growing without limit.
 In snapshot mode the writer keeps only a rolling window of the last N seconds and writes it on a trigger.
+
+What a recorder cut off from its router misses never reaches the queue, so it is counted apart: ``RouterWatch``
+polls the session for its router, and the writer thread shows every world clock (also one the filters leave out)
+to a ``GapTracker``, which says how long each outage lasted in wall and simulated seconds.
 """
 
 from __future__ import annotations
@@ -19,7 +23,10 @@ from pathlib import Path
 import zenoh
 
 from bus.bus import zenoh_callback
+from schemas import codec
+from schemas import messages as m
 from sessions.format import Sample, TopicFilter
+from sessions.gaps import ClockMark, Gap, GapTracker
 from sessions.writer import SessionWriter
 
 log = logging.getLogger("lunarsim.record")
@@ -29,16 +36,19 @@ FLUSH_S = 1.0
 
 
 class Recorder:
-    """Subscribes to ``key_expr`` and hands every sample that passes ``keep`` to ``sink`` on its own thread."""
+    """Subscribes to ``key_expr`` and hands every sample that passes ``keep`` to ``sink`` on its own thread; with
+    ``gaps``, the world clocks on ``clock_key`` go to the tracker too."""
 
     def __init__(self, session: zenoh.Session, key_expr: str, sink: Callable[[Sample], None],
                  keep: TopicFilter | None = None, queue_samples: int = QUEUE_SAMPLES,
-                 flush: Callable[[], None] | None = None, flush_s: float = FLUSH_S) -> None:
+                 flush: Callable[[], None] | None = None, flush_s: float = FLUSH_S,
+                 clock_key: str | None = None, gaps: GapTracker | None = None) -> None:
         self.keep = keep or TopicFilter()
         self.sink, self.flush, self.flush_s = sink, flush, flush_s
+        self.clock_key, self.gaps = (clock_key, gaps) if gaps is not None else (None, None)
         self.drops: Counter[str] = Counter()
         self.received = 0
-        self._queue: queue.Queue[Sample | None] = queue.Queue(maxsize=queue_samples)
+        self._queue: queue.Queue[tuple[Sample, bool] | None] = queue.Queue(maxsize=queue_samples)
         self._thread = threading.Thread(target=self._drain, name="recorder-writer", daemon=True)
         self._thread.start()
         self._subscriber = session.declare_subscriber(key_expr, zenoh_callback(self._on_sample))
@@ -46,27 +56,34 @@ class Recorder:
     def _on_sample(self, sample: zenoh.Sample) -> None:
         now = time.time_ns()
         key = str(sample.key_expr)
-        if not self.keep(key):
+        kept = self.keep(key)
+        if not kept and key != self.clock_key:
             return
         stamp = sample.timestamp
         published = stamp.get_time_as_ntp64().as_nanos() if stamp is not None else now  # HLC: Unix epoch
         try:
-            self._queue.put_nowait(Sample(key, sample.payload.to_bytes(), now, published))
-            self.received += 1
+            self._queue.put_nowait((Sample(key, sample.payload.to_bytes(), now, published), kept))
+            if kept:
+                self.received += 1
         except queue.Full:
-            self.drops[key] += 1
+            if kept:
+                self.drops[key] += 1
 
     def _drain(self) -> None:
         pending, last_flush = False, time.monotonic()
         while True:
             try:
-                sample = self._queue.get(timeout=self.flush_s)
+                item = self._queue.get(timeout=self.flush_s)
             except queue.Empty:
-                sample = ...  # quiet for a while: still flush what is pending
-            if sample is None:
+                item = ...  # quiet for a while: still flush what is pending
+            if item is None:
                 return
-            if sample is not ...:
-                pending = self._write(sample) or pending
+            if item is not ...:
+                sample, kept = item
+                if sample.key == self.clock_key:
+                    self._clock(sample)
+                if kept:
+                    pending = self._write(sample) or pending
             if pending and self.flush is not None and time.monotonic() - last_flush >= self.flush_s:
                 self._flush()
                 pending, last_flush = False, time.monotonic()
@@ -78,6 +95,14 @@ class Recorder:
         except Exception:  # a bad sample must not stop the recording of the good ones
             log.exception("could not write a sample of %s", sample.key)
             return False
+
+    def _clock(self, sample: Sample) -> None:
+        try:
+            clock = codec.decode(m.Clock, sample.payload)
+        except codec.DecodeError:
+            return  # recorded as it came, if kept; it bounds no gap
+        assert self.gaps is not None
+        self.gaps.clock(ClockMark(sample.log_time_ns, clock.tick, clock.sim_time, clock.run))
 
     def _flush(self) -> None:
         try:
@@ -92,12 +117,32 @@ class Recorder:
         self._thread.join()
 
 
+class RouterWatch:
+    """Whether the session still reaches a router (or, in peer mode, a peer), polled from the recorder's main loop;
+    each change goes to the gap tracker and is said on stdout as it happens."""
+
+    def __init__(self, session: zenoh.Session, gaps: GapTracker, say: Callable[[str], None] | None = None) -> None:
+        self.session, self.gaps = session, gaps
+        self.say = say or (lambda text: print(text, flush=True))
+
+    def poll(self) -> Gap | None:
+        info = self.session.info
+        connected = any(True for _ in info.routers_zid()) or any(True for _ in info.peers_zid())
+        gap = self.gaps.connection(connected, time.time_ns())
+        if gap is not None and gap.back_ns is None:
+            self.say("lost the router: samples published until it is back are missing (counted as a gap)")
+        elif gap is not None:
+            self.say(f"router back after {gap.wall_s:.1f} s: counted as a gap")
+        return gap
+
+
 class RollingBuffer:
     """The last ``seconds`` of samples, written to a new file on ``snapshot()`` (SIGUSR1, ground command)."""
 
-    def __init__(self, seconds: float, base: Path, session: dict[str, str] | None, compression: str) -> None:
+    def __init__(self, seconds: float, base: Path, session: dict[str, str] | None, compression: str,
+                 gaps: GapTracker | None = None) -> None:
         self.window_ns = int(seconds * 1e9)
-        self.base, self.session, self.compression = base, session, compression
+        self.base, self.session, self.compression, self.gaps = base, session, compression, gaps
         self.samples: deque[Sample] = deque()
         self.snapshots: list[Path] = []
         self._lock = threading.Lock()
@@ -115,6 +160,7 @@ class RollingBuffer:
         writer = SessionWriter(path, self.session, self.compression)
         for sample in samples:
             writer.write(sample)
-        writer.close()
+        since = samples[0].log_time_ns if samples else None
+        writer.close(gaps=self.gaps.metadata(since) if self.gaps is not None else None)
         self.snapshots.append(path)
         return path

@@ -19,7 +19,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 from schemas.keyspace import ROOT, Keyspace
-from sessions.format import SESSION_METADATA, Sample
+from sessions.format import Sample
 
 Source = Callable[[int | None], Iterable[Sample]]
 """Samples in log-time order from a log time on (None: from the first); called again to seek or loop."""
@@ -47,15 +47,6 @@ def list_source(samples: Sequence[Sample]) -> Source:
         return samples[bisect.bisect_left(times, start_ns) if start_ns is not None else 0:]
 
     return source
-
-
-def recorded_world(metadata: dict[str, dict[str, str]], first_key: str | None) -> str | None:
-    """The world a recording was made in: its session metadata, else the second segment of a key."""
-    world = metadata.get(SESSION_METADATA, {}).get("world")
-    if world:
-        return world
-    parts = (first_key or "").split("/")
-    return parts[1] if len(parts) > 2 and parts[0] == ROOT else None
 
 
 def world_remapper(recorded: str, target: str) -> Callable[[str], str]:

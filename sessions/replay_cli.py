@@ -8,7 +8,9 @@ The recorded world clock is left out unless ``--clock``: a replay beside a live 
 agents. Controls: on a terminal, space pauses/resumes, ``s`` or the right arrow steps one sample, ``q``
 quits; from anywhere, ``pause``/``resume``/``step``/``seek`` ground commands on the target world's keyspace.
 With no ``--connect`` and nothing listening on the default endpoint (the run that served as router has ended),
-the replay serves as the router there.
+the replay serves as the router there. The file is checked before anything is published: only LunarSim keys of a
+valid world go out (other channels are skipped and counted), and a file cut short is refused with the
+``lunarsim recover`` command that mends it.
 """
 
 from __future__ import annotations
@@ -21,13 +23,16 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bus import process
 from bus.zenoh_config import add_zenoh_arguments
 
-MCAP_MAGIC = b"\x89MCAP0\r\n"
+if TYPE_CHECKING:
+    from sessions.recording import Recording
+
 ESC_RIGHT = b"\x1b[C"
 
 
@@ -48,45 +53,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_zenoh_arguments(parser)
 
 
-@dataclass(frozen=True)
-class Recording:
-    """What the replay needs to know about a file before playing it."""
-
-    path: Path
-    world: str | None
-    first_ns: int
-    last_ns: int
-
-
 def open_recording(path: Path) -> Recording:
-    """Check the file is a readable, non-empty MCAP recording; every failure is a UsageError naming it."""
-    from sessions.format import read_metadata, read_samples, time_range
-    from sessions.replay import recorded_world
+    """The file checked as a LunarSim recording with samples to play; every failure is a one-line UsageError naming
+    it, raised before any Zenoh session opens. Foreign channels are skipped, and said to be."""
+    from sessions.recording import check_recording
 
-    if not path.exists():
-        raise process.UsageError(f"{path}: no such file")
-    if not path.is_file():
-        raise process.UsageError(f"{path}: not a file")
-    with path.open("rb") as stream:
-        if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
-            raise process.UsageError(f"{path}: not an MCAP file (expected a recording made by 'lunarsim record')")
-    try:
-        metadata = read_metadata(path)
-        first_ns, last_ns = time_range(path)
-        first = next(iter(read_samples(path)), None)
-        if first is not None and first_ns == last_ns == 0:  # no summary (a recorder killed mid-run): scan
-            first_ns = first.log_time_ns
-            last_ns = max(s.log_time_ns for s in read_samples(path))
-    except Exception as exc:  # the mcap reader raises several types for damaged files
-        raise process.UsageError(f"{path}: cannot read the recording ({type(exc).__name__}: {exc})") from None
+    recording = check_recording(path)
+    first = next(recording.samples(), None)
     if first is None:
         raise process.UsageError(f"{path}: the recording is empty (no samples)")
-    return Recording(path, recorded_world(metadata, first.key), first_ns, last_ns)
+    if recording.foreign:  # the file's time range counts the skipped channels too: take ours alone
+        last = max(s.log_time_ns for s in recording.samples())
+        recording = replace(recording, first_ns=first.log_time_ns, last_ns=last)
+    for note in (recording.foreign_note(), recording.gap_note()):
+        if note:
+            print(f"warning: {note}", file=sys.stderr, flush=True)
+    return recording
 
 
 def run_from_args(args: argparse.Namespace) -> int:
     from schemas.keyspace import check_world_name
-    from sessions.format import TopicFilter, read_samples
+    from sessions.format import TopicFilter
     from sessions.replay import CLOCK_GLOB, Player, prefetch, world_remapper
 
     if args.rate <= 0:
@@ -99,7 +86,7 @@ def run_from_args(args: argparse.Namespace) -> int:
         raise process.UsageError(f"--remap-world: {exc}") from None
     recording = open_recording(args.file)
     keep = TopicFilter(args.topics, [*(args.exclude or []), *([] if args.clock else [CLOCK_GLOB])])
-    if next(iter(read_samples(recording.path, keep)), None) is None:
+    if next(recording.samples(keep), None) is None:
         raise process.UsageError(f"{args.file}: no samples left after --topics/--exclude"
                                  + ("" if args.clock else " (the world clock is left out without --clock)"))
     if target and recording.world is None:
@@ -107,7 +94,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     world = target or recording.world or "default"
     remap = world_remapper(recording.world, target) if target and recording.world else None
     return _play(args, recording, world, lambda publish: Player(
-        lambda start_ns: prefetch(read_samples(recording.path, keep, start_ns)), publish, rate=args.rate,
+        lambda start_ns: prefetch(recording.samples(keep, start_ns)), publish, rate=args.rate,
         loop=args.loop, start_offset_s=args.start_offset, paused=args.start_paused, remap=remap,
         first_ns=recording.first_ns, last_ns=recording.last_ns))
 

@@ -4,6 +4,7 @@ so the result equals the run's ``report.json`` (wall time aside)."""
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterable
 
 from schemas import codec
@@ -19,20 +20,24 @@ class NothingToReport(ValueError):
     """The recording holds no world state of the world asked for."""
 
 
-def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: str) -> m.MissionReport:
+def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: str,
+                        malformed: Counter[str] | None = None) -> m.MissionReport:
+    """The statistics; a sample that does not decode is skipped and counted per key in ``malformed``, as the world
+    and the viewers skip one."""
     keys = ks.Keyspace(world)
     stats = MissionStats(scenario, RoverMissions(scenario))
+    skipped: Counter[str] = Counter() if malformed is None else malformed
     last_map: bytes | None = None
     for sample in samples:
-        if sample.key == keys.lander(ks.MAP):
-            last_map = sample.payload
-        elif sample.key == keys.state:
-            stats.observe(codec.decode(m.WorldState, sample.payload))
-        elif sample.key == keys.ground_command:
-            try:
+        try:
+            if sample.key == keys.lander(ks.MAP):
+                last_map = sample.payload
+            elif sample.key == keys.state:
+                stats.observe(codec.decode(m.WorldState, sample.payload))
+            elif sample.key == keys.ground_command:
                 stats.command(codec.decode(m.GroundCommand, sample.payload))
-            except codec.DecodeError:
-                continue  # the world ignored it too
+        except codec.DecodeError:
+            skipped[sample.key] += 1
     if stats.last is None:
         raise NothingToReport(f"no {keys.state} samples: nothing to compute statistics from")
     report = stats.report()  # wall_time_s stays None: the launcher's stopwatch is not in the world's data

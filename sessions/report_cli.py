@@ -1,13 +1,19 @@
 """``lunarsim report FILE.mcap``: the mission statistics (report 3.4.7) and a trajectory plot, from a
-recording alone, with no live system."""
+recording alone, with no live system. What the file cannot vouch for (channels skipped, samples that do not decode,
+gaps the recorder noted) is said below the table."""
 
 from __future__ import annotations
 
 import argparse
 import json
+from collections import Counter
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bus import process
+
+if TYPE_CHECKING:
+    from sessions.recording import Recording
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,34 +29,47 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    from mcap.exceptions import McapError
     from rich.console import Console
 
-    from sessions.format import SESSION_METADATA, read_metadata, read_samples, scenario_for
+    from schemas.scenario import load_scenario
+    from sessions.format import embedded_scenario
+    from sessions.recording import check_recording
     from sessions.report import NothingToReport, report_from_samples
     from sessions.summary import summary_table
 
-    if not args.input.is_file():
-        raise process.UsageError(f"{args.input}: no such file")
-    scenario = scenario_for(args.input, args.scenario)
+    recording = check_recording(args.input)
+    scenario = load_scenario(args.scenario) if args.scenario else embedded_scenario(recording.metadata,
+                                                                                     str(args.input))
     if scenario is None:
         raise process.UsageError(f"{args.input} embeds no scenario (recorded without --scenario): pass "
                                  "--scenario FILE")
-    world = args.world or read_metadata(args.input).get(SESSION_METADATA, {}).get("world", "default")
+    world = args.world or recording.world or "default"
+    malformed: Counter[str] = Counter()
     try:
-        report = report_from_samples(scenario, read_samples(args.input), world)
+        report = report_from_samples(scenario, recording.samples(), world, malformed)
     except NothingToReport as exc:
         raise process.UsageError(f"{args.input}: {exc} (world {world!r}; pass --world?)") from None
-    except McapError as exc:
-        raise process.UsageError(f"{args.input}: damaged MCAP recording ({exc}); try 'lunarsim recover'") from None
     console = Console()
     console.print(summary_table(report))
+    for note in _notes(recording, malformed):
+        print(f"warning: {note}", flush=True)
     if args.json:
         args.json.write_text(json.dumps(report.model_dump(), indent=2) + "\n")
         console.print(f"statistics written to {args.json}")
     if not args.no_plot:
         from sessions.plot import draw_trajectories
 
-        png = draw_trajectories(args.input, scenario, args.plot or args.input.with_suffix(".png"))
+        png = draw_trajectories(recording.samples(), scenario, args.plot or args.input.with_suffix(".png"))
         console.print(f"trajectory plot written to {png}")
     return 0
+
+
+def _notes(recording: Recording, malformed: Counter[str]) -> list[str]:
+    """What the figures above do not cover, one line each."""
+    gaps = recording.gap_note()
+    notes = [note for note in (recording.foreign_note(), gaps and f"{gaps}: the figures hold only what was recorded")
+             if note]
+    if malformed:
+        notes.append(f"{recording.path}: skipped {sum(malformed.values())} samples that do not decode "
+                     f"({', '.join(sorted(malformed))})")
+    return notes

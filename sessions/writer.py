@@ -11,6 +11,7 @@ from mcap.writer import CompressionType, Writer
 
 from sessions.format import (
     DROPS_METADATA,
+    GAPS_METADATA,
     MESSAGE_ENCODING,
     PROFILE,
     SCHEMA_ENCODING,
@@ -26,7 +27,7 @@ every closed chunk of a file whose writer was killed)."""
 
 
 class SessionWriter:
-    """One MCAP file. ``write`` takes samples of any key; ``close`` writes the drop counts and the index."""
+    """One MCAP file. ``write`` takes samples of any key; ``close`` writes the drop counts, the gaps and the index."""
 
     def __init__(self, path: Path | BinaryIO, session: dict[str, str] | None = None,
                  compression: str = "zstd", chunk_size: int = CHUNK_SIZE) -> None:
@@ -70,9 +71,12 @@ class SessionWriter:
                 schema_id = self._schemas[name] = self._writer.register_schema(name, SCHEMA_ENCODING, data)
         return self._writer.register_channel(key, MESSAGE_ENCODING, schema_id)
 
-    def close(self, drops: Counter[str] | None = None) -> None:
+    def close(self, drops: Counter[str] | None = None, gaps: dict[str, str] | None = None) -> None:
+        """``gaps``: the ``lunarsim.gaps`` record (``GapTracker.metadata``), left out when nobody tracked gaps."""
         self._writer.add_metadata(DROPS_METADATA, {"total": str(sum((drops or Counter()).values())),
                                                    "per_key": json.dumps(dict(drops or {}))})
+        if gaps is not None:
+            self._writer.add_metadata(GAPS_METADATA, gaps)
         self._writer.finish()
         if self.path is not None:
             self._stream.close()
@@ -109,5 +113,6 @@ class SplittingWriter:
     def flush(self) -> None:
         self._current.flush()
 
-    def close(self, drops: Counter[str] | None = None) -> None:
-        self._current.close(drops)
+    def close(self, drops: Counter[str] | None = None, gaps: dict[str, str] | None = None) -> None:
+        """Drops and gaps go into the last file: they are the whole recording's."""
+        self._current.close(drops, gaps)

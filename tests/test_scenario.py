@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 
 import pytest
+import trimesh
 import yaml
 
 from schemas.params import RoverParams, SpawnParams
@@ -422,5 +423,6 @@ def test_a_relative_mesh_path_is_resolved_against_the_scenario_file(tmp_path):
     data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
     data["terrain"] = {"origin": [-700, -131], "size_m": [270, 291], "mesh": "ground.glb"}
     (folder / "s.yaml").write_text(yaml.safe_dump(data))
+    trimesh.creation.box(extents=(1.0, 1.0, 1.0)).export(folder / "ground.glb")
     scenario = load_scenario(folder / "s.yaml")
     assert scenario.terrain.mesh == str((folder / "ground.glb").resolve())

@@ -275,3 +275,40 @@ def test_shipped_scenarios_stay_within_the_bounds(path):
     spec = scenario.terrain_spec()
     _, held = limits.terrain_memory(spec.size_m, spec.resolution_m, spec.tile_size_m, spec.max_tiles_in_memory)
     assert held < limits.MEMORY_LIMIT_BYTES / 10
+
+
+# ---- list lengths ----
+
+
+@pytest.mark.parametrize(("path", "bound"), [
+    ("craters", limits.MAX_CRATERS), ("mission", limits.MAX_GOALS), ("obstacles.rocks", limits.MAX_ROCKS),
+    ("obstacles.walls", limits.MAX_WALLS), ("obstacles.rock_fields", limits.MAX_ROCK_FIELDS),
+    ("obstacles.walls.0.points", limits.MAX_WALL_POINTS),
+])
+def test_every_list_is_bounded_and_refused_before_its_items_are_checked(path, bound):
+    """One item too many is one line naming the list, not a line for each of its (here all bad) items."""
+    items = [{"x": "?"}] * (bound + 1)
+    data = _data(obstacles={"walls": [{"points": items}]}) if ".0." in path else _set(_data(), path, items)
+    lines = _error(data).splitlines()
+    assert lines == [f"test.yaml: {path}: List should have at most {bound} items after validation, not {bound + 1}"]
+
+
+def test_rocks_listed_and_scattered_are_bounded_together():
+    fields = [{"x": 9.0, "z": 9.0, "radius_m": 5.0, "count": limits.MAX_ROCKS // 2}] * 2
+    assert len(parse_scenario(_data(obstacles={"rock_fields": fields})).obstacles.rock_fields) == 2
+    text = _error(_data(obstacles={"rock_fields": fields, "rocks": [{"x": 9.0, "z": 9.0, "radius_m": 1.0}]}))
+    assert text == "test.yaml: obstacles: 100,001 rocks in all (listed, and every rock field's count): at most 100,000"
+
+
+# ---- a behaviour's form ----
+
+
+@pytest.mark.parametrize("spec", ["default", "my-plugin.v2", "my_rovers.slow:Slow", "antigravity:Foo"])
+def test_a_behaviour_of_a_usable_form_is_accepted(spec):
+    assert parse_scenario(_data(behaviour=spec)).behaviour == spec
+
+
+@pytest.mark.parametrize("spec", ["", "two words", "a:b:c", "pkg.:Class", "pkg:1Class", "../x:Y", "x" * 300])
+def test_a_behaviour_of_no_usable_form_is_refused(spec):
+    assert "is not a behaviour: give a name (default, straight, an installed plugin) or 'package.module:Class'" in \
+        _error(_data(behaviour=spec))

@@ -1,4 +1,4 @@
-"""Foxglove export, trajectory plot and live view, checked on a small recording (no router needed).
+"""Foxglove export, report, trajectory plot and live view, checked on a small recording (no router needed).
 
 The exported messages are decoded with the protobuf runtime from the schemas (FileDescriptorSets) the
 foxglove SDK wrote into the file, not from compiled classes: what Foxglove will read is what we check.
@@ -7,6 +7,7 @@ foxglove SDK wrote into the file, not from compiled classes: what Foxglove will 
 from __future__ import annotations
 
 import functools
+import json
 import socket
 from pathlib import Path
 
@@ -20,7 +21,8 @@ from deploy import cli
 from schemas import codec
 from schemas import messages as m
 from schemas.scenario import load_scenario
-from sessions.format import Sample
+from sessions.format import Sample, read_samples
+from sessions.gaps import ClockMark
 from sessions.writer import SessionWriter
 
 SCENARIO_FILE = SCENARIOS / "crater_observation.yaml"
@@ -181,6 +183,43 @@ def test_export_keeps_raw_channels(recording: Path, tmp_path: Path):
     assert "scenario" in read_metadata(out)[SESSION_METADATA]
 
 
+def test_export_writes_each_schema_once_shared_by_the_channels_of_its_type(tmp_path: Path):
+    path = tmp_path / "photos.mcap"
+    writer = SessionWriter(path, {"scenario": SCENARIO_FILE.read_text(encoding="utf-8")})
+    for rover in (1, 2, 3, 4, 2):
+        t = T0 + rover * 1_000_000
+        writer.write(Sample(f"lunar/test/rover/{rover}/photo", codec.encode(m.Photo(stamp=1.0, png=PNG)), t, t))
+    writer.write(Sample(STATE_KEY, codec.encode(state(0)), T0 + 10**7, T0 + 10**7))
+    writer.close()
+    out = tmp_path / "out.mcap"
+    assert cli.main(["export-foxglove", str(path), "-o", str(out), "--terrain-cells", "8"]) == 0
+    from mcap.reader import make_reader
+
+    with open(out, "rb") as stream:
+        summary = make_reader(stream).get_summary()
+    names = [schema.name for schema in summary.schemas.values()]
+    assert sorted(names) == sorted(set(names)) and names.count("foxglove.CompressedImage") == 1
+    photo_schemas = {c.schema_id for c in summary.channels.values() if c.topic.endswith("/photo")}
+    assert len(photo_schemas) == 1 and summary.schemas[photo_schemas.pop()].name == "foxglove.CompressedImage"
+    assert sorted(t for t in read_foxglove(out) if t.endswith("/photo")) == [f"/rover_{i}/photo" for i in (1, 2, 3, 4)]
+
+
+def test_photo_keys_with_ids_no_rover_has_are_not_exported(tmp_path: Path):
+    from sessions.foxglove import rover_of_key
+
+    assert rover_of_key("lunar/test/rover/12/photo") == 12
+    for rover in ("²", "99999999999999999999", "1001", "-1", "x"):
+        key = f"lunar/test/rover/{rover}/photo"
+        assert rover_of_key(key) is None, key
+    path = tmp_path / "ids.mcap"
+    writer = SessionWriter(path, {"world": "test"})
+    for key in ("lunar/test/rover/99999999999999999999/photo", "lunar/test/rover/2/photo"):
+        writer.write(Sample(key, codec.encode(m.Photo(stamp=1.0, png=PNG)), T0, T0))
+    writer.close()
+    assert cli.main(["export-foxglove", str(path), "-o", str(tmp_path / "out.mcap")]) == 0
+    assert [t for t in read_foxglove(tmp_path / "out.mcap") if t.endswith("/photo")] == ["/rover_2/photo"]
+
+
 def test_export_of_a_missing_file_exits_2_naming_it(tmp_path: Path, capsys):
     assert cli.main(["export-foxglove", "missing.mcap", "-o", str(tmp_path / "x.mcap")]) == 2
     assert "missing.mcap" in capsys.readouterr().err
@@ -192,6 +231,45 @@ def test_export_of_a_file_that_is_not_mcap_exits_2(tmp_path: Path, capsys):
     bad.write_bytes(b"not an mcap file at all")
     assert cli.main(["export-foxglove", str(bad), "-o", str(tmp_path / "x.mcap")]) == 2
     assert "bad.mcap" in capsys.readouterr().err
+
+
+# ---- report ----
+
+
+def test_report_skips_and_counts_world_states_that_do_not_decode(recording: Path, tmp_path: Path, capsys):
+    broken = tmp_path / "broken.mcap"
+    writer = SessionWriter(broken, {"world": "test", "scenario": SCENARIO_FILE.read_text(encoding="utf-8")})
+    for sample in read_samples(recording):
+        writer.write(sample)
+    writer.write(Sample(STATE_KEY, b"\x92\x01\x80", T0 + 5 * 10**9, T0 + 5 * 10**9))  # the envelope, no fields
+    writer.write(Sample("lunar/test/ground/command", b"garbage", T0 + 6 * 10**9, T0 + 6 * 10**9))
+    writer.close()
+    stats = tmp_path / "stats.json"
+    assert cli.main(["report", str(broken), "--json", str(stats), "--plot", str(tmp_path / "paths.png")]) == 0
+    out = capsys.readouterr().out
+    assert (f"warning: {broken}: skipped 2 samples that do not decode (lunar/test/ground/command, "
+            f"{STATE_KEY})") in out
+    assert json.loads(stats.read_text())["mission_duration_s"] == 2.0  # the last state that decodes
+    assert (tmp_path / "paths.png").stat().st_size > 10_000
+
+
+def test_report_says_a_recording_has_a_gap(recording: Path, tmp_path: Path, capsys):
+    from sessions.gaps import GapTracker
+
+    gaps = GapTracker()
+    gaps.connection(True, T0)
+    gaps.clock(ClockMark(T0, 20, 1.0, "r"))
+    gaps.connection(False, T0 + 10**9)
+    gaps.connection(True, T0 + 8 * 10**9)
+    gaps.clock(ClockMark(T0 + 9 * 10**9, 180, 9.0, "r"))
+    path = tmp_path / "gap.mcap"
+    writer = SessionWriter(path, {"world": "test", "scenario": SCENARIO_FILE.read_text(encoding="utf-8")})
+    for sample in read_samples(recording):
+        writer.write(sample)
+    writer.close(gaps=gaps.metadata())
+    assert cli.main(["report", str(path), "--no-plot"]) == 0
+    assert (f"warning: {path} has 1 gap: the recorder lost its router for 7.0 s; 8.0 simulated s not recorded: "
+            "the figures hold only what was recorded") in capsys.readouterr().out
 
 
 # ---- plot ----

@@ -1,4 +1,4 @@
-"""Recording sessions to MCAP: the file format, splitting, snapshots, and a real run recorded and recovered."""
+"""Recording sessions to MCAP: the file format, splitting, snapshots, gaps, and a real run recorded and recovered."""
 
 from __future__ import annotations
 
@@ -9,13 +9,17 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+import zenoh
 from mcap.reader import make_reader
-from procs import SCENARIOS, free_port, lunarsim, run_cli_mission, stop, wait_for_output
+from procs import SCENARIOS, free_port, lunarsim, module, run_cli_mission, stop, wait_for, wait_for_output
 
+from bus.zenoh_config import build_config
+from deploy.children import wait_for_port
 from schemas import codec
 from schemas import messages as m
 from sessions.format import (
     DROPS_METADATA,
+    GAPS_METADATA,
     SESSION_METADATA,
     Sample,
     TopicFilter,
@@ -142,6 +146,10 @@ def test_lunarsim_run_records_the_session_and_a_killed_recorder_is_recovered(tmp
     assert proc.returncode == 0, err
     assert json.loads(recomputed.read_text()) == {**report, "wall_time_s": None}
     assert (tmp_path / "paths.png").stat().st_size > 10_000
+    proc = lunarsim("report", str(killed), "--no-plot")  # the killed recorder's file as it was left
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2 and err.startswith(f"error: {killed}: the file ends early"), err
+    assert f"run 'lunarsim recover {killed} -o " in err and len(err.splitlines()) == 1
     fixed = tmp_path / "fixed.mcap"
     proc = lunarsim("recover", str(killed), "-o", str(fixed))
     _, err = proc.communicate(timeout=60)
@@ -251,7 +259,73 @@ def test_a_writer_puts_its_header_on_disk_at_once_and_each_flush_makes_a_recover
     writer.close()
 
 
+def test_a_world_whose_recording_could_not_be_read_back_is_not_recorded(tmp_path, capsys):
+    from deploy.cli import main
+
+    assert main(["record", "-o", str(tmp_path / "s.mcap"), "--world", "_x", "--router-timeout", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --world: invalid world name '_x'") and len(err.splitlines()) == 1
+    assert not (tmp_path / "s.mcap").exists()
+
+
 def test_recover_names_an_empty_file(tmp_path):
     (tmp_path / "empty.mcap").write_bytes(b"")
     with pytest.raises(NotARecording, match="empty"):
         recover(tmp_path / "empty.mcap", tmp_path / "out.mcap")
+
+
+# ---- gaps: what a recorder misses while it has lost its router ----
+
+
+GAP_OUTAGE_S = 3.0
+"""How long the router stays down: long enough for the world's clock to run on by seconds the recorder misses."""
+
+
+@pytest.mark.e2e
+def test_a_router_outage_is_a_gap_in_the_recorders_summary_its_metadata_and_the_report(tmp_path):
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    crater = str(SCENARIOS / "crater_observation.yaml")
+    router = _router(port)
+    path = tmp_path / "gap.mcap"
+    recorder = lunarsim("record", "-o", str(path), "--world", "gap", "--scenario", crater, "--connect", endpoint)
+    world = module("world_service", crater, "--world", "gap", "--connect", endpoint, "--start-timeout", "0",
+                   "--no-lander")
+    heard: list[m.Clock] = []
+    watcher = zenoh.open(build_config(connect=[endpoint]))
+    watcher.declare_subscriber("lunar/gap/world/clock",
+                               lambda sample: heard.append(codec.decode(m.Clock, sample.payload.to_bytes())))
+    try:
+        wait_for_output(recorder, "recording", 30)
+        wait_for(lambda: heard and heard[-1].running and heard[-1].sim_time > 1.0, 60, "the world's clock running")
+        router.kill()
+        router.wait(timeout=10)
+        wait_for_output(recorder, "lost the router", 10)
+        time.sleep(GAP_OUTAGE_S)  # the outage itself: while no process reaches another there is nothing to wait for
+        router = _router(port)
+        wait_for_output(recorder, "router back", 30)
+        resumed = heard[-1].sim_time
+        wait_for(lambda: heard[-1].sim_time > resumed + 2.0, 30, "the world's clock heard again through the router")
+        recorder.send_signal(signal.SIGINT)
+        out, err = recorder.communicate(timeout=60)
+    finally:
+        watcher.close()
+        stop(recorder, world, router)
+    assert recorder.returncode == 0, err
+    assert "; 1 gap: the recorder lost its router for " in out.strip().splitlines()[-1]
+    record = read_metadata(path)[GAPS_METADATA]
+    (gap,) = json.loads(record["gaps"])
+    assert record["count"] == "1" and gap["sim_s"] >= GAP_OUTAGE_S / 2  # the world ran at real time meanwhile
+    recorded = [decode(s).sim_time for s in read_samples(path) if s.key == "lunar/gap/world/clock"]
+    assert gap["sim_from"] in recorded and gap["sim_to"] in recorded  # bounded by clocks the file holds...
+    assert not [t for t in recorded if gap["sim_from"] < t < gap["sim_to"]]  # ...and nothing between them
+    report = lunarsim("report", str(path), "--no-plot")
+    out, err = report.communicate(timeout=120)
+    assert report.returncode == 0, err
+    assert f"warning: {path} has 1 gap: the recorder lost its router for" in out
+
+
+def _router(port: int):
+    proc = module("deploy.router", "--listen", f"tcp/127.0.0.1:{port}")
+    assert wait_for_port("127.0.0.1", port, 15, proc), "the router did not start"
+    return proc

@@ -17,8 +17,8 @@ from deploy.cli import main
 from schemas import codec
 from schemas import messages as m
 from sessions import replay_cli
-from sessions.format import SESSION_METADATA, Sample, TopicFilter, read_samples
-from sessions.replay import CLOCK_GLOB, Player, recorded_world, world_remapper
+from sessions.format import Sample, TopicFilter, read_samples
+from sessions.replay import CLOCK_GLOB, Player, world_remapper
 from sessions.writer import SessionWriter
 
 BASE_NS = 1_700_000_000 * 10**9
@@ -202,12 +202,6 @@ def test_remap_moves_keys_into_another_world():
     out, _ = play(samples(0, 1), remap=world_remapper("w1", "w2"))
     assert [k for _, k, _ in out] == ["lunar/w2/rover/0/status", "lunar/w2/rover/1/status"]
     assert world_remapper("w1", "w2")("lunar/w10/world/clock") == "lunar/w10/world/clock"
-
-
-def test_the_recorded_world_comes_from_the_metadata_else_the_first_key():
-    assert recorded_world({SESSION_METADATA: {"world": "moon"}}, "lunar/other/world/clock") == "moon"
-    assert recorded_world({}, "lunar/other/world/clock") == "other"
-    assert recorded_world({}, None) is None
 
 
 def test_the_world_clock_is_left_out_unless_asked_for():

@@ -10,6 +10,7 @@ grid out of memory just as procedural tiles do.
 
 from __future__ import annotations
 
+import io
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +19,7 @@ import numpy as np
 import trimesh
 
 from schemas.scenario import TerrainSpec
+from schemas.scenario_files import read_mesh
 
 BATCH_PAIRS = 2_000_000
 """(triangle, node) pairs rasterised at once: bounds the temporary arrays to a few tens of MB."""
@@ -27,8 +29,11 @@ EDGE_TOLERANCE = 1e-9
 
 def load_vertices_faces(path: str | Path, scale: float | Sequence[float] = 1.0,
                         offset: Sequence[float] = (0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (scaled, then offset) and triangle faces of a mesh file; a multi-part scene is flattened."""
-    mesh = trimesh.load(str(path), force="mesh")
+    """Vertices (scaled, then offset) and triangle faces of a mesh file; a multi-part scene is flattened.
+
+    The file is read as the scenario's files are (``schemas.scenario_files``): a regular file of bounded size."""
+    data, kind = read_mesh(Path(path))
+    mesh = trimesh.load(io.BytesIO(data), file_type=kind, force="mesh")
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise ValueError(f"{path}: no triangles to make a terrain from")
     vertices = np.asarray(mesh.vertices, float) * np.broadcast_to(np.asarray(scale, float), 3)
