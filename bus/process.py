@@ -56,8 +56,11 @@ def freeze_start_up_heap() -> None:
     gc.freeze()
 
 
-def setup_logging(verbose: bool = False) -> None:
-    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
+def setup_logging(verbose: bool = False, events: bool = False) -> None:
+    """``events``: a process of a mission (world, lander, rover, bridge, recorder) logs what an operator reads
+    afterwards at INFO (its start, its connection, each rover's goals and stops, what it refused, its end), so a
+    run's ``logs/`` tell its story; a one-shot command keeps quiet but for warnings."""
+    logging.basicConfig(level=logging.INFO if verbose or events else logging.WARNING,
                         format="%(asctime)s %(name)s %(levelname)s: %(message)s", stream=sys.stderr)
 
 
@@ -128,7 +131,7 @@ def main_for(name: str, module_name: str) -> None:
     module.add_arguments(parser)
     parser.add_argument("--verbose", "-v", action="store_true", help="log progress at INFO level")
     args = parser.parse_args()
-    setup_logging(args.verbose)
+    setup_logging(args.verbose, events=True)
     sys.exit(run_guarded(module.run_from_args, args))
 
 

@@ -39,6 +39,10 @@ COMMANDS = {
 }
 
 
+MISSION_PROCESSES = frozenset({"world", "lander", "rover", "router", "record", "bridge"})
+"""Commands that run as a process of a mission, and log its events (``process.setup_logging``)."""
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="lunarsim", description="Distributed lunar rover middleware and "
                                      "digital twin over Zenoh.")
@@ -88,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     args, unknown = parser.parse_known_args(argv)
     if unknown:  # said by the command's own parser, with its usage, not the top-level one
         _subparser(parser, args.subcommand).error(f"unrecognized arguments: {' '.join(unknown)}")
-    process.setup_logging(args.verbose)
+    process.setup_logging(args.verbose, events=args.subcommand in MISSION_PROCESSES)
     return process.run_guarded(args.run, args)
 
 

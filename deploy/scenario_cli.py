@@ -1,5 +1,7 @@
-"""``lunarsim scenario import|export|check|generate``: the report's editor profiles, scenario validation and
-seeded scenarios drawn by ``scenarios.generator``."""
+"""``lunarsim scenario list|import|export|check|generate``: the shipped scenarios, the report's editor profiles,
+scenario validation and seeded scenarios drawn by ``scenarios.generator``.
+
+Wherever a command takes a scenario file, a shipped scenario's bare name does too (``lunarsim run maze``)."""
 
 from __future__ import annotations
 
@@ -12,7 +14,9 @@ from bus import process
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="scenario_command", required=True, metavar="{import,export,check,generate}")
+    sub = parser.add_subparsers(dest="scenario_command", required=True,
+                                metavar="{list,import,export,check,generate}")
+    sub.add_parser("list", help="the scenarios that come with LunarSim, by the name any command takes")
     imp = sub.add_parser("import", help="scenario YAML from a LunarSim scenario-editor profile (JSON)")
     imp.add_argument("profile", type=Path, help="the editor profile (JSON)")
     imp.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.yaml", help="the scenario to write")
@@ -35,7 +39,9 @@ def run_from_args(args: argparse.Namespace) -> int:
     from schemas.profiles import load_profile, scenario_to_profile
     from schemas.scenario import dump_scenario, load_scenario
 
-    if args.scenario_command == "import":
+    if args.scenario_command == "list":
+        _list()
+    elif args.scenario_command == "import":
         scenario = load_profile(args.profile, args.name).with_overrides(seed=args.seed)
         args.output.write_text(dump_scenario(scenario))
         print(f"wrote {args.output}: {len(scenario.rovers)} rovers, {len(scenario.craters)} craters, "
@@ -52,6 +58,15 @@ def run_from_args(args: argparse.Namespace) -> int:
               f"{len(s.obstacles.rocks) + sum(f.count for f in s.obstacles.rock_fields)} rocks, "
               f"{len(s.obstacles.walls)} walls, {len(s.mission)} goals")
     return 0
+
+
+def _list() -> None:
+    from schemas.scenario import load_scenario, shipped_scenarios
+
+    for name, path in shipped_scenarios().items():
+        s = load_scenario(path)
+        kinds = ", ".join(dict.fromkeys(g.kind for g in s.mission))
+        print(f"{name:<20} {len(s.rovers):>3} rover(s), {len(s.mission)} goal(s) ({kinds})   {path}")
 
 
 def _check_files(path: Path, scenario) -> None:

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lander_agent.map_legend import with_legend
 from schemas import messages as m
 from schemas import png, radio
 from schemas.scenario import Scenario
@@ -43,10 +44,10 @@ COLOURS = np.array([[40, 40, 40], [200, 200, 190], [220, 40, 30], [90, 110, 200]
 """PNG colour per class: unknown dark grey, free light grey, obstacle red, crater blue, rover green."""
 MARGIN_M = MAP_MARGIN_M
 PNG_MIN_SIDE_PX = 600
+"""Cells are drawn as squares of several pixels until the picture's longer side reaches this."""
 FOLDED_KEPT = 4096
 """Sequence numbers of one rover's folded reports the map remembers, to skip resends: a bound, so a sender of
 endless new numbers costs the lander no memory."""
-"""Cells are drawn as squares of several pixels until the picture's longer side reaches this."""
 NPZ_FILE, PNG_FILE = "map.npz", "map.png"
 
 
@@ -181,5 +182,5 @@ def load(path: Path) -> tuple[GridSpec, np.ndarray]:
 def render_png(classes: np.ndarray) -> bytes:
     """The map as a PNG, +z up (north up, as the session plots draw it), each cell a square of pixels."""
     scale = max(1, PNG_MIN_SIDE_PX // max(classes.shape))
-    rgb = COLOURS[np.flipud(classes)].repeat(scale, axis=0).repeat(scale, axis=1)
+    rgb = with_legend(COLOURS[np.flipud(classes)].repeat(scale, axis=0).repeat(scale, axis=1), CLASSES, COLOURS)
     return png.encode(rgb.shape[1], rgb.shape[0], rgb.tobytes(), channels=3)

@@ -46,6 +46,7 @@ class Lander:
         self.memory = memory or LanderMemory(None)
         self.run: str | None = None  # the world's run, once heard
         self.map_lost = False  # joined this run under way without a saved state: the map began again
+        self.reports_heard: set[tuple[int, int, str]] = set()  # (rover, goal, outcome), for the log
 
     def _transmit(self, targets: list[int], message: m.Message, channel: str) -> tuple[str, m.Message]:
         out = m.OutboundComm(targets=targets, payload=codec.encode(message), channel=channel)
@@ -116,7 +117,10 @@ class Lander:
             return [self._transmit([msg.sender], self.plan.direction_for(msg.sender), "mission_direction")]
         if isinstance(report, radio.GoalReport):
             moving = self.plan.on_report(msg.sender, report)
-            log.info("rover %d: goal %d %s; new goals for %s", msg.sender, report.goal_index, report.outcome, moving)
+            if (heard := (msg.sender, report.goal_index, report.outcome)) not in self.reports_heard:
+                self.reports_heard.add(heard)  # a rover repeats its report until its photos are in: logged once
+                log.info("t = %.1f s: rover %d reports goal %d %s; directions sent to %s", self.now, msg.sender,
+                         report.goal_index + 1, report.outcome, moving or "none")
             return [self._transmit([rid], self.plan.direction_for(rid), "mission_direction") for rid in moving]
         return []
 
@@ -135,6 +139,7 @@ class Lander:
         else:
             out = [self._transmit([rid], self.plan.direction_for(rid), "mission_direction") for rid in rovers]
         detail = f"{command.command} sent to rover(s) {', '.join(map(str, rovers))}"
+        log.info("t = %.1f s: ground command %s", self.now, detail)
         return [*out, self._result(command, True, detail)]
 
     def _result(self, command: m.GroundCommand, accepted: bool, detail: str) -> tuple[str, m.Message]:
@@ -163,6 +168,8 @@ def run(lander: Lander, bus: Bus, stop: threading.Event) -> None:
         bus.subscribe(key)
     bus.declare_token(keys.alive_lander)
     watch = ClockWatch("lander", keys.clock)
+    log.info("lander: started on %s with %d goal(s) for %d rover(s), waiting for the world's clock", keys.prefix,
+             len(lander.plan.scenario.mission), len(lander.plan.scenario.rovers))
     freeze_start_up_heap()
     while not stop.is_set():
         item = bus.receive(timeout=0.2)
@@ -174,3 +181,4 @@ def run(lander: Lander, bus: Bus, stop: threading.Event) -> None:
                 bus.publish(key, message)
     for key, message in lander.final_map():  # stopped before the world finished: the map as it stands
         bus.publish(key, message)
+    log.info("lander: stopping at t = %.1f s; refused %d sample(s)", lander.now, lander.rejected.total)

@@ -159,6 +159,8 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
     def _on_calibration(self, msg: m.Calibration) -> list[Out]:
         if self.pose is None and not self.lost:
             self.pose = Pose(msg.x, msg.z, msg.heading_deg % 360.0)
+            log.info("rover %d: calibrated at (%.1f, %.1f) from the lander, heading %.0f", self.id, msg.x, msg.z,
+                     msg.heading_deg % 360.0)
             self._save()
         return []
 
@@ -178,6 +180,10 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
             return []
         self.goal = goal
         if current is None or goal.index != current.index or goal.target != current.target:
+            same = current is not None and goal.index == current.index
+            log.info("t = %.1f s: rover %d %s goal %d of %d (%s, %.0f m from the lander)", self.now, self.id,
+                     "given a new spot at" if same else "bound for", goal.index + 1, goal.total, goal.kind,
+                     msg.distance_m)
             self.finished_goal = None
             self.fix.active = self.fix.active and current is not None and goal.index == current.index
             if not self.fix.active:  # a station for the goal the rover goes by the lander for: taken up later
@@ -350,6 +356,8 @@ class RoverAgent(NavigationFeedback, Localising, Resuming, Relaying):
             return self._fix_arrived(outcome)
         goal, self.stuck_why = self.goal, why
         self.finished_goal = (goal.index, outcome)
+        log.info("t = %.1f s: rover %d: goal %d %s%s", self.now, self.id, goal.index + 1, outcome,
+                 f" ({why})" if why else "")
         if outcome in ("stuck", "relay"):
             self.behaviour.state = outcome
         elif goal.final:

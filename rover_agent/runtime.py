@@ -31,11 +31,15 @@ def run(agents: RoverAgent | list[RoverAgent], bus: Bus, stop: threading.Event) 
         bus.declare_token(keys.alive_rover(agent.id))
     who = f"rover {agents[0].id}" if len(agents) == 1 else f"rovers {agents[0].id}..{agents[-1].id}"
     watch = ClockWatch(who, keys.clock)
+    log.info("%s: started on %s, waiting for the world's clock", who, keys.prefix)
     freeze_start_up_heap()
     try:
         _loop(agents, bus, stop, watch, by_prefix)
     finally:
         STATE_WRITER.flush()  # the states of the last actions, before the process ends
+        for agent in agents:
+            log.info("rover %d: stopping as %s at t = %.1f s; refused %d sample(s)", agent.id, agent.state,
+                     agent.now, agent.rejected.total)
 
 
 def _loop(agents: list[RoverAgent], bus: Bus, stop: threading.Event, watch: ClockWatch,

@@ -6,6 +6,7 @@ path, so one edit can fix them all. The bounds are in ``schemas.scenario_limits`
 
 from __future__ import annotations
 
+import importlib.util
 import math
 from pathlib import Path
 from typing import Annotated, Literal, TypeVar
@@ -17,7 +18,7 @@ from schemas import scenario_limits as limits
 from schemas.params import RoverParams, SpawnParams
 from schemas.scenario_errors import ScenarioError, error_lines, format_error
 from schemas.scenario_files import check_mesh, read_yaml
-from schemas.scenario_limits import BehaviourSpec, Coordinate, SafeName
+from schemas.scenario_limits import BehaviourSpec, Coordinate, SafeName, clip
 
 M = TypeVar("M", bound=BaseModel)
 Side = Annotated[float, Field(gt=0, le=limits.MAX_TERRAIN_SIDE_M)]
@@ -312,8 +313,29 @@ def parse_scenario(data: object, source: str = "<scenario>", base_dir: Path | No
         raise ScenarioError(format_error(source, exc, Scenario)) from None
 
 
-def load_scenario(path: str | Path) -> Scenario:
+def shipped_scenarios() -> dict[str, Path]:
+    """The scenarios that come with LunarSim, by name: the YAML files of the ``scenarios`` package, found where it is
+    installed without importing it (it sits above this package)."""
+    spec = importlib.util.find_spec("scenarios")
+    folders = list(spec.submodule_search_locations or []) if spec is not None else []
+    return {p.stem: p for folder in folders for p in sorted(Path(folder).glob("*.yaml"))}
+
+
+def find_scenario(path: str | Path) -> Path:
+    """``path`` as given if it names a file; else a bare name (``crater_observation``, with or without ``.yaml``)
+    finds a shipped scenario, from any folder."""
     path = Path(path)
+    if path.exists() or path.parent != Path("."):
+        return path
+    shipped = shipped_scenarios()
+    if (found := shipped.get(path.name.removesuffix(".yaml"))) is None:
+        raise ScenarioError(f"{clip(str(path))}: no such file, nor a shipped scenario of that name (shipped: "
+                            f"{', '.join(shipped)}; 'lunarsim scenario list' shows them)")
+    return found
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    path = find_scenario(path)
     data = read_yaml(path, "scenario")
     if data is None:
         raise ScenarioError(f"{path}: the scenario file is empty (it should be a YAML mapping with name, lander, "

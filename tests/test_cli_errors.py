@@ -58,7 +58,7 @@ def _files(folder: Path) -> None:
     text = Path(SCENARIO).read_text()
     (folder / "twice.yaml").write_text(text + "seed: 7\n")
     (folder / "huge.yaml").write_text(text + "#" * PADDING + "\n")
-    (folder / "long_name.yaml").write_text(text.replace("name: crater_observation", "name: " + "n" * 3_000_000))
+    (folder / "long_name.yaml").write_text(text.replace("name: crater_observation", "name: " + "n" * 900_000))
     terrain = "terrain: {origin: [-700, -131], size_m: [270, 291], mesh: %s}\n"
     (folder / "zero_mesh.yaml").write_text(text + terrain % "/dev/zero")
     (folder / "passwd_mesh.yaml").write_text(text + terrain % "/etc/passwd")
@@ -104,7 +104,7 @@ def _cases(d: Path) -> list[Case]:
              f"scenario: {len(Path(SCENARIO).read_bytes()) + PADDING + 1:,} bytes, more than the 1 MiB allowed"),
         Case("run a file over the size bound", (*run("r24"), str(d / "huge.yaml")), "bytes, more than the 1 MiB "
              "allowed"),
-        Case("a 3 MB name", ("scenario", "check", str(d / "long_name.yaml")), "long_name.yaml: name: 'nnnn"),
+        Case("a 900 kB name", ("scenario", "check", str(d / "long_name.yaml")), "long_name.yaml: name: 'nnnn"),
         Case("/dev/zero as mesh", ("scenario", "check", str(d / "zero_mesh.yaml")), "zero_mesh.yaml: terrain.mesh: "
              "'/dev/zero' is not a mesh file: its name must end in .obj, .stl, .ply, .glb"),
         Case("run /dev/zero as mesh", (*run("r21"), str(d / "zero_mesh.yaml")), "'/dev/zero' is not a mesh file"),
@@ -215,9 +215,9 @@ def test_the_error_is_one_line(outcomes):
 
 
 def test_an_echoed_value_is_cut_short(outcomes):
-    """A 3 MB scenario name is named by its first 200 characters, not printed whole."""
+    """A 900 kB scenario name (in a file within its size bound) is named by its first 200 characters only."""
     _, results = outcomes
-    line = results["a 3 MB name"].stderr.strip()
+    line = results["a 900 kB name"].stderr.strip()
     assert "n" * 150 + "..." in line and "n" * 201 not in line
     assert len(line) < 500, line
 

@@ -47,7 +47,7 @@ def test_the_reference_pages_are_what_the_code_generates():
 def test_the_readme_is_short_and_every_link_into_the_docs_resolves():
     text = (REPO / "README.md").read_text()
     assert len(text.splitlines()) <= README_MAX_LINES
-    assert "pip install . && lunarsim run scenarios/crater_observation.yaml" in text
+    assert "pip install . && lunarsim run crater_observation" in text
     assert "pip install '.[test]' && pytest" in text
     for target in {part.split(")")[0] for part in text.split("](docs/")[1:]}:
         assert (DOCS / target.split("#")[0]).is_file(), target

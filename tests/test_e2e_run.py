@@ -204,7 +204,7 @@ def test_batch_runs_seeded_missions_and_summarises_them(tmp_path):
         assert run["photos_at_lander"] == 12 * run["rovers_reached_final_goal"]
     assert agg["photos_at_lander"] == sum(r["photos_at_lander"] for r in batch["runs"])
     assert agg["worst_rover_connected_fraction"] == min(r["worst_rover_connected_fraction"] for r in batch["runs"])
-    assert "mean" in stdout and "photos" in stdout and (out / "run-001-seed11" / "report.json").exists()
+    assert "all runs" in stdout and "photos" in stdout and (out / "run-001-seed11" / "report.json").exists()
 
 
 def test_batch_refuses_a_folder_that_holds_another_batch(tmp_path):

@@ -39,6 +39,21 @@ def test_a_rover_that_stopped_short_cannot_raise_the_efficiency_of_those_that_re
     assert report.reached_path_efficiency == pytest.approx(100.0 / 125.0)
 
 
+def test_a_rover_sent_back_before_its_goal_is_judged_on_the_way_it_was_asked_to_walk():
+    """Told to return to the lander 40 m out, rover 1 walked 40 m out and 50 m back: its ideal path turns where it
+    was turned, not at the crater it never had to reach (that made the efficiency 1.05 once)."""
+    stats = MissionStats(SCENARIO, RoverMissions(SCENARIO))
+    under_way = _truth(1, 0.0, 50.0, 40.0, "migration")
+    stats.observe(m.WorldState(stamp=20.0, rovers=[under_way, _truth(2, 10.0, 30.0, 20.0, "migration")]))
+    stats.command(m.GroundCommand(request_id="r", command="return", rover_id=1))
+    home = _truth(1, 0.0, 0.0, 90.0, "done").model_copy(update={"goal_index": 1})
+    stats.observe(m.WorldState(stamp=60.0, rovers=[home, _truth(2, 0.0, 110.0, 101.0, "done")], completed_at=60.0))
+    report = stats.report()
+    assert report.rovers_reached_final_goal == 2
+    assert report.reached_path_efficiency == pytest.approx((90.0 / 90.0 + 100.5 / 101.0) / 2, abs=1e-3)
+    assert report.reached_path_efficiency <= 1
+
+
 def test_no_rover_reached_gives_no_reached_efficiency():
     report = _report(_truth(1, 0.0, 30.0, 20.0, "stuck"), _truth(2, 10.0, 30.0, 20.0, "done"))
     assert report.rovers_reached_final_goal == 0 and report.reached_path_efficiency is None

@@ -1,6 +1,8 @@
-"""The web view's server side without a browser: editor endpoints over real HTTP, message conversion.
+"""The web view's server side without a browser: editor endpoints over real HTTP, message conversion, uploads
+read in the worker process within the scenario limits.
 
-The live path (Zenoh to the page, commands to the lander) is driven end to end in test_web_browser.py.
+The live path (Zenoh to the page, commands to the lander) is driven end to end in test_web_browser.py; who may use
+the view (Host, Origin, token) in test_web_guard.py.
 """
 
 from __future__ import annotations
@@ -21,10 +23,12 @@ from lander_agent import mapping
 from schemas import codec, radio
 from schemas import messages as m
 from schemas.scenario import Scenario, load_scenario
+from schemas.scenario_limits import MAX_ROCK_FIELDS, MAX_ROCKS, MAX_SCENARIO_BYTES
 from web import editor, live
 from web.commands import CommandError, Commands, command_from_request
 from web.scene import scenario_scene
 from web.server import BUNDLE, Viewer, build_app
+from web.uploads import MAX_REQUEST_BYTES
 
 SCENARIO = SCENARIOS / "crater_observation.yaml"
 
@@ -278,3 +282,73 @@ def test_hello_says_how_old_the_last_world_state_is(tmp_path: Path):
     assert 30.0 <= age < 40.0
     viewer.latest.forget()  # a new run: the old state's age no longer says anything
     assert asyncio.run(hello())["state_age_s"] is None
+
+
+def _rocky(rocks: int, scattered: int) -> dict:
+    """The crater scenario with ``rocks`` more rocks placed in rows beside its lander and a rock field of
+    ``scattered``."""
+    sc = _page_scenario()
+    x, z = sc["lander"]["x"], sc["lander"]["z"]
+    sc["obstacles"]["rocks"] = [{"x": x + 5 + i % 200 * 0.5, "z": z + i // 200 * 0.5, "radius_m": 0.2}
+                                for i in range(rocks)]
+    sc["obstacles"]["rock_fields"] = [{"x": x - 60, "z": z, "radius_m": 50, "count": scattered}]
+    return sc
+
+
+def test_a_large_upload_is_validated_in_the_worker_while_the_view_answers_others(tmp_path: Path):
+    """Nearly the largest scenario file, its rock field filling the rock bound: parsed, validated and drawn in the
+    worker process while /api/info answers, saying so by counting the job it is running."""
+    listed = int(MAX_SCENARIO_BYTES * 0.9 / 45)  # a placed rock takes about 45 bytes
+    text = json.dumps(_rocky(listed, MAX_ROCKS - listed))  # JSON is YAML: the page's YAML-text path
+    assert MAX_SCENARIO_BYTES * 0.8 < len(text) < MAX_SCENARIO_BYTES
+
+    async def go() -> tuple[list[dict], int, dict]:
+        async with TestClient(TestServer(build_app(_viewer(tmp_path)))) as client:
+            warm = await client.post("/api/scenario/validate", json={"scenario": _page_scenario()})
+            assert warm.status == 200  # the worker process has started
+            upload = asyncio.create_task(client.post("/api/scenario/validate", json={"scenario": text,
+                                                                                   "scene": True}))
+            meanwhile: list[dict] = []
+            deadline = asyncio.get_running_loop().time() + 120
+            while not upload.done() and asyncio.get_running_loop().time() < deadline:
+                res = await client.get("/api/info")
+                info = await res.json()
+                if res.status == 200 and info["validating"] and not upload.done():
+                    meanwhile.append(info)
+                await asyncio.sleep(0.01)
+            res = await upload
+            return meanwhile, res.status, await res.json()
+
+    meanwhile, status, body = asyncio.run(go())
+    assert meanwhile, "/api/info never answered while the upload was in the worker"
+    assert all(info["validating"] == 1 for info in meanwhile)
+    assert status == 200 and body["ok"] and f"{listed} rocks" in body["summary"]
+    assert len(body["scenario"]["obstacles"]["rocks"]) == listed and len(body["scene"]["rocks"]) == MAX_ROCKS
+
+
+def test_uploads_beyond_the_scenario_limits_are_refused_with_a_short_error(tmp_path: Path):
+    aliases = "a: &a [x, x, x, x, x, x, x, x, x, x]\n" + "".join(
+        f"{b}: &{b} [{', '.join([f'*{a}'] * 10)}]\n" for a, b in zip("abcdefg", "bcdefgh", strict=True))
+    fields = _page_scenario()  # 1,000 rock fields of 100,000 rocks each: a few kB of JSON, 10**8 rocks to draw
+    fields["obstacles"]["rock_fields"] = [{"x": fields["lander"]["x"], "z": fields["lander"]["z"], "radius_m": 80,
+                                           "count": MAX_ROCKS}] * MAX_ROCK_FIELDS
+
+    async def go() -> list[tuple[int, dict]]:
+        async with TestClient(TestServer(build_app(_viewer(tmp_path)))) as client:
+            out = []
+            for body in ({"scenario": "x" * MAX_REQUEST_BYTES}, {"scenario": "name: x\n#" + "x" * MAX_SCENARIO_BYTES},
+                         {"scenario": aliases}, {"scenario": fields, "scene": True}):
+                res = await client.post("/api/scenario/validate", json=body)
+                out.append((res.status, await res.json()))
+            res = await client.post("/api/scenario/validate", data=b"{not json",
+                                    headers={"Content-Type": "application/json"})
+            out.append((res.status, await res.json()))
+            return out
+
+    (big, big_err), (text, text_err), (bomb, bomb_err), (many, many_err), (broken, broken_err) = asyncio.run(go())
+    assert big == 413 and f"larger than the {MAX_REQUEST_BYTES / 1024**2:g} MiB" in big_err["error"]
+    assert text == 400 and f"larger than the {MAX_SCENARIO_BYTES / 1024**2:g} MiB a scenario file" in text_err["error"]
+    assert bomb == 400 and "aliases expand it to more than" in bomb_err["error"]
+    assert len(bomb_err["error"]) < 200 and len(big_err["error"]) < 200
+    assert many == 400 and f"at most {MAX_ROCKS:,}" in many_err["error"] and "scene" not in many_err
+    assert broken == 400 and broken_err["error"] == "request body is not JSON"

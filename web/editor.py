@@ -1,7 +1,9 @@
 """The scenario editor's server side: validate, save, load and launch scenarios, import and export profiles.
 
-Validation is the command line's own (``schemas.scenario.parse_scenario``), so a scenario the page
-accepts is one ``lunarsim run`` accepts, with the same one-line error when it is not.
+Reading and validation are the command line's own (``schemas.scenario_files.load_yaml_text``,
+``schemas.scenario.parse_scenario``), so a scenario the page accepts is one ``lunarsim run`` accepts, with the same
+one-line error when it is not. These functions are slow on large scenarios: the server runs them in its worker
+process (``web.uploads``).
 """
 
 from __future__ import annotations
@@ -16,17 +18,25 @@ import yaml
 
 from schemas.profiles import profile_to_scenario, scenario_to_profile
 from schemas.scenario import Scenario, ScenarioError, dump_scenario, load_scenario, parse_scenario
+from schemas.scenario_files import load_yaml_text
+from schemas.scenario_limits import MAX_SCENARIO_BYTES, clip
 
 NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,80}$")
 
 
 def scenario_from_page(data: object) -> Scenario:
-    """The page's scenario (the model's JSON shape, or YAML text) validated; ScenarioError names the field."""
+    """The page's scenario (the model's JSON shape, or YAML text as a file holds it) validated; ScenarioError names
+    the field."""
     if isinstance(data, str):
+        if len(data.encode("utf-8", "surrogatepass")) > MAX_SCENARIO_BYTES:
+            raise ScenarioError(f"editor: the YAML is larger than the {MAX_SCENARIO_BYTES / 1024**2:g} MiB a "
+                                "scenario file may be")
         try:
-            data = yaml.safe_load(data)
+            data = load_yaml_text(data)
         except yaml.YAMLError as exc:
-            raise ScenarioError(f"editor: not valid YAML: {getattr(exc, 'problem', exc)}") from None
+            raise ScenarioError(f"editor: not valid YAML: {clip(str(getattr(exc, 'problem', None) or exc))}") from None
+        except (ValueError, RecursionError) as exc:  # a scalar YAML cannot build, deep nesting
+            raise ScenarioError(f"editor: a YAML value cannot be read: {clip(str(exc))}") from None
     return parse_scenario(data, "editor")
 
 

@@ -1,7 +1,8 @@
 """The web server: the page, a WebSocket with the live world, and the REST endpoints of commands and editor.
 
 No Zenoh in here: ``view`` feeds ``Viewer.latest`` from its subscriptions and hands in ``publish``, so
-the HTTP side can be driven by anything that stores samples.
+the HTTP side can be driven by anything that stores samples. Every request passes ``guard`` first (Host, Origin,
+token); scenarios from the page are read in ``uploads``' worker process, never on the event loop.
 """
 
 from __future__ import annotations
@@ -9,12 +10,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 from aiohttp import WSMsgType, web
 
 from schemas.scenario import Scenario, ScenarioError
-from web import editor, live
+from web import editor, guard, live, uploads
 from web.commands import CommandError, Commands, command_from_request
 from web.scene import empty_scene, scenario_scene
 
@@ -22,6 +24,8 @@ STATIC = Path(__file__).parent / "static"
 BUNDLE = STATIC / "bundle.js"
 PAGE_TABS = ("live", "editor")
 """The page's tabs; each has its own URL (``/live``, ``/editor``), so a tab can be linked to and survives a reload."""
+MAX_COMMAND_BYTES = 64 * 1024
+"""Largest body of a request that carries no scenario (a ground command, a stop): read on the event loop."""
 VIEWER: web.AppKey[Viewer] = web.AppKey("viewer")
 STREAM: web.AppKey[asyncio.Task] = web.AppKey("stream")
 
@@ -40,10 +44,11 @@ class Viewer:
         self.scene = scenario_scene(scenario) if scenario is not None else empty_scene()
         self.clients: set[web.WebSocketResponse] = set()
         self.undecodable = 0
+        self.worker = uploads.Worker()
 
-    async def set_scenario(self, scenario: Scenario) -> None:
+    async def set_scenario(self, scenario: Scenario, scene: dict) -> None:
         """Show another scenario (one launched from the editor): new scene, old run's state forgotten."""
-        self.scene = await asyncio.to_thread(scenario_scene, scenario)
+        self.scene = scene
         self.scenario = scenario
         self.latest.forget()
         await self.broadcast(json.dumps({"type": "scene", "scene": self.scene}))
@@ -85,21 +90,59 @@ def _error(message: str, status: int = 400) -> web.Response:
 
 
 async def _body(request: web.Request) -> dict:
-    """The JSON object a request carries. Only ``application/json`` is read: a page on another site can post
+    """The small JSON object a request carries. Only ``application/json`` is read: a page on another site can post
     that to this server only after the browser has asked it (CORS preflight, which it never allows), so such a
-    page cannot launch runs or send ground commands through a browser on the viewer's machine."""
-    if request.content_type != "application/json":
-        raise web.HTTPUnsupportedMediaType(text=json.dumps({"ok": False, "error": "send the request body as "
-                                                            "application/json"}), content_type="application/json")
+    page cannot launch runs or send ground commands through a browser on the viewer's machine even before
+    ``guard`` refuses its Origin."""
+    _json_only(request)
+    if request.content_length is None or request.content_length > MAX_COMMAND_BYTES:
+        raise web.HTTPRequestEntityTooLarge(MAX_COMMAND_BYTES, request.content_length or 0, text=json.dumps(
+            {"ok": False, "error": f"send at most {MAX_COMMAND_BYTES} bytes, with a Content-Length"}),
+            content_type="application/json")
     try:
         data = await request.json()
-    except (json.JSONDecodeError, UnicodeDecodeError):
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
         raise web.HTTPBadRequest(text=json.dumps({"ok": False, "error": "request body is not JSON"}),
                                  content_type="application/json") from None
     if not isinstance(data, dict):
         raise web.HTTPBadRequest(text=json.dumps({"ok": False, "error": "expected a JSON object"}),
                                  content_type="application/json")
     return data
+
+
+def _json_only(request: web.Request) -> None:
+    if request.content_type != "application/json":
+        raise web.HTTPUnsupportedMediaType(text=json.dumps({"ok": False, "error": "send the request body as "
+                                                            "application/json"}), content_type="application/json")
+
+
+async def _upload(request: web.Request, job: Callable[..., uploads.Answer], *args: object) -> uploads.Answer:
+    """Run ``job`` on the request's JSON body (at most ``uploads.MAX_REQUEST_BYTES``) in the worker process."""
+    _json_only(request)
+    return await _in_worker(request, job, *args, body=True)
+
+
+async def _in_worker(request: web.Request, job: Callable[..., uploads.Answer], *args: object,
+                     body: bool = False) -> uploads.Answer:
+    """Run ``job(*args)`` in the worker process, with the request's body first if ``body``; busy, too large or
+    a worker that died become answers too."""
+    worker = _viewer(request).worker
+    try:
+        with worker.admit():
+            if body:
+                args = (await request.read(), *args)
+            return await worker.run(job, *args)
+    except uploads.Busy:
+        return uploads.error("the editor is busy with other scenarios: try again in a moment", 503)
+    except web.HTTPRequestEntityTooLarge:
+        return uploads.error(f"the request is larger than the {uploads.mib(uploads.MAX_REQUEST_BYTES)} the editor "
+                             "reads", 413)
+    except uploads.WorkerDied:
+        return uploads.error("the process reading scenarios stopped (out of memory?): try again", 503)
+
+
+def _respond(answer: uploads.Answer) -> web.Response:
+    return web.Response(body=answer.body, status=answer.status, content_type="application/json")
 
 
 def _viewer(request: web.Request) -> Viewer:
@@ -136,7 +179,8 @@ async def websocket(request: web.Request) -> web.WebSocketResponse:
 async def info(request: web.Request) -> web.Response:
     viewer = _viewer(request)
     return web.json_response({"world": viewer.world, "scenario": viewer.scene["name"], "clients": len(viewer.clients),
-                              "launch": viewer.launcher.status(), "undecodable": viewer.undecodable})
+                              "launch": viewer.launcher.status(), "undecodable": viewer.undecodable,
+                              "validating": viewer.worker.running})
 
 
 async def favicon(request: web.Request) -> web.FileResponse:
@@ -164,32 +208,11 @@ async def command(request: web.Request) -> web.Response:
 
 
 async def validate(request: web.Request) -> web.Response:
-    data = await _body(request)
-    try:
-        scenario = editor.scenario_from_page(data.get("scenario"))
-    except ScenarioError as exc:
-        return _error(str(exc))
-    preview = await asyncio.to_thread(scenario_scene, scenario) if data.get("scene") else None
-    return web.json_response({"ok": True, "scenario": editor.scenario_json(scenario), "scene": preview,
-                              "summary": _summary(scenario)})
-
-
-def _summary(scenario: Scenario) -> str:
-    obstacles = scenario.obstacles
-    return (f"{scenario.name}: {len(scenario.rovers)} rovers, {len(scenario.craters)} craters, "
-            f"{len(scenario.mission)} goals, {len(obstacles.rocks)} rocks, {len(obstacles.walls)} walls, "
-            f"{len(obstacles.rock_fields)} rock fields")
+    return _respond(await _upload(request, uploads.validate))
 
 
 async def save(request: web.Request) -> web.Response:
-    data = await _body(request)
-    viewer = _viewer(request)
-    try:
-        scenario = editor.scenario_from_page(data.get("scenario"))
-        path = viewer.workspace.save(str(data.get("name") or scenario.name), scenario)
-    except ScenarioError as exc:
-        return _error(str(exc))
-    return web.json_response({"ok": True, "path": str(path), "name": path.stem})
+    return _respond(await _upload(request, uploads.save, _viewer(request).workspace))
 
 
 async def listing(request: web.Request) -> web.Response:
@@ -197,25 +220,20 @@ async def listing(request: web.Request) -> web.Response:
 
 
 async def load(request: web.Request) -> web.Response:
-    try:
-        scenario = _viewer(request).workspace.load(request.query.get("name", ""))
-    except ScenarioError as exc:
-        return _error(str(exc), 404)
-    return web.json_response({"ok": True, "scenario": editor.scenario_json(scenario)})
+    return _respond(await _in_worker(request, uploads.load, _viewer(request).workspace, request.query.get("name", "")))
 
 
 async def launch(request: web.Request) -> web.Response:
-    data = await _body(request)
     viewer = _viewer(request)
+    answer = await _upload(request, uploads.prepare_launch, viewer.workspace)
+    if (plan := answer.plan) is None:
+        return _respond(answer)
     try:
-        scenario = editor.scenario_from_page(data.get("scenario"))
-        name = str(data.get("name") or scenario.name)
-        path = viewer.workspace.save(name, scenario)
-        out = viewer.launcher.launch(path, path.stem, float(data.get("time_scale") or 1.0))
-    except (ScenarioError, ValueError) as exc:
+        out = viewer.launcher.launch(plan.path, plan.path.stem, plan.time_scale)
+    except ScenarioError as exc:
         return _error(str(exc))
-    await viewer.set_scenario(scenario)
-    return web.json_response({"ok": True, "path": str(path), "out": str(out)})
+    await viewer.set_scenario(plan.scenario, plan.scene)
+    return web.json_response({"ok": True, "path": str(plan.path), "out": str(out)})
 
 
 async def launch_status(request: web.Request) -> web.Response:
@@ -230,21 +248,11 @@ async def launch_stop(request: web.Request) -> web.Response:
 
 
 async def profile_import(request: web.Request) -> web.Response:
-    data = await _body(request)
-    try:
-        scenario = editor.profile_scenario(data.get("profile"), str(data.get("name") or "profile"))
-    except ScenarioError as exc:
-        return _error(str(exc))
-    return web.json_response({"ok": True, "scenario": editor.scenario_json(scenario)})
+    return _respond(await _upload(request, uploads.profile_import))
 
 
 async def profile_export(request: web.Request) -> web.Response:
-    data = await _body(request)
-    try:
-        scenario = editor.scenario_from_page(data.get("scenario"))
-    except ScenarioError as exc:
-        return _error(str(exc))
-    return web.json_response({"ok": True, "profile": editor.profile_of(scenario)})
+    return _respond(await _upload(request, uploads.profile_export))
 
 
 async def _start_stream(app: web.Application) -> None:
@@ -258,10 +266,13 @@ async def _stop(app: web.Application) -> None:
         await app[STREAM]
     for ws in list(app[VIEWER].clients):
         await ws.close()
+    app[VIEWER].worker.close()
 
 
-def build_app(viewer: Viewer) -> web.Application:
-    app = web.Application(client_max_size=16 * 1024 * 1024)
+def build_app(viewer: Viewer, access: guard.Access | None = None) -> web.Application:
+    """The view's app; ``access`` (default: loopback names, no token) says who may use it (``guard.access_for``)."""
+    app = web.Application(client_max_size=uploads.MAX_REQUEST_BYTES,
+                          middlewares=[guard.middleware(access or guard.Access())])
     app[VIEWER] = viewer
     app.router.add_get("/", index)
     for tab in PAGE_TABS:

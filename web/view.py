@@ -5,10 +5,13 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import os
 import signal
+import socket
 from pathlib import Path
 
 from bus import process
+from web import guard
 
 
 def add_web_arguments(parser: argparse.ArgumentParser) -> None:
@@ -17,6 +20,34 @@ def add_web_arguments(parser: argparse.ArgumentParser) -> None:
                        help="folder the editor saves scenarios to and loads them from (default web-scenarios/)")
     group.add_argument("--runs", type=Path, default=Path("runs"), metavar="DIR",
                        help="where missions launched from the editor put their run folders (default runs/)")
+    group.add_argument("--allow-host", action="append", default=[], metavar="NAME",
+                       help="a host name the page may be opened by besides the loopback names and --host (a proxy's "
+                            "or DNS name; repeat for more); requests naming any other host are refused")
+    group.add_argument("--token", metavar="TOKEN",
+                       help=f"the token the page asks for (16 to 256 letters, digits or '._~-'; default "
+                            f"${guard.TOKEN_ENV}, else one made at start when --host is beyond loopback, none on "
+                            "loopback)")
+
+
+def web_access(args: argparse.Namespace, environ: dict[str, str]) -> tuple[guard.Access, str]:
+    """Who may use the view (``guard.Access``) and the URL to print: with the token when one was made here."""
+    given = args.token or environ.get(guard.TOKEN_ENV) or None
+    try:
+        token, made = guard.choose_token(args.host, given)
+    except ValueError as exc:
+        raise process.UsageError(f"{'--token' if args.token else guard.TOKEN_ENV}: {exc}") from None
+    try:
+        access = guard.access_for(args.host, args.allow_host, token)
+    except guard.HostError as exc:
+        raise process.UsageError(f"--host/--allow-host: {exc}") from None
+    host = socket.gethostname() if args.host in guard.WILDCARDS else args.host
+    host = f"[{host}]" if ":" in host else host
+    url = f"http://{host}:{args.port}/"
+    if made:
+        url += f"?token={token}"
+    elif token is not None:
+        url += " (with the token given)"
+    return access, url
 
 
 def run_web(args: argparse.Namespace) -> int:
@@ -32,6 +63,7 @@ def run_web(args: argparse.Namespace) -> int:
     from web.server import Viewer, build_app
 
     keys = Keyspace(args.world)
+    access, url = web_access(args, dict(os.environ))
     scenario = load_scenario(args.scenario) if args.scenario else None
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
                            who="lunarsim view")
@@ -57,7 +89,7 @@ def run_web(args: argparse.Namespace) -> int:
     launcher = editor.Launcher(args.runs, endpoint, args.world)
     viewer = Viewer(args.world, latest, commands, editor.Workspace(args.workspace), launcher, scenario)
     try:
-        asyncio.run(_serve(build_app(viewer), args))
+        asyncio.run(_serve(build_app(viewer, access), args, url))
     finally:
         launcher.stop()
         for subscriber in subscribers:
@@ -66,7 +98,7 @@ def run_web(args: argparse.Namespace) -> int:
     return 0
 
 
-async def _serve(app, args: argparse.Namespace) -> None:
+async def _serve(app, args: argparse.Namespace, url: str) -> None:
     """Serve until SIGINT or SIGTERM; says where once the port is bound (tests wait for that line)."""
     from aiohttp import web
 
@@ -77,7 +109,7 @@ async def _serve(app, args: argparse.Namespace) -> None:
             await web.TCPSite(runner, args.host, args.port).start()
         except OSError as exc:
             raise process.UsageError(f"cannot serve on {args.host}:{args.port}: {exc.strerror or exc}") from None
-        print(f"serving world {args.world!r} at http://{args.host}:{args.port}/ (Ctrl-C stops)", flush=True)
+        print(f"serving world {args.world!r} at {url} (Ctrl-C stops)", flush=True)
         stop = asyncio.Event()
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):

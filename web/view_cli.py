@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--port", type=int, help="port (default 8080 for the web page, 8765 for --foxglove)")
     parser.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; "
-                        "0.0.0.0 for other machines)")
+                        "0.0.0.0 for other machines: the web page then asks for a token)")
     parser.add_argument("--no-trails", action="store_true", help="do not draw the rovers' recent paths")
     add_zenoh_arguments(parser)
     from web.view import add_web_arguments

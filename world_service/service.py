@@ -160,6 +160,8 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
     wanted = {keys.alive_rover(rid) for rid in world.bodies}
     if settings.wait_for_lander:
         wanted.add(keys.alive_lander)
+    log.info("run %s of %s (seed %d): waiting up to %g s for %d agent(s) on %s", world.run_id, world.scenario.name,
+             world.scenario.seed, settings.start_timeout, len(wanted), keys.prefix)
     deadline = time.monotonic() + settings.start_timeout
     next_clock = 0.0
     while not stop.is_set() and not wanted <= agents.present and time.monotonic() < deadline:
@@ -172,6 +174,8 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
     missing = sorted(wanted - agents.present)
     if missing:
         log.warning("starting without %d agent(s): %s", len(missing), ", ".join(missing))
+    else:
+        log.info("every agent is there (%d)", len(wanted))
 
 
 def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents, state_file: Path | None) -> None:
@@ -224,6 +228,8 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
         photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock(running=False)))
         freeze_start_up_heap()
         agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
+        log.info("clock started at t = %.1f s: %s", world.sim_time,
+                 "lockstep" if settings.lockstep else f"real time x {settings.time_scale:g}")
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
     finally:
         photographer.close()
@@ -232,7 +238,18 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
     bus.publish(world.keys.state, world.observed_state())  # the final state, then the report computed from it
     report = world.report()
     bus.publish(world.keys.stats, m.WorldStats(stamp=world.sim_time, report=report, final=True))
+    _log_end(world, report, stop.is_set())
     return report
+
+
+def _log_end(world: World, report: m.MissionReport, stopped: bool) -> None:
+    how = "stopped" if stopped and not world.complete else "complete" if world.complete else "ended"
+    log.info("mission %s at t = %.1f s: %d/%d rovers reached their final goal, %d stuck (%d counted by the "
+             "watchdog)", how, world.sim_time, report.rovers_reached_final_goal, report.rovers_total,
+             report.rovers_stuck, report.rovers_stalled)
+    refused = ", ".join(f"{n} on {topic}" for topic, n in sorted(world.rejected.by_topic.items()))
+    log.info("refused %d sample(s)%s; dropped %d over the inbox's bound; agents refused %d", report.rejected_messages,
+             f" ({refused})" if refused else "", report.dropped_messages, report.agent_rejected_messages)
 
 
 def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents,

@@ -337,8 +337,12 @@ class World(ActionInputs, RadioLink):
 
     def world_state(self) -> m.WorldState:
         rovers = [self._truth(b) for b in self.bodies.values()]
+        stalled = frozenset(r.id for r in rovers if r.stalled)
+        for rid in sorted(stalled - self.stalled):
+            log.warning("t = %.1f s: rover %d counted stuck: no nearer its goal for %g s", self.sim_time, rid,
+                        self.params.watchdog.stall_after_s)
+        self.stalled = stalled
         lander = (self.lander_status,) if self.lander_status is not None else ()
-        self.stalled = frozenset(r.id for r in rovers if r.stalled)
         counters = m.WorldCounters(rover_collisions=self.rover_collisions, obstacle_collisions=self.obstacle_collisions,
                                    rejected_messages=self.rejected.total, radio_dropped=self.radio_dropped,
                                    radio_lost=self.radio_lost, dropped_messages=self.dropped_messages,

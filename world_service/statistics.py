@@ -195,12 +195,39 @@ class MissionStats:
     last: WorldState | None = None
     relayed: set[int] = field(default_factory=set)
     """Rovers that have held a daisy-chain spot (state ``relay``): sent there instead of along their goals."""
+    turned: dict[int, list[tuple[int, int, float, float]]] = field(default_factory=dict)
+    """Per rover, where the ground sent it elsewhere before it finished a goal: (that goal's index, the new goal's
+    index, x, z)."""
 
     def command(self, command: GroundCommand) -> None:
         """Follow the ground's changes to the mission, so each rover is judged at its real final goal."""
         if command.command in MISSION_COMMANDS:
             with contextlib.suppress(CommandRefused):  # the lander answers the ground; a refusal changes nothing
-                self.missions.apply(command)
+                self._turn(self.missions.apply(command) if command.command != "stop" else [])
+
+    def _turn(self, rovers: Sequence[int]) -> None:
+        """Rovers given a new goal: one not done with its last goal turned where it stood."""
+        latest = {r.id: r for r in self.last.rovers} if self.last is not None else {}
+        for rid in rovers:
+            r = latest.get(rid)
+            if r is None or r.state != "done":
+                index = r.goal_index if r is not None and r.goal_index >= 0 else 0
+                x, z = (r.x, r.z) if r is not None else (self.scenario.rovers[rid - 1].x,
+                                                          self.scenario.rovers[rid - 1].z)
+                self.turned.setdefault(rid, []).append((index, self.missions.final_index(rid), x, z))
+
+    def ideal_goals(self, rid: int) -> list[Goal]:
+        """The goals a rover was asked to walk through: its mission's, up to the point where the ground sent it
+        elsewhere (that point stands in for the goals left unfinished), then the new ones."""
+        instead = {index: (new, Goal(x=x, z=z, kind="waypoint")) for index, new, x, z in self.turned.get(rid, [])}
+        goals, i = [], 0
+        while i <= self.missions.final_index(rid):
+            if i in instead:  # goals i .. new - 1 left unfinished: the point where the rover turned
+                i, turn = instead[i]
+                goals.append(turn)
+            goals.append(self.missions.goal(rid, i))
+            i += 1
+        return goals
 
     def observe(self, state: WorldState) -> None:
         elapsed = state.stamp - self.last.stamp if self.last is not None else 0.0
@@ -227,9 +254,9 @@ class MissionStats:
         result = []
         for rid in (i for i in ids if i not in self.relayed):
             r, spawn = rovers[rid], self.scenario.rovers[rid - 1]
-            goals = [self.missions.goal(rid, i) for i in range(self.missions.final_index(rid) + 1)]
             if r.distance_covered_m > 0:
-                result.append(remaining_path(self.scenario, goals, spawn.x, spawn.z) / r.distance_covered_m)
+                ideal = remaining_path(self.scenario, self.ideal_goals(rid), spawn.x, spawn.z)
+                result.append(ideal / r.distance_covered_m)
         return result
 
     def power_fields(self, state: WorldState) -> dict | None:

@@ -7,6 +7,7 @@ world's own module stays about time: how a tick moves every body and what it pub
 
 from __future__ import annotations
 
+import logging
 import math
 from typing import ClassVar
 
@@ -20,6 +21,7 @@ from world_service.photos import PhotoJob
 from world_service.scene import in_view
 
 Out = tuple[str, m.Message]
+log = logging.getLogger("lunarsim.world")
 ACTION_ID_PROBLEMS = {"stale": "older than the rover's latest action",
                       "out_of_sequence": "beyond any id its agent can have taken by now"}
 
@@ -145,6 +147,10 @@ class ActionInputs:
         return []
 
     def _on_status(self, rid: int, msg: m.RoverStatus) -> list[Out]:
+        before = self.status[rid]
+        if (msg.state, msg.goal_index) != (before.state, before.goal_index):  # the mission's story, for the log
+            log.info("t = %.1f s: rover %d %s, goal %d%s", self.sim_time, rid, msg.state, msg.goal_index + 1,
+                     f" ({msg.detail})" if msg.detail else "")
         self.status[rid] = msg
         self.actions.note_heard(rid, msg.action_id)
         return []
