@@ -26,7 +26,7 @@ from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.scenario import Scenario
-from world_service.lockstep import AckPlan
+from world_service.lockstep import LockstepTick
 from world_service.sim import PhotoJob, World
 
 Out = tuple[str, m.Message]
@@ -54,15 +54,13 @@ class Rounds:
         self.world.lockstep = True
         self.world.run_id = f"rounds-{self.scenario.seed}"  # the clock names the run: the same seed, the same bytes
         self.lander = Lander(MissionPlan(self.scenario), self.keys, self.archive, self.map_folder)
-        self.plan = AckPlan(self.keys, self.world.dt)
+        self.tick = LockstepTick(self.world, self.max_sim_time)
         self.rover_ids = sorted(self.world.bodies)
+        self._present = {ks.LANDER_ID, *self.rover_ids}
         self._photos: list[PhotoJob] = []
         self._phase = "step"  # next: "samples", "clock", "take", then "step" again
         self._queue: list[Out] = []  # published by the world's step: the agents hear it first
-        self._said: list[Out] = []  # what the agents said this tick: the world takes it once all have answered
-        self._deferred: list[Out] = []  # answers to late samples: the world takes them with the next tick's
         self._clock: m.Clock | None = None  # the tick's clock, until it is sent
-        self._asked: list[int] = []  # the rovers the last clock sent waits for
         self._late_round = False  # the last round handed the rovers late samples
         self._clock_round = False  # the last round handed the rovers the clock (and nothing else)
         self._rover_head = f"{self.keys.prefix}/rover/"
@@ -92,10 +90,10 @@ class Rounds:
             return self._send_clock()
         if phase == "take":
             self._phase = "step"
-            if self.world.sim_time >= self.max_sim_time or self.world.complete:
+            if self.tick.over:
                 self.over = True  # as the world service: the tick that ends the mission goes out, its answers unread
                 return {}
-            return self._take()
+            return self._route(self.tick.take(), late=True)
         self._step_world()
         return {}
 
@@ -110,46 +108,39 @@ class Rounds:
             said = []
             for key, message in answers[rid]:
                 if isinstance(message, m.Ack):
-                    if message.tick == self.world.tick:  # as the service: an ack of another tick says nothing
-                        self.plan.acked(self.plan.agent_of(key), message.tick, message.wake)
+                    self.tick.ack(self.tick.plan.agent_of(key), message)
                 else:
                     said.append((key, message))
-            if said and self.strict and self._clock_round and rid not in self._asked:
+            if said and self.strict and self._clock_round and rid not in (self._clock.acks or ()):
                 raise AssertionError(f"rover {rid} published {[k.rsplit('/', 1)[-1] for k, _ in said]} on tick "
                                      f"{self.world.tick}, which the world does not wait for (asked: "
-                                     f"{self._asked}): the agent's next_wake() misses a timer")
-            (self._deferred if self._late_round else self._said).extend(said)
+                                     f"{self._clock.acks}): the agent's next_wake() misses a timer")
+            self._said(said)
+
+    def _said(self, said: list[Out]) -> None:
+        """What the agents published: the world takes what it subscribes to (with this tick's answers, or the next
+        tick's once this tick's are taken, as over Zenoh)."""
+        for key, message in said:
+            if self.drop is not None and self.drop(key, message):
+                continue
+            if key in self._world_inputs or key.startswith(self._rover_head):
+                self.tick.answer(key, codec.encode(message))
 
     def _route(self, samples: list[Out], late: bool = False) -> Heard:
-        """Hand samples the world published to the rovers (returned) and the lander (answered here); the lander's
-        answers to late samples wait for the next tick, as the rovers' do."""
+        """Hand samples the world published to the rovers (returned) and the lander (answered here)."""
         heard: Heard = {}
         for key, message in samples:
-            self.plan.note(key)
             if self.drop is not None and self.drop(key, message):
                 continue
             payload = codec.encode(message)
             if key in self._lander_inputs or key == self.keys.ground_command:
-                (self._deferred if late else self._said).extend(self.lander.handle(key, payload))
+                self._said(self.lander.handle(key, payload))
             if key == self.keys.ground_command:  # the world follows it for its statistics, with the tick's answers
-                self._said.append((key, message))
+                self.tick.answer(key, payload)
             elif (rover := self._rover_topic(key)) is not None:
                 heard.setdefault(rover[0], []).append((rover[1], payload))
         self._late_round = late and bool(heard)
         return heard
-
-    def _take(self) -> Heard:
-        """The world takes the tick's answers, by key, each key's in order, as the world service does: moves draw
-        their noise from one generator, so rover 10's move before rover 2's ("rover/10" < "rover/2") is part of
-        the result. What it publishes meanwhile goes out as late samples."""
-        said, self._said = self._said, []
-        late: list[Out] = []
-        for key, message in sorted(said, key=lambda sample: sample[0]):
-            if self.drop is not None and self.drop(key, message):
-                continue
-            if key in self._world_inputs or key.startswith(self._rover_head):
-                late += self.world.receive(key, codec.encode(message))
-        return self._route(late, late=True)
 
     def _rover_topic(self, key: str) -> tuple[int, str] | None:
         """(rover, topic) for a sample on a rover's own keys, None for anything the world or lander takes."""
@@ -159,22 +150,19 @@ class Rounds:
         return None if topic in World.INPUT_TOPICS else (rid, topic)
 
     def _send_clock(self) -> Heard:
-        """The tick's clock, if it waits for anyone (as the world service: no clock on a tick that waits for nobody).
-        The lander answers it here; its answers join the tick's."""
-        clock, self._clock = self._clock, None
-        clock = clock.model_copy(update={"acks": self.plan.ask(clock.tick, {ks.LANDER_ID, *self.rover_ids})})
-        if not clock.acks:
+        """The tick's clock, if it waits for anyone (``LockstepTick.step``). The lander answers it here."""
+        clock = self._clock
+        if clock is None:
             return {}
         payload = codec.encode(clock)
-        self._asked = [a for a in clock.acks if a != ks.LANDER_ID]
         for key, message in self.lander.handle(self.keys.clock, payload):
             if isinstance(message, m.Ack):
-                self.plan.acked(ks.LANDER_ID, message.tick, message.wake)
+                self.tick.ack(ks.LANDER_ID, message)
             elif self.strict and ks.LANDER_ID not in clock.acks:
                 raise AssertionError(f"the lander published {key} on tick {clock.tick}, which the world does not "
                                      "wait for: its next_wake() misses a timer")
             else:
-                self._said.append((key, message))
+                self._said([(key, message)])
         self._clock_round = True
         return {rid: [(ks.CLOCK, payload)] for rid in self.rover_ids}
 
@@ -185,8 +173,5 @@ class Rounds:
         due = [(self.keys.rover(job.rover_id, ks.PHOTO), world.render(job)) for job in self._photos
                if job.due_tick <= world.tick + 1]
         self._photos = [job for job in self._photos if job.due_tick > world.tick + 1]
-        out = world.step()
-        self._clock = next(message for key, message in out if key == self.keys.clock)
-        self._queue = [*due, *((key, message) for key, message in out if key != self.keys.clock)]
-        self._said, self._deferred = self._deferred, []
+        self._queue, self._clock = self.tick.step(due, self._present)
         self._phase = "samples"

@@ -26,7 +26,7 @@ from schemas import messages as m
 from schemas.lockstep import lockstep_answer
 from schemas.scenario import load_scenario
 from world_service import camera
-from world_service.lockstep import AckPlan
+from world_service.lockstep import AckPlan, LockstepTick
 from world_service.photographer import Photographer
 from world_service.photos import CameraProcess, build_ground
 from world_service.service import Agents, _note_ack
@@ -83,14 +83,15 @@ def test_an_ack_counts_only_from_the_lander_s_key_or_a_rover_the_scenario_has():
     from bus.bus import Received
 
     world = World(load_scenario(SCENARIOS / "crater_observation.yaml"), KEYS)
-    agents = Agents(KEYS, plan=AckPlan(KEYS, DT), waiting={ks.LANDER_ID, 1})
+    agents = Agents(KEYS, tick=LockstepTick(world))
+    agents.tick.waiting = {ks.LANDER_ID, 1}
     ack = codec.encode(m.Ack(tick=world.tick))
     for key in (KEYS.rover(0, ks.ACK), KEYS.rover(99, ks.ACK)):
         _note_ack(world, agents, Received(key, ack))
-    assert agents.waiting == {ks.LANDER_ID, 1} and world.rejected.by_topic[ks.ACK] == 2
+    assert agents.tick.waiting == {ks.LANDER_ID, 1} and world.rejected.by_topic[ks.ACK] == 2
     _note_ack(world, agents, Received(KEYS.lander(ks.ACK), ack))
     _note_ack(world, agents, Received(KEYS.rover(1, ks.ACK), ack))
-    assert agents.waiting == set()
+    assert agents.tick.waiting == set()
 
 
 def test_agents_that_left_are_not_waited_for():
@@ -229,7 +230,7 @@ def test_the_clock_waits_for_the_camera_process_and_renders_itself_if_it_cannot_
     stop, waits = threading.Event(), []
     process = CameraProcess(scenario)
     try:
-        photographer = Photographer(world, lambda key, message: None, True, process)
+        photographer = Photographer(world, True, process)
         photographer.await_camera(stop, lambda: waits.append(1))
         assert process.started.done() and photographer.camera is process  # up: it will render
     finally:
@@ -238,7 +239,7 @@ def test_the_clock_waits_for_the_camera_process_and_renders_itself_if_it_cannot_
     broken = CameraProcess(scenario)
     for child in set(multiprocessing.active_children()) - others:  # the camera dies while it starts
         os.kill(child.pid, signal.SIGKILL)
-    photographer = Photographer(world, lambda key, message: None, True, broken)
+    photographer = Photographer(world, True, broken)
     photographer.await_camera(stop, lambda: waits.append(1))
     assert photographer.camera is None and "the camera process died" in caplog.text  # photos rendered in the world
     broken.close()

@@ -1,4 +1,12 @@
-"""The world's side of lockstep: which agents a tick waits for.
+"""The world's side of lockstep: the tick's schedule (``LockstepTick``) and which agents a tick waits for
+(``AckPlan``), with no I/O, so the world service's Zenoh loop and the in-process harness (``harness.rounds``)
+drive the one schedule.
+
+A tick: the world steps; its samples go out (the photos due first), then its clock, naming the agents whose ack
+it waits for (none: no clock); the agents answer both; once every ack is in, the world takes the answers by key,
+each key's in order (moves draw their noise from one generator, so the order is part of the result), and what it
+publishes meanwhile goes out at once: late samples, whose answers the world takes with the next tick's. The tick
+that ends the mission goes out and its answers are not taken.
 
 An agent publishes only in answer to a sample that may make it act (``keyspace.ANSWERED_TOPICS``: perception,
 radio, photos) or when one of its own timers is due, and it says with each ``Ack`` when that will next be
@@ -11,8 +19,15 @@ one Zenoh session, so what it knows at its next answer is the same whatever the 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from schemas import keyspace as ks
+from schemas import messages as m
+
+if TYPE_CHECKING:
+    from world_service.sim import World
+
+Out = tuple[str, m.Message]
 
 
 class AckPlan:
@@ -58,3 +73,66 @@ class AckPlan:
 
     def forget(self, agent: int) -> None:
         self.wake.pop(agent, None)
+
+
+class LockstepTick:
+    """The schedule of a lockstep run of ``world``; the caller publishes what it returns and hands it what arrives.
+
+    ``max_sim_time``: the run ends once simulated time reaches it, as it ends when the mission is complete.
+    """
+
+    def __init__(self, world: World, max_sim_time: float | None = None) -> None:
+        self.world = world
+        self.max_sim_time = max_sim_time
+        self.plan = AckPlan(world.keys, world.dt)
+        self.waiting: set[int] = set()  # the agents whose ack of this tick is still due
+        self.clock: m.Clock | None = None  # this tick's clock, to send again while acks are overdue
+        self._said: list[tuple[str, bytes]] = []  # answers, taken by the world with this tick's
+
+    def step(self, photos: list[Out], present: set[int]) -> tuple[list[Out], m.Clock | None]:
+        """Step the world. Returns what to publish now, in order (``photos`` due, then the world's samples), and
+        then the tick's clock naming the ``present`` agents it waits for; None when it waits for nobody."""
+        out = self.world.step()
+        clock_key = self.world.keys.clock
+        samples = [*photos, *((key, message) for key, message in out if key != clock_key)]
+        self.note(samples)
+        self.waiting = set(self.plan.ask(self.world.tick, present))
+        clock = next(message for key, message in out if key == clock_key)
+        self.clock = clock.model_copy(update={"acks": sorted(self.waiting)}) if self.waiting else None
+        return samples, self.clock
+
+    @property
+    def over(self) -> bool:
+        """The mission is complete, or its time is up: the tick just stepped ends it."""
+        world = self.world
+        return world.complete or (self.max_sim_time is not None and world.sim_time >= self.max_sim_time)
+
+    def note(self, published: list[Out]) -> None:
+        """Samples published: whom they may make act (the ack plan asks for them)."""
+        for key, _ in published:
+            self.plan.note(key)
+
+    def ack(self, agent: int, ack: m.Ack) -> None:
+        """An agent's ack; one of another tick says nothing (a resent clock's second answer, a late one)."""
+        if ack.tick == self.world.tick:
+            self.waiting.discard(agent)
+            self.plan.acked(agent, ack.tick, ack.wake)
+
+    def answer(self, key: str, payload: bytes) -> None:
+        """A sample for the world: taken once every ack is in (``take``)."""
+        self._said.append((key, payload))
+
+    def take(self) -> list[Out]:
+        """The world takes the answers, by key (a stable sort: each key's in order); what it publishes meanwhile,
+        the late samples, is returned to go out at once."""
+        said, self._said = self._said, []
+        late: list[Out] = []
+        for key, payload in sorted(said, key=lambda sample: sample[0]):
+            late += self.world.receive(key, payload)
+        self.note(late)
+        return late
+
+    def forget(self, agent: int) -> None:
+        """An agent gone (its liveliness token withdrawn): no ack of it is waited for."""
+        self.waiting.discard(agent)
+        self.plan.forget(agent)

@@ -17,7 +17,7 @@ from pathlib import Path
 from schemas import keyspace as ks
 from schemas import messages as m
 from world_service.photos import CameraProcess, PhotoJob
-from world_service.sim import World
+from world_service.sim import Out, World
 
 log = logging.getLogger("lunarsim.world")
 
@@ -38,7 +38,7 @@ def save_photo(folder: Path, job: PhotoJob, photo: m.Photo) -> None:
 
 
 class Photographer:
-    """Renders the world's photo jobs in a camera process and publishes (and saves) the PNGs when they are due.
+    """Renders the world's photo jobs in a camera process and hands out (and saves) the PNGs when they are due.
 
     A photo is due ``capture_time_s`` after its PhotoAction. In real time it goes out as soon as it is both
     due and rendered; in lockstep exactly on its due tick, waiting for the render if need be, so runs stay
@@ -46,25 +46,27 @@ class Photographer:
     rendered here instead, and the run goes on.
     """
 
-    def __init__(self, world: World, publish: Callable[[str, m.Message], None], lockstep: bool,
-                 camera: CameraProcess | None, photo_dir: Path | None = None) -> None:
-        self.world, self.publish, self.photo_dir = world, publish, photo_dir
+    def __init__(self, world: World, lockstep: bool, camera: CameraProcess | None,
+                 photo_dir: Path | None = None) -> None:
+        self.world, self.photo_dir = world, photo_dir
         self.wait = lockstep
         self.camera = camera
         self.queued: list[tuple[PhotoJob, Future]] = []
         self.waited_s = 0.0  # lockstep: how long the clock waited for renders
 
-    def take(self, tick: int) -> None:
-        """Start the new jobs; publish what is due by ``tick``, the tick about to be stepped."""
+    def take(self, tick: int) -> list[Out]:
+        """Start the new jobs; the photos due by ``tick`` (the tick about to be stepped), to publish."""
         jobs, self.world.photo_jobs = self.world.photo_jobs, []
         self.queued += [(job, self._submit(job)) for job in jobs]
         due = [(job, f) for job, f in self.queued if job.due_tick <= tick and (self.wait or f.done())]
+        out = []
         for job, future in due:
             self.queued.remove((job, future))
             t0 = time.perf_counter()
             photo = self._result(job, future)
             self.waited_s += time.perf_counter() - t0
-            self._publish(job, photo)
+            out.append(self._delivered(job, photo))
+        return out
 
     def _submit(self, job: PhotoJob) -> Future:
         if self.camera is not None:
@@ -109,14 +111,15 @@ class Photographer:
             log.error("the camera process died; rendering photos in the world's own process from now on")
             self.camera = None
 
-    def _publish(self, job: PhotoJob, photo: m.Photo) -> None:
-        self.publish(self.world.keys.rover(job.rover_id, ks.PHOTO), photo)
+    def _delivered(self, job: PhotoJob, photo: m.Photo) -> Out:
         if self.photo_dir is not None:
             save_photo(self.photo_dir, job, photo)
+        return self.world.keys.rover(job.rover_id, ks.PHOTO), photo
 
-    def close(self) -> None:
-        """Publish the photos still on their way, then stop the camera process."""
+    def close(self) -> list[Out]:
+        """Stop the camera process; the photos still on their way, to publish."""
         self.wait = True
-        self.take(max((job.due_tick for job, _ in self.queued), default=0))
+        out = self.take(max((job.due_tick for job, _ in self.queued), default=0))
         if self.camera is not None:
             self.camera.close()
+        return out

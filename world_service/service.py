@@ -29,7 +29,7 @@ from bus.process import freeze_start_up_heap
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from world_service.lockstep import AckPlan
+from world_service.lockstep import LockstepTick
 from world_service.photographer import Photographer
 from world_service.photos import CameraProcess
 from world_service.rover_ids import IdDesk
@@ -62,9 +62,7 @@ class Agents:
     present: set[str] = field(default_factory=set)
     ids: dict[str, int] = field(default_factory=dict)  # liveliness key -> agent id (0 the lander)
     desk: IdDesk | None = None
-    plan: AckPlan | None = None
-    waiting: set[int] = field(default_factory=set)
-    clock: m.Clock | None = None  # lockstep: the last clock sent, sent again while acks are overdue
+    tick: LockstepTick | None = None  # lockstep's schedule; None in real time
 
     def arrive(self, alive_key: str, agent: int) -> None:
         self.present.add(alive_key)
@@ -73,9 +71,8 @@ class Agents:
     def leave(self, alive_key: str) -> None:
         self.present.discard(alive_key)
         agent = self.ids.pop(alive_key, None)
-        self.waiting.discard(agent)
-        if self.plan is not None and agent is not None:
-            self.plan.forget(agent)
+        if self.tick is not None and agent is not None:
+            self.tick.forget(agent)
 
 
 def declare_io(bus: Bus, keys: ks.Keyspace) -> None:
@@ -121,8 +118,8 @@ def handle(world: World, bus: Bus, item: Received, agents: Agents) -> None:
 
 
 def _publish(bus: Bus, agents: Agents, key: str, message: m.Message) -> None:
-    if agents.plan is not None:
-        agents.plan.note(key)
+    if agents.tick is not None:
+        agents.tick.note([(key, message)])
     bus.publish(key, message)
 
 
@@ -135,9 +132,8 @@ def _note_ack(world: World, agents: Agents, item: Received) -> None:
     except (codec.DecodeError, ValueError) as exc:
         world.count_rejected(item.key, exc)
         return
-    if agents.plan is not None and ack.tick == world.tick:
-        agents.waiting.discard(agent)
-        agents.plan.acked(agent, ack.tick, ack.wake)
+    if agents.tick is not None:
+        agents.tick.ack(agent, ack)
 
 
 def _acking_agent(world: World, key: str) -> int:
@@ -178,26 +174,36 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
         log.info("every agent is there (%d)", len(wanted))
 
 
-def _step(world: World, bus: Bus, photographer: Photographer, agents: Agents, state_file: Path | None) -> None:
-    """One tick: due photos, the world's samples, then the clock, naming in lockstep whose ack it waits for."""
-    photographer.take(world.tick + 1)
+def _step_realtime(world: World, bus: Bus, photographer: Photographer, state_file: Path | None) -> None:
+    """One tick in real time: due photos, the world's samples, then the clock at ``CLOCK_HZ`` (a granted step
+    always shows it)."""
+    for key, message in photographer.take(world.tick + 1):
+        bus.publish(key, message)
     world.dropped_messages = sum(bus.inbox.dropped.values())
     out = world.step()
+    _keep(world, state_file)
+    clock_key = world.keys.clock
+    for key, message in out:
+        if key != clock_key or world.tick % world.clock_period == 0 or world.hold.paused:
+            bus.publish(key, message)
+
+
+def _step_lockstep(world: World, bus: Bus, photographer: Photographer, tick: LockstepTick, agents: Agents,
+                   state_file: Path | None) -> None:
+    """One tick in lockstep (``LockstepTick.step``): the clock goes out only when the tick waits for someone."""
+    photos = photographer.take(world.tick + 1)
+    world.dropped_messages = sum(bus.inbox.dropped.values())
+    samples, clock = tick.step(photos, set(agents.ids.values()))
+    _keep(world, state_file)
+    for key, message in samples:
+        bus.publish(key, message)
+    if clock is not None:
+        bus.publish(world.keys.clock, clock)
+
+
+def _keep(world: World, state_file: Path | None) -> None:
     if state_file is not None and world.RENDERS_PHOTOS and world.tick % world.save_period == 0:
         snapshot.save(world, state_file)
-    clock_key = world.keys.clock
-    clock = next(message for key, message in out if key == clock_key)
-    for key, message in out:
-        if key != clock_key:
-            _publish(bus, agents, key, message)
-    if agents.plan is not None:
-        agents.waiting = set(agents.plan.ask(world.tick, set(agents.ids.values())))
-        if not agents.waiting:
-            return  # no agent's timer is due and none has anything to answer: the clock would only cost them
-        clock = agents.clock = clock.model_copy(update={"acks": sorted(agents.waiting)})
-    elif world.tick % world.clock_period and not world.hold.paused:
-        return  # real time: the clock goes out at CLOCK_HZ (a granted step always shows)
-    bus.publish(clock_key, clock)
 
 
 def _hold(world: World, bus: Bus, agents: Agents, stop: threading.Event) -> None:
@@ -211,28 +217,24 @@ def _hold(world: World, bus: Bus, agents: Agents, stop: threading.Event) -> None
             handle(world, bus, item, agents)
 
 
-def _finished(world: World, settings: ClockSettings) -> bool:
-    return world.complete or (settings.max_sim_time is not None and world.sim_time >= settings.max_sim_time)
-
-
 def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> m.MissionReport:
     """Run the mission until every rover is done or stuck, ``max_sim_time`` passes, or ``stop`` is set."""
     world.time_scale, world.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
     camera = (CameraProcess(world.scenario, priority.for_mode("auto", settings.lockstep))
               if world.RENDERS_PHOTOS else None)  # starts while the agents connect
     agents = Agents(world.keys)
-    photographer = Photographer(world, lambda key, message: _publish(bus, agents, key, message), settings.lockstep,
-                                camera, settings.photo_dir)
+    photographer = Photographer(world, settings.lockstep, camera, settings.photo_dir)
     try:
         wait_for_agents(world, bus, settings, stop, agents)
         photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock(running=False)))
         freeze_start_up_heap()
-        agents.plan = AckPlan(world.keys, world.dt) if settings.lockstep else None
+        agents.tick = LockstepTick(world, settings.max_sim_time) if settings.lockstep else None
         log.info("clock started at t = %.1f s: %s", world.sim_time,
                  "lockstep" if settings.lockstep else f"real time x {settings.time_scale:g}")
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
     finally:
-        photographer.close()
+        for key, message in photographer.close():
+            bus.publish(key, message)
     if settings.state_file is not None:  # over, or stopped on purpose: a state is kept only by a world killed
         snapshot.discard(settings.state_file)
     bus.publish(world.keys.state, world.observed_state())  # the final state, then the report computed from it
@@ -263,8 +265,8 @@ def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threadi
             _hold(world, bus, agents, stop)
             next_tick = time.monotonic()
             continue
-        _step(world, bus, photographer, agents, settings.state_file)
-        if _finished(world, settings):
+        _step_realtime(world, bus, photographer, settings.state_file)
+        if world.complete or (settings.max_sim_time is not None and world.sim_time >= settings.max_sim_time):
             return
         next_tick += period
         delay = next_tick - time.monotonic()
@@ -276,23 +278,25 @@ def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threadi
 
 def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents,
                   photographer: Photographer) -> None:
+    """The schedule is ``LockstepTick``'s; this loop does its I/O: publishes, and waits for the acks."""
+    tick = agents.tick
     tally = LockstepTally(start=time.perf_counter())
     try:
         while not stop.is_set():
             while world.hold.held() and not stop.is_set():
                 _hold(world, bus, agents, stop)
             t0 = time.perf_counter()
-            _step(world, bus, photographer, agents, settings.state_file)
+            _step_lockstep(world, bus, photographer, tick, agents, settings.state_file)
             tally.stepping += time.perf_counter() - t0
-            if _finished(world, settings):
+            if tick.over:
                 return
             tally.ticks += 1
-            tally.waited += bool(agents.waiting)
+            tally.waited += bool(tick.waiting)
             t0 = time.perf_counter()
-            data = _collect_until_acked(world, bus, settings, stop, agents)
+            _collect_until_acked(world, bus, settings, stop, agents)
             tally.waiting += time.perf_counter() - t0
-            for item in sorted(data, key=lambda r: r.key):  # stable: per-key order is kept
-                handle(world, bus, item, agents)
+            for key, message in tick.take():
+                bus.publish(key, message)
     finally:
         log.info("%s; waiting for photos %.2f s", tally.summary(world.sim_time), photographer.waited_s)
 
@@ -318,35 +322,34 @@ class LockstepTally:
 
 
 def _collect_until_acked(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event,
-                         agents: Agents) -> list[Received]:
-    """Gather the agents' answers to this tick until every agent it waits for has acknowledged it; then take
-    what else has arrived (answers no tick waited for, ground commands) without waiting for more."""
-    data: list[Received] = []
+                         agents: Agents) -> None:
+    """Hand the tick the agents' answers until every agent it waits for has acknowledged it; then what else has
+    arrived (answers no tick waited for, ground commands) without waiting for more."""
+    tick = agents.tick
     deadline = time.monotonic() + settings.ack_timeout
     backoff = CLOCK_RESEND_S[0]
     resend_at = time.monotonic() + backoff
     while not stop.is_set():
-        item = bus.receive(timeout=min(0.5, max(0.0, resend_at - time.monotonic())) if agents.waiting else 0)
-        if agents.waiting and agents.clock is not None and time.monotonic() > resend_at:
-            bus.publish(world.keys.clock, agents.clock)
+        item = bus.receive(timeout=min(0.5, max(0.0, resend_at - time.monotonic())) if tick.waiting else 0)
+        if tick.waiting and tick.clock is not None and time.monotonic() > resend_at:
+            bus.publish(world.keys.clock, tick.clock)
             backoff = min(2 * backoff, CLOCK_RESEND_S[1])
             resend_at = time.monotonic() + backoff
         if item is None:
-            if not agents.waiting:
+            if not tick.waiting:
                 break
             if time.monotonic() > deadline:
-                late = ", ".join(_agent_name(agent) for agent in sorted(agents.waiting))
+                late = ", ".join(_agent_name(agent) for agent in sorted(tick.waiting))
                 log.warning("tick %d: no ack after %g s from %s; going on without them", world.tick,
                             settings.ack_timeout, late)
-                agents.waiting.clear()
+                tick.waiting.clear()
             continue
         if item.alive is not None:
             note_liveliness(world, agents, item)
         elif item.key.endswith(f"/{ks.ACK}"):
             _note_ack(world, agents, item)
         else:
-            data.append(item)
-    return data
+            tick.answer(item.key, item.payload)
 
 
 def _agent_name(agent: int) -> str:
