@@ -14,6 +14,7 @@ import os
 import re
 import socket
 import sys
+import threading
 import time
 from collections.abc import Sequence
 
@@ -41,9 +42,12 @@ def reason(exc: zenoh.ZError) -> str:
     return re.split(r"\s+at\s+\S+\.rs:\d+", str(exc))[0].strip()
 
 
-def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False, agent: bool = False) -> None:
-    """Zenoh flags of every process. Agents (``agent=True``: world, lander, rovers, recorder, bridges) wait for
-    their router for as long as it takes, so a deployment may start in any order; one-shot tools give up."""
+def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False, agent: bool = False,
+                        timeout_help: str | None = None) -> None:
+    """Zenoh flags of every process. Agents (``agent=True``: world, lander, rovers, recorder, bridges, the view)
+    wait for their router for as long as it takes, so a deployment may start in any order; one-shot tools give up.
+    ``timeout_help`` says what ``--router-timeout`` does where waiting means more than waiting (the view serves
+    its page meanwhile)."""
     group = parser.add_argument_group("zenoh")
     group.add_argument("--connect", "-e", action="append", metavar="ENDPOINT",
                        help=f"router endpoint to connect to (default {DEFAULT_ENDPOINT}); repeatable")
@@ -54,8 +58,8 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, listen: bool = False, a
     group.add_argument("--scouting", action="store_true",
                        help="switch multicast scouting on (off by default: it fails in most containers)")
     if agent:
-        group.add_argument("--router-timeout", type=float, default=None, metavar="S",
-                           help="give up after S seconds without a router (default: wait for it, saying so)")
+        group.add_argument("--router-timeout", type=float, default=None, metavar="S", help=timeout_help or
+                           "give up after S seconds without a router (default: wait for it, saying so)")
     else:
         group.add_argument("--router-timeout", type=float, default=ONE_SHOT_TIMEOUT_S, metavar="S",
                            help="seconds to keep trying to reach the router before giving up "
@@ -143,10 +147,11 @@ def open_router(conf: zenoh.Config, listen: Sequence[str], config_file: str | No
                          "(is another router already using the port?)") from None
 
 
-def open_session(conf: zenoh.Config, where: str, timeout_s: float | None = 10.0,
-                 who: str = "lunarsim") -> zenoh.Session:
+def open_session(conf: zenoh.Config, where: str, timeout_s: float | None = 10.0, who: str = "lunarsim", *,
+                 remind_s: float | None = WAIT_REMINDER_S, stop: threading.Event | None = None) -> zenoh.Session:
     """Open a session, retrying until ``timeout_s`` (None: for ever); say plainly on stderr that we are waiting,
-    and again every half minute, so a process started before its router is not mistaken for a hung one."""
+    and again every ``remind_s`` (None: once), so a process started before its router is not mistaken for a hung
+    one. ``stop`` set ends the wait (``RouterUnreachable``) for a process that has other work (the view's page)."""
     start = time.monotonic()
     next_notice = start
     while True:
@@ -160,10 +165,13 @@ def open_session(conf: zenoh.Config, where: str, timeout_s: float | None = 10.0,
                     "Start one with 'lunarsim router' or point --connect at a running one."
                 ) from None
             if now >= next_notice:
-                waited = f" (waiting {now - start:.0f} s)" if now > start else ""
+                waited = f" (waiting {now - start:.0f} s)" if now - start >= 1 else ""
                 print(f"{who}: waiting for a Zenoh router at {where} ...{waited}", file=sys.stderr, flush=True)
-                next_notice = now + WAIT_REMINDER_S
-            time.sleep(0.5)
+                next_notice = now + remind_s if remind_s is not None else float("inf")
+            if stop is None:
+                time.sleep(0.5)
+            elif stop.wait(0.5):
+                raise RouterUnreachable(f"{who}: stopped while waiting for a Zenoh router at {where}") from None
             continue
         if next_notice > start:
             print(f"{who}: connected to the Zenoh router at {where}", file=sys.stderr, flush=True)

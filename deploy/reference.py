@@ -64,7 +64,8 @@ def keyspace_page() -> str:
         lines += ["", f"## {area.capitalize()} keys", "", "| key | payload |", "|---|---|"]
         lines += [f"| `{area}/{topic}` | [`{model.__name__}`](#{model.__name__.lower()}) |"
                   for topic, model in models.items()]
-    lines += ["", "Liveliness tokens: `alive/rover/<id>` and `alive/lander` (each agent's, while it runs).", "",
+    lines += ["", "Liveliness tokens: `alive/rover/<id>` and `alive/lander` (each agent's, while it runs); "
+              "`alive/replay/playing` or `alive/replay/paused` (a replay's, while it publishes into the world).", "",
               "## Messages", ""]
     seen: set[str] = set()
     queue = [*m.TOPIC_MODELS.values(), *m.LANDER_TOPIC_MODELS.values(), *m.WORLD_TOPIC_MODELS.values(),

@@ -50,6 +50,9 @@ SUN: Final = "sun"
 has a sun."""
 ROVER_IDS: Final = "rover_ids"
 """The world's queryable that hands a rover agent started with ``--id auto`` a free rover id."""
+REPLAY_STATES: Final = ("playing", "paused")
+"""The last chunk of a replay's liveliness token (``Keyspace.alive_replay``): how viewers tell a replay from a live
+world, and a paused replay from a stopped one."""
 ANSWERED_TOPICS: Final = frozenset({PERCEPTION, COMM_IN, MISSION_DIRECTION, CALIBRATION, PHOTO})
 """The world-to-agent topics (rover or lander) whose samples may make an agent publish. Samples of the others
 (gyroscope, navigation status, cancel result, action rejected, comm partners) only update what the agent knows,
@@ -136,6 +139,15 @@ class Keyspace:
     @property
     def alive_lander(self) -> str:
         return f"{self.prefix}/alive/lander"
+
+    def alive_replay(self, state: str) -> str:
+        """Liveliness token a replay publishing into this world holds while it runs, its state (``REPLAY_STATES``)
+        the last chunk: the samples carry nothing that tells a replay, and a token vanishes with its process."""
+        return f"{self.prefix}/alive/replay/{state}"
+
+    @property
+    def alive_replays(self) -> str:
+        return f"{self.prefix}/alive/replay/*"
 
     def remap(self, key: str, other: Keyspace) -> str:
         """The same key in another world (replaying a session beside a live one)."""

@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
-from schemas.keyspace import ROOT, Keyspace
+from schemas.keyspace import REPLAY_STATES, ROOT, Keyspace
 from sessions.format import Sample
 
 Source = Callable[[int | None], Iterable[Sample]]
@@ -96,6 +96,30 @@ def prefetch(samples: Iterable[Sample], size: int = 20_000) -> Iterator[Sample]:
             yield item
     finally:
         stop.set()
+
+
+class ReplayToken:
+    """Says on the target world's keyspace that a replay publishes there, and whether it is paused: a liveliness
+    token (``Keyspace.alive_replay``) swapped when the state changes, so a viewer shows "replay" rather than "live"
+    and tells a paused replay from a stopped world. ``declare(key)`` returns a token with ``undeclare()``."""
+
+    def __init__(self, declare: Callable[[str], object], keys: Keyspace) -> None:
+        self.declare, self.keys = declare, keys
+        self.state: str | None = None
+        self._token: object | None = None
+
+    def show(self, paused: bool) -> None:
+        state = REPLAY_STATES[1] if paused else REPLAY_STATES[0]
+        if state == self.state:
+            return
+        old, self._token, self.state = self._token, self.declare(self.keys.alive_replay(state)), state
+        if old is not None:  # the new token first: a viewer never sees the replay gone between the two
+            old.undeclare()
+
+    def close(self) -> None:
+        if self._token is not None:
+            self._token.undeclare()
+        self._token = self.state = None
 
 
 class RealWaiter:

@@ -124,6 +124,7 @@ def _play(args: argparse.Namespace, recording: Recording, world: str, make_playe
     """Open Zenoh, play on a worker thread, and keep the main thread for signals and the progress bar."""
     from bus.bus import Bus
     from schemas.keyspace import Keyspace
+    from sessions.replay import ReplayToken
 
     keys = Keyspace(world)
     session = _open(args)
@@ -131,21 +132,25 @@ def _play(args: argparse.Namespace, recording: Recording, world: str, make_playe
         own = OwnCommands(keys.ground_command)
         player = make_player(own.wrap(bus.put))
         commands = session.declare_subscriber(keys.ground_command, _command_handler(player, own))
+        token = ReplayToken(session.liveliness().declare_token, keys)
+        token.show(player.paused)
         print(f"replaying {recording.path} ({player.duration_s:.1f} s, world {recording.world} -> {world}) "
               f"at rate {args.rate:g}" + (" - paused" if args.start_paused else ""), flush=True)
         started = time.monotonic()
         try:
-            interrupted = _run_with_controls(player, args.quiet)
+            interrupted = _run_with_controls(player, args.quiet, token)
         finally:
             commands.undeclare()
+            token.close()
     print(f"replayed {player.published} samples in {time.monotonic() - started:.1f} s"
           + (f" ({player.loops} loops)" if player.loops else "") + (" - interrupted" if interrupted else ""),
           flush=True)
     return process.EXIT_INTERRUPTED if interrupted else 0
 
 
-def _run_with_controls(player, quiet: bool) -> bool:
-    """Play to the end; True if stopped by Ctrl-C or SIGTERM. A failure of the player is raised here."""
+def _run_with_controls(player, quiet: bool, token) -> bool:
+    """Play to the end; True if stopped by Ctrl-C or SIGTERM. A failure of the player is raised here. The replay's
+    token follows the player's pause every tenth of a second."""
     failure: list[BaseException] = []
 
     def play() -> None:
@@ -164,6 +169,7 @@ def _run_with_controls(player, quiet: bool) -> bool:
                 player.quit()
                 worker.join()
             update()
+            token.show(player.paused)
     if failure:
         raise failure[0]
     return interrupted

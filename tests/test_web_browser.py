@@ -247,7 +247,8 @@ def draw_wall_and_rock_field(page, at) -> None:
 
 
 def test_a_replay_is_shown_and_paused_from_the_page(router, tmp_path, browser):
-    """A replay republishes the recorded keys, so the same page shows it; Pause on the page stops it."""
+    """A replay republishes the recorded keys, so the same page shows it; the header says "replay" (the replay's
+    token), "replay paused" once Pause on the page has stopped it, and no longer "replay" when it has gone."""
     out = tmp_path / "rec"
     run = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--connect", router, "--world", "recorded",
                    "--time-scale", "5", "--max-sim-time", "20", "--quiet", "--out", str(out))
@@ -262,6 +263,8 @@ def test_a_replay_is_shown_and_paused_from_the_page(router, tmp_path, browser):
         wait_for(lambda: len(positions(page)) == 5, 30, "the replayed rovers on the page")
         first = positions(page)
         wait_for(lambda: positions(page) != first, 20, "the replayed rovers to move")
+        wait_for(lambda: page_value(page, "lunarsim.run.status") == "replay", 10, "the header to say replay")
+        assert page.inner_text("#conn") == "replay" and page.get_attribute("#conn", "class") == "ok"
         page.click("#cmd-pause")
         wait_for(lambda: page_value(page, "lunarsim.lastCommand.sent"), 10, "the pause to be sent")
 
@@ -271,9 +274,15 @@ def test_a_replay_is_shown_and_paused_from_the_page(router, tmp_path, browser):
             return page_value(page, "lunarsim.states") == before
 
         wait_for(settled, 15, "the replay to pause")
+        wait_for(lambda: page_value(page, "lunarsim.run.status") == "paused", 10, "the header to say paused")
+        assert page.inner_text("#conn") == "replay paused"
         shot(page, "replay_paused")
         page.click("#cmd-resume")
         before = page_value(page, "lunarsim.states")
         wait_for(lambda: page_value(page, "lunarsim.states") > before + 3, 15, "the replay to resume")
+        wait_for(lambda: page_value(page, "lunarsim.run.status") == "replay", 10, "the header to say replay again")
+        stop(replay)
+        wait_for(lambda: page_value(page, "lunarsim.run.status") == "silent", 20, "the replay gone from the header")
+        assert page.inner_text("#conn") == "world silent"
     finally:
         stop(replay, view)

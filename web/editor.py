@@ -22,6 +22,7 @@ from schemas.scenario_files import load_yaml_text
 from schemas.scenario_limits import MAX_SCENARIO_BYTES, clip
 
 NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,80}$")
+LOOPBACK_ENDPOINT = re.compile(r"tcp/127\.0\.0\.1:(\d{1,5})")
 
 
 def scenario_from_page(data: object) -> Scenario:
@@ -104,11 +105,21 @@ class Launcher:
         self.out.mkdir(parents=True, exist_ok=True)
         log = (self.out / "launch.log").open("w")
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "deploy.cli", "run", str(scenario_file), "--connect", self.endpoint, "--world",
+            [sys.executable, "-m", "deploy.cli", "run", str(scenario_file), *self.router_args(), "--world",
              self.world, "--time-scale", str(time_scale), "--out", str(self.out), "--quiet"],
             stdout=log, stderr=subprocess.STDOUT)
         log.close()
         return self.out
+
+    def router_args(self) -> list[str]:
+        """Join the viewer's router when one listens; on a loopback endpoint where none does (the view started on its
+        own), the run's world routes there, as ``lunarsim run`` does by default, and the waiting view connects."""
+        from bus.zenoh_config import port_in_use
+
+        match = LOOPBACK_ENDPOINT.fullmatch(self.endpoint)
+        if match and not port_in_use("127.0.0.1", int(match[1])):
+            return ["--port", match[1]]
+        return ["--connect", self.endpoint]
 
     def status(self) -> dict:
         if self.proc is None:

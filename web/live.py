@@ -10,6 +10,7 @@ from __future__ import annotations
 import base64
 import threading
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -17,6 +18,7 @@ import numpy as np
 from lander_agent import mapping
 from schemas import codec
 from schemas import messages as m
+from schemas.keyspace import REPLAY_STATES
 
 STREAM_HZ = 10.0
 """World states pushed to each browser per second at most."""
@@ -68,6 +70,38 @@ class Latest:
         with self.lock:
             self.payloads.clear()
             self.photos.clear()
+
+
+@dataclass
+class Source:
+    """Where the page's samples come from, as far as the view knows: whether a router is reachable at ``where``,
+    and whether a replay holds its token on the world (``Keyspace.alive_replay``), playing or paused. Written by
+    Zenoh's threads, read by the server's loop."""
+
+    where: str = ""
+    connected: bool = True
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    tokens: Counter[str] = field(default_factory=Counter)
+
+    def set_connected(self, connected: bool) -> None:
+        with self.lock:
+            self.connected = connected  # a router gone takes its tokens: Zenoh says each one went
+
+    def replay_token(self, key: str, alive: bool) -> None:
+        """A replay's token came or went. Counted per state, in case two replays hold the same one; a state the
+        view does not know (the key is anyone's to declare) is ignored."""
+        state = key.rsplit("/", 1)[-1]
+        if state not in REPLAY_STATES:
+            return
+        with self.lock:
+            self.tokens[state] += 1 if alive else -1
+            if self.tokens[state] <= 0:
+                del self.tokens[state]
+
+    def status(self) -> dict:
+        with self.lock:
+            replay = next((state for state in REPLAY_STATES if self.tokens[state] > 0), None)
+            return {"router": self.where, "connected": self.connected, "replay": replay}
 
 
 def power_json(r: m.RoverTruth) -> dict:

@@ -34,9 +34,11 @@ class Viewer:
     """State shared by the handlers: latest samples, the scene shown, connected pages, editor and launcher."""
 
     def __init__(self, world: str, latest: live.Latest, commands: Commands, workspace: editor.Workspace,
-                 launcher: editor.Launcher, scenario: Scenario | None = None) -> None:
+                 launcher: editor.Launcher, scenario: Scenario | None = None,
+                 source: live.Source | None = None) -> None:
         self.world = world
         self.latest = latest
+        self.source = source or live.Source()
         self.commands = commands
         self.workspace = workspace
         self.launcher = launcher
@@ -74,11 +76,16 @@ class Viewer:
         return out
 
     async def stream(self) -> None:
-        """The latest of each stream to every page, ``STREAM_HZ`` times a second at most."""
+        """The latest of each stream to every page, ``STREAM_HZ`` times a second at most, and where the samples
+        come from when that changes (a router reached or lost, a replay started, paused or gone)."""
         seen: dict = {}
         seen_photos: dict = {}
+        source = self.source.status()
         while True:
             await asyncio.sleep(1.0 / live.STREAM_HZ)
+            if (now := self.source.status()) != source:
+                source = now
+                await self.broadcast(json.dumps({"type": "source", **source}))
             if not self.clients:
                 continue
             for text in self.messages_since(seen, seen_photos):
@@ -162,11 +169,13 @@ async def websocket(request: web.Request) -> web.WebSocketResponse:
     await ws.prepare(request)
     # The state's age lets a page that joins after the world stopped say so at once, not after a silence.
     await ws.send_str(json.dumps({"type": "hello", "world": viewer.world, "stream_hz": live.STREAM_HZ,
-                                  "state_age_s": viewer.latest.age("state")}))
+                                  "state_age_s": viewer.latest.age("state"), "source": viewer.source.status()}))
     await ws.send_str(json.dumps({"type": "scene", "scene": viewer.scene}))
     for text in viewer.messages_since({}, {}):
         await ws.send_str(text)
     viewer.clients.add(ws)
+    # Said again now that broadcasts reach this page: a change between the hello and here would be missed.
+    await ws.send_str(json.dumps({"type": "source", **viewer.source.status()}))
     try:
         async for msg in ws:
             if msg.type == WSMsgType.ERROR:
@@ -180,7 +189,7 @@ async def info(request: web.Request) -> web.Response:
     viewer = _viewer(request)
     return web.json_response({"world": viewer.world, "scenario": viewer.scene["name"], "clients": len(viewer.clients),
                               "launch": viewer.launcher.status(), "undecodable": viewer.undecodable,
-                              "validating": viewer.worker.running})
+                              "validating": viewer.worker.running, **viewer.source.status()})
 
 
 async def favicon(request: web.Request) -> web.FileResponse:
@@ -203,7 +212,10 @@ async def command(request: web.Request) -> web.Response:
         cmd = command_from_request(await _body(request))
     except CommandError as exc:
         return _error(str(exc))
-    result = await _viewer(request).commands.send(cmd)
+    viewer = _viewer(request)
+    if not (source := viewer.source.status())["connected"]:
+        return _error(f"no world to send it to: the view is waiting for a world at {source['router']}", 503)
+    result = await viewer.commands.send(cmd)
     return web.json_response({"ok": True, "command": cmd.command, **result})
 
 

@@ -10,6 +10,8 @@ import signal
 import socket
 from pathlib import Path
 
+import zenoh
+
 from bus import process
 from web import guard
 
@@ -51,55 +53,69 @@ def web_access(args: argparse.Namespace, environ: dict[str, str]) -> tuple[guard
 
 
 def run_web(args: argparse.Namespace) -> int:
-    import zenoh
-
-    from bus.bus import zenoh_callback
-    from bus.zenoh_config import DEFAULT_ENDPOINT, config_from_args, describe_endpoints, open_session
+    """Serve at once; the Zenoh session opens when a router is reachable (``web.link``), the page says meanwhile
+    that it waits for a world, and ``--router-timeout`` (if given) ends the wait with exit code 3."""
+    from bus.zenoh_config import DEFAULT_ENDPOINT, config_from_args, describe_endpoints
     from schemas import codec
-    from schemas.keyspace import MAP, PHOTO, STATUS, Keyspace
+    from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario
     from web import editor, live
     from web.commands import Commands
+    from web.link import RouterLink
     from web.server import Viewer, build_app
 
-    keys = Keyspace(args.world)
     access, url = web_access(args, dict(os.environ))
     scenario = load_scenario(args.scenario) if args.scenario else None
-    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
-                           who="lunarsim view")
     latest = live.Latest()
-    commands = Commands(lambda cmd: session.put(keys.ground_command, codec.encode(cmd)))
-    streams = {keys.state: "state", keys.stats: "stats", keys.lander(STATUS): "lander",
-               keys.lander(MAP): "map"}
+    source = live.Source(describe_endpoints(args), connected=False)
+    link = RouterLink(config_from_args(args), source, args.router_timeout)
+    keys = Keyspace(args.world)
+    commands = Commands(lambda cmd: link.put(keys.ground_command, codec.encode(cmd)))
+    endpoint = (args.connect or [DEFAULT_ENDPOINT])[0]
+    launcher = editor.Launcher(args.runs, endpoint, args.world)
+    viewer = Viewer(args.world, latest, commands, editor.Workspace(args.workspace), launcher, scenario, source)
+    try:
+        asyncio.run(_serve(build_app(viewer, access), args, url, link,
+                           lambda session: _subscribe(session, keys, viewer)))
+    finally:
+        launcher.stop()
+        link.close()
+    link.raise_failure()
+    return 0
+
+
+def _subscribe(session: zenoh.Session, keys, viewer) -> list:
+    """The world's streams into ``viewer.latest``, the lander's answers to the commands, replays' tokens into
+    ``viewer.source``. Runs when the session opens; the callbacks only store bytes."""
+    from bus.bus import zenoh_callback
+    from schemas.keyspace import MAP, PHOTO, STATUS
+
+    streams = {keys.state: "state", keys.stats: "stats", keys.lander(STATUS): "lander", keys.lander(MAP): "map"}
 
     def on_sample(sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)
         if key in streams:
-            latest.put(streams[key], sample.payload.to_bytes())
+            viewer.latest.put(streams[key], sample.payload.to_bytes())
         elif key == keys.ground_command_result:
-            commands.on_result(sample.payload.to_bytes())
+            viewer.commands.on_result(sample.payload.to_bytes())
         else:
             with contextlib.suppress(ValueError):
-                latest.put_photo(keys.parse_rover_key(key)[0], sample.payload.to_bytes())
+                viewer.latest.put_photo(keys.parse_rover_key(key)[0], sample.payload.to_bytes())
+
+    def on_token(sample: zenoh.Sample) -> None:
+        viewer.source.replay_token(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)
 
     handler = zenoh_callback(on_sample)
-    subscribers = [session.declare_subscriber(key, handler) for key in
-                   (*streams, keys.ground_command_result, keys.rovers(PHOTO))]
-    endpoint = (args.connect or [DEFAULT_ENDPOINT])[0]
-    launcher = editor.Launcher(args.runs, endpoint, args.world)
-    viewer = Viewer(args.world, latest, commands, editor.Workspace(args.workspace), launcher, scenario)
-    try:
-        asyncio.run(_serve(build_app(viewer, access), args, url))
-    finally:
-        launcher.stop()
-        for subscriber in subscribers:
-            subscriber.undeclare()
-        session.close()
-    return 0
+    declared = [session.declare_subscriber(key, handler) for key in
+                (*streams, keys.ground_command_result, keys.rovers(PHOTO))]
+    declared.append(session.liveliness().declare_subscriber(keys.alive_replays, zenoh_callback(on_token),
+                                                            history=True))
+    return declared
 
 
-async def _serve(app, args: argparse.Namespace, url: str) -> None:
-    """Serve until SIGINT or SIGTERM; says where once the port is bound (tests wait for that line)."""
+async def _serve(app, args: argparse.Namespace, url: str, link, declare) -> None:
+    """Serve until SIGINT or SIGTERM, or until the link gives up on its router; says where once the port is bound
+    (tests wait for that line), then starts the link, whose waiting for a router is said after it."""
     from aiohttp import web
 
     runner = web.AppRunner(app, access_log=None)
@@ -114,6 +130,8 @@ async def _serve(app, args: argparse.Namespace, url: str) -> None:
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, stop.set)
+        link.when_failed(lambda: loop.call_soon_threadsafe(stop.set))
+        link.start(declare)
         await stop.wait()
     finally:
         await runner.cleanup()

@@ -28,6 +28,8 @@ if TYPE_CHECKING:
     from schemas.scenario import Scenario
     from sessions.format import Sample
 
+ROUTER_TIMEOUT_HELP = ("exit (code 3) if no router has been reachable S seconds after starting (default: wait for "
+                       "one, however long, serving the page meanwhile; a router lost later is waited for again)")
 QUEUE_SAMPLES = 256
 """Samples waiting to be converted; a viewer that falls behind drops the oldest, live is what matters."""
 
@@ -43,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; "
                         "0.0.0.0 for other machines: the web page then asks for a token)")
     parser.add_argument("--no-trails", action="store_true", help="do not draw the rovers' recent paths")
-    add_zenoh_arguments(parser)
+    add_zenoh_arguments(parser, agent=True, timeout_help=ROUTER_TIMEOUT_HELP)
     from web.view import add_web_arguments
 
     add_web_arguments(parser)
@@ -168,9 +170,11 @@ class Feed:
 
 def run_from_args(args: argparse.Namespace) -> int:
     from bus.bus import zenoh_callback
-    from bus.zenoh_config import config_from_args, describe_endpoints, open_session
+    from bus.zenoh_config import config_from_args, describe_endpoints
     from schemas.keyspace import MAP, PHOTO, Keyspace, check_world_name
     from schemas.scenario import load_scenario
+    from web.link import RouterLink
+    from web.live import Source
 
     try:
         check_world_name(args.world)
@@ -189,24 +193,24 @@ def run_from_args(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     keys = Keyspace(args.world)
     live = LiveScene(scenario, trail_points=0 if args.no_trails else 300)
-    session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
-                           who="lunarsim view")
+    link = RouterLink(config_from_args(args), Source(describe_endpoints(args), connected=False), args.router_timeout)
     feed = Feed()
-    subscribers = [session.declare_subscriber(key, zenoh_callback(feed))
-                   for key in (keys.state, keys.rovers(PHOTO), keys.lander(MAP))]
     try:
         server = live.serve(args.host, args.port)
     except Exception as exc:  # the SDK raises its own error types for a port in use or a bad address
-        session.close()
         raise process.UsageError(f"cannot serve on {args.host}:{args.port}: {exc}") from None
     print(f"serving world {args.world!r} to Foxglove at ws://{args.host}:{server.port} (Ctrl-C stops)", flush=True)
     with process.stop_on_signals() as stop:
-        _pump(live, feed, stop)
-    for subscriber in subscribers:
-        subscriber.undeclare()
-    server.stop()
-    live.close()
-    session.close()
+        link.when_failed(stop.set)
+        link.start(lambda session: [session.declare_subscriber(key, zenoh_callback(feed))
+                                    for key in (keys.state, keys.rovers(PHOTO), keys.lander(MAP))])
+        try:
+            _pump(live, feed, stop)
+        finally:
+            link.close()
+            server.stop()
+            live.close()
+    link.raise_failure()
     return 0
 
 

@@ -45,6 +45,7 @@ function handle(msg) {
     case "scene": lunarsim.scene = msg.scene; lunarsim.map = null; view.setScene(msg.scene); panels.setScene(msg.scene); run.scene(); break;
     case "state": lunarsim.state = msg; lunarsim.states += 1; view.setState(msg); panels.setState(msg); run.state(msg); break;
     case "stats": lunarsim.stats = msg; panels.setStats(msg); run.stats(msg); break;
+    case "source": run.source(msg); break;
     case "lander": lunarsim.lander = msg; panels.setLander(msg); break;
     case "photo": lunarsim.photos[msg.rover] = msg; panels.setPhoto(msg); break;
     case "map": showMap(msg); break;

@@ -1,10 +1,13 @@
 // What the header says about the run. The page's link to the viewer is one thing and the world another: the viewer
-// stays up after the world stops, so a green "connected" said nothing. The header says "live" while world states
-// arrive, "run ended" once the world's final statistics come (with what they say), and "world silent" when states
-// stop without them (a world that was killed, or a paused replay).
+// stays up after the world stops, so a green "connected" said nothing. The header says "waiting for a world at ..."
+// while the viewer reaches no router there, "live" while world states arrive, "replay" (or "replay paused") while
+// a replay holds its token on the world, "run ended" once the world's final statistics come (with what they say),
+// and "world silent" when states stop without them (a world that was killed).
 import { formatStat } from "./format.js";
 
 const SILENT_AFTER_MS = 5000;
+// A replay's last states may reach the page just after word that it went (another path through Zenoh and the viewer).
+const REPLAY_TAIL_MS = 1000;
 const $ = (id) => document.getElementById(id);
 
 export class RunStatus {
@@ -14,6 +17,8 @@ export class RunStatus {
     this.lastStateAt = null;
     this.ended = null;
     this.sceneSeen = false;
+    this.from = { router: "", connected: true, replay: null };
+    this.replayGoneAt = null;
     page.run = { status: "connecting", detail: "" };
     setInterval(() => this.show(), 500);
   }
@@ -31,6 +36,17 @@ export class RunStatus {
     const age = msg.state_age_s;
     this.lastStateAt = typeof age === "number" ? performance.now() - 1000 * age : null;
     this.storedStateDue = typeof age === "number";
+    if (msg.source) this.source(msg.source);
+  }
+
+  // Where the samples come from: whether the viewer reaches a router, and whether a replay plays on the world.
+  // The states shown until a replay went came from it: they say nothing of a live world, so no "live" after it.
+  source(msg) {
+    const replay = msg.replay || null;
+    if (this.from.replay && !replay) this.replayGoneAt = performance.now();
+    this.from = { router: String(msg.router || ""), connected: Boolean(msg.connected), replay };
+    this.page.source = this.from;
+    this.show();
   }
 
   // A scene after the first one is a new run (launched from the editor): the last run's ending no longer holds.
@@ -53,8 +69,8 @@ export class RunStatus {
 
   show() {
     const [status, text, cls, detail] = this.describe();
-    if (status === this.page.run.status && detail === this.page.run.detail) return;
-    this.page.run = { status, detail };
+    if (status === this.page.run.status && text === this.page.run.text && detail === this.page.run.detail) return;
+    this.page.run = { status, text, detail };
     $("conn").textContent = text;
     $("conn").className = cls;
     $("runinfo").textContent = detail;
@@ -63,15 +79,28 @@ export class RunStatus {
   describe() {
     if (!this.viewer && !this.wasConnected) return ["connecting", "connecting…", "bad", ""];
     if (!this.viewer) return ["disconnected", "viewer disconnected, retrying…", "bad", ""];
+    const replay = this.from.connected ? this.from.replay : null;
     if (this.ended) {
       const r = this.ended.report;
-      return ["ended", "run ended", "ended", `at t = ${formatStat("s", this.ended.stamp)} s: ${r.rovers_reached_final_goal}/` +
-        `${r.rovers_total} rovers reached their final goal; mission ${r.complete ? "complete" : "not complete"}`];
+      return ["ended", replay ? "replay: run ended" : "run ended", "ended", `at t = ${formatStat("s", this.ended.stamp)} s: ` +
+        `${r.rovers_reached_final_goal}/${r.rovers_total} rovers reached their final goal; mission ${r.complete ? "complete" : "not complete"}`];
     }
-    if (this.lastStateAt === null) return ["waiting", "waiting for the world", "wait", ""];
-    const quiet = performance.now() - this.lastStateAt;
+    if (!this.from.connected) {
+      return ["no-router", `waiting for a world at ${this.from.router}`, "wait",
+        "the view connects by itself when a world (lunarsim run) or a router starts there"];
+    }
+    if (replay === "paused") return ["paused", "replay paused", "wait", "resume it here or in the replay's terminal"];
+    const quiet = this.lastStateAt === null ? null : performance.now() - this.lastStateAt;
+    if (replay) {
+      const note = quiet === null ? "no world state from it yet" : quiet > SILENT_AFTER_MS ? `no world state for ${Math.round(quiet / 1000)} s` : "";
+      return ["replay", "replay", "ok", note];
+    }
+    if (quiet === null) return ["waiting", "waiting for the world", "wait", ""];
+    if (this.replayGoneAt !== null && this.lastStateAt <= this.replayGoneAt + REPLAY_TAIL_MS) {
+      return ["silent", "world silent", "bad", "the replay stopped"];
+    }
     if (quiet > SILENT_AFTER_MS) {
-      return ["silent", "world silent", "bad", `no world state for ${Math.round(quiet / 1000)} s: stopped, or a paused replay`];
+      return ["silent", "world silent", "bad", `no world state for ${Math.round(quiet / 1000)} s: the world stopped`];
     }
     return ["live", "live", "ok", ""];
   }
