@@ -132,6 +132,20 @@ def test_an_action_that_comes_after_its_own_cancel_never_starts():
     assert world.bodies[1].busy  # the agent's next action starts
 
 
+def test_a_photo_action_while_the_rover_turns_leaves_the_turn_named_in_its_status_and_end():
+    """The camera works beside a turn: an id-less photo action (anyone's, in open mode) leaves the turn's record,
+    so the agent asking after its turn hears it running, not refused as "in progress" while its rover turns
+    unwatched: its dead reckoning would go wrong, and its rover end "done" far from its goal."""
+    world = _world()
+    _send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=90, action_id=7))
+    assert _send(world, ks.PHOTO_ACTION, m.PhotoAction(label="../../x")) == []
+    (asked,) = _of(_send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=90, action_id=7)), ks.NAVIGATION_STATUS)
+    assert asked.action_id == 7 and asked.outcome == "running"
+    statuses = _of(_until_idle(world), ks.NAVIGATION_STATUS)
+    assert statuses[-1].outcome == "completed" and {s.action_id for s in statuses} == {7}
+    assert [job.label for job in world.photo_jobs] == ["../../x"]
+
+
 # ---- the agent's side ----
 
 

@@ -35,7 +35,9 @@ class ActionRecord:
 class ActionLedger:
     def __init__(self, resend_period: int) -> None:
         self.resend_period = resend_period
-        self.started: dict[int, ActionRecord] = {}  # rover -> the last action the world started
+        self.started: dict[int, ActionRecord] = {}  # rover -> the last move or rotate the world started
+        self.photos: dict[int, ActionRecord] = {}  # rover -> the last photo it started: apart, as the camera works
+        # while the rover moves, and the move's status and end must still name the move
         self.refused: dict[int, ActionRecord] = {}  # rover -> the last action the world refused
         self.heard: dict[int, int] = {}  # rover -> the last action id whose end its agent says it has heard
         self.floor: dict[int, int] = {}  # rover -> the lowest action id it may still start: its latest, or one past
@@ -53,7 +55,7 @@ class ActionLedger:
             return None
         if action_id > highest_action_id(sim_time):
             return ActionRecord(action_id, FUTURE)
-        for record in (self.started.get(rover), self.refused.get(rover)):
+        for record in (self.started.get(rover), self.refused.get(rover), self.photos.get(rover)):
             if record is not None and record.action_id == action_id:
                 self.repeats += 1
                 return record
@@ -71,7 +73,8 @@ class ActionLedger:
             self.floor[rover] = max(self.floor.get(rover, 0), action_id + 1)
 
     def start(self, rover: int, action_id: int, kind: str, tick: int) -> None:
-        self.started[rover] = ActionRecord(action_id, kind, started_tick=tick)
+        records = self.photos if kind == "photo" else self.started
+        records[rover] = ActionRecord(action_id, kind, started_tick=tick)
 
     def refuse(self, rover: int, action_id: int, kind: str, answer: Out) -> None:
         if action_id:
