@@ -21,6 +21,7 @@ from typing import NamedTuple
 import zenoh
 
 from schemas import codec
+from schemas import keyspace as ks
 
 _ATTACHED: set[int] = set()
 log = logging.getLogger("lunarsim.bus")
@@ -171,14 +172,20 @@ class Bus:
         if self.loss and self._loss_rng.random() < self.loss:
             self.lost += 1
             return
+        congestion = self._congestion_for(key)
         if not self._declare:
-            self.session.put(key, payload, congestion_control=self._congestion, timestamp=self.session.new_timestamp())
+            self.session.put(key, payload, congestion_control=congestion, timestamp=self.session.new_timestamp())
             return
         publisher = self._publishers.get(key)
         if publisher is None:
-            publisher = self._publishers[key] = self.session.declare_publisher(key,
-                                                                                congestion_control=self._congestion)
+            publisher = self._publishers[key] = self.session.declare_publisher(key, congestion_control=congestion)
         publisher.put(payload, timestamp=self.session.new_timestamp())  # the recorder keeps it (0.3 us)
+
+    def _congestion_for(self, key: str) -> zenoh.CongestionControl:
+        """Radio traffic waits out congestion rather than be dropped unseen (``keyspace.RADIO_TOPICS``)."""
+        if key.rsplit("/", 1)[-1] in ks.RADIO_TOPICS:
+            return zenoh.CongestionControl.BLOCK
+        return self._congestion
 
     def receive(self, timeout: float | None) -> Received | None:
         try:

@@ -53,6 +53,10 @@ ROVER_IDS: Final = "rover_ids"
 REPLAY_STATES: Final = ("playing", "paused")
 """The last chunk of a replay's liveliness token (``Keyspace.alive_replay``): how viewers tell a replay from a live
 world, and a paused replay from a stopped one."""
+RADIO_TOPICS: Final = frozenset({COMM_OUT, COMM_IN, MISSION_DIRECTION, CALIBRATION})
+"""Topics that carry radio traffic: a transmission and its deliveries. The radio model counts what it loses
+(``radio_lost``, ``radio_dropped``), so Zenoh must not lose them unseen: they are published without dropping under
+congestion (``bus.bus.Bus``); each sender's airtime bounds their rate."""
 ANSWERED_TOPICS: Final = frozenset({PERCEPTION, COMM_IN, MISSION_DIRECTION, CALIBRATION, PHOTO})
 """The world-to-agent topics (rover or lander) whose samples may make an agent publish. Samples of the others
 (gyroscope, navigation status, cancel result, action rejected, comm partners) only update what the agent knows,
