@@ -17,7 +17,8 @@ taken from what the programs do:
   (``TwinWorld.INPUT_TOPICS``, as ``twin_service.declare_io`` subscribes). On a bench without a world one
   bridge may be the clock (``bridge_clock``);
 - the ground alone publishes ``ground/command``; the lander answers it on ``ground/command_result``;
-- the recorder reads the whole world and writes nothing.
+- the recorder reads the whole world and writes nothing; it and the ground watch a replay's token (``alive/replay``),
+  which tells a viewer that what it shows is a recording.
 
 Everything else is denied (``default_permission: deny``). Two Zenoh facts shape the rules (checked on a
 real router, see tests/test_security.py): a declared publisher sends only when it has learnt of a matching
@@ -135,11 +136,11 @@ def lander_role(keys: ks.Keyspace) -> Role:
 
 def ground_role(keys: ks.Keyspace) -> Role:
     return Role(GROUND, publishes=(keys.ground_command,),
-                subscribes=(keys.ground_command_result, keys.lander(ks.STATUS)))
+                subscribes=(keys.ground_command_result, keys.lander(ks.STATUS)), watches=(keys.alive_replays,))
 
 
 def recorder_role(keys: ks.Keyspace) -> Role:
-    return Role(RECORDER, subscribes=(keys.all,))
+    return Role(RECORDER, subscribes=(keys.all,), watches=(keys.alive_replays,))
 
 
 def rover_agent_role(keys: ks.Keyspace, rover_id: int) -> Role:
