@@ -98,8 +98,10 @@ def test_the_flight_rover_agent_joins_a_real_router(flight_env, router):
                                  cwd=flight_env)
         try:
             wait_for(present.is_set, 30, "the flight agent's liveliness token")
-            line = agent.stdout.readline()
-            assert "rover 4: waiting for the world service" in line, line
+            lines = []  # its start logged, then the wait said
+            while len(lines) < 10 and not any("rover 4: waiting for the world service" in line for line in lines):
+                lines.append(agent.stdout.readline())
+            assert "rover 4: waiting for the world service" in lines[-1], lines
         finally:
             stop(agent)
 
