@@ -103,7 +103,8 @@ def _estimate_error(agent: RoverAgent, scenario: Scenario, x: float, z: float) -
 
 def _estimate_std(agent: RoverAgent) -> float | None:
     """The rover's own 1-sigma position error, metres: how far off it thinks its estimate may be."""
-    return None if agent.localisation is None else round(agent.localisation.position_std, 3)
+    loc = agent.estimator.localisation
+    return None if loc is None else round(loc.position_std, 3)
 
 
 def _rovers(world: World, made: GeneratedScenario, agents: dict[int, RoverAgent]) -> list[dict]:

@@ -32,7 +32,7 @@ out = os.fdopen(os.dup(1), "w")
 quiet = os.open(os.devnull, os.O_WRONLY)
 os.dup2(quiet, 1)
 os.dup2(quiet, 2)
-from rover_agent.behaviours import UnknownBehaviour, load_behaviour
+from rover_agent.registry import UnknownBehaviour, load_behaviour
 try:
     load_behaviour(sys.argv[1])
     verdict = ""
@@ -52,10 +52,10 @@ it in the command that checks it."""
 def behaviour_problem(name: str) -> str | None:
     """Why the rover agents could not load behaviour ``name``, in one line, or None when they can.
 
-    A built-in is known good; anything else is loaded as ``rover_agent.behaviours.load_behaviour`` loads it, in a
+    A built-in is known good; anything else is loaded as ``rover_agent.registry.load_behaviour`` loads it, in a
     child process given ``PROBE_TIMEOUT_S``. The current folder joins this process's module path too, so the
     agents this process starts (forked from it, ``deploy.warm_start``) find what the check found."""
-    from rover_agent.behaviours import BUILT_IN
+    from rover_agent.registry import BUILT_IN
     from schemas.scenario_errors import LINE_CHARS
     from schemas.scenario_limits import behaviour_spec, clip
 
@@ -143,7 +143,7 @@ def scripted_problems(cls, params) -> list[str]:
 
 def run_from_args(args: argparse.Namespace) -> int:
     from harness.loopback import run_mission
-    from rover_agent.behaviours import UnknownBehaviour, load_behaviour
+    from rover_agent.registry import UnknownBehaviour, load_behaviour
     from schemas.scenario import load_scenario
 
     problem = behaviour_problem(args.behaviour)

@@ -1,1 +1,9 @@
-"""The rover agent: one rover's behaviour, runtime and dead reckoning. Light: no NumPy, no world service."""
+"""The rover agent: one rover's process. Light (no NumPy, no world service): it runs on the rover's flight computer.
+
+- ``agent``: ``RoverAgent``, the coordinator: one handler a topic, over parts that each own their state;
+  ``runtime`` is its Zenoh loop, ``app`` its command (``lunarsim rover``, ``python -m rover_agent``).
+- ``decisions``: what a behaviour sees and may decide (``BaseBehaviour``, the one class to subclass);
+  ``behaviour``: the default behaviour; ``examples``: short ones; ``registry``: behaviours found by name.
+- ``actions/``: the action in flight; ``estimation/``: where the rover thinks it is; ``mission/``: its goals and
+  what it tells the lander; ``restarts/``: what survives a restart; ``rules/``: the default behaviour's rules.
+"""

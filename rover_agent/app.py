@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from schemas import messages as m
 
 PRELOAD = ("rover_agent.app", "bus.bus", "rover_agent.identity", "rover_agent.runtime", "rover_agent.agent",
-           "rover_agent.behaviours", "schemas.keyspace", "schemas.scenario")
+           "rover_agent.registry", "schemas.keyspace", "schemas.scenario")
 """What ``run_from_args`` imports: a launcher's warm server (``deploy.warm_start``) has it loaded before it
 forks the rover agents of a run, so none of them spends its start importing."""
 
@@ -49,7 +49,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     from bus.bus import Bus
     from rover_agent import identity, runtime
     from rover_agent.agent import RoverAgent
-    from rover_agent.behaviours import UnknownBehaviour, load_behaviour
+    from rover_agent.registry import UnknownBehaviour, load_behaviour
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_rover_params
 

@@ -1,7 +1,7 @@
 """What a rover behaviour is to the rover agent: what it sees (``View``), what it may decide, and ``BaseBehaviour``.
 
-Kept apart from the default behaviour so that the planner, the sunlight rules and user behaviours build on the
-interface alone (report 4.4: any behaviour that keeps the interface will do).
+Kept apart from the default behaviour so that its rules (``rover_agent.rules``), the agent's parts and user
+behaviours build on the interface alone (report 4.4: any behaviour that keeps the interface will do).
 """
 
 from __future__ import annotations
@@ -121,7 +121,6 @@ class BaseBehaviour:
 
     def start_goal(self, goal: Goal) -> None:
         self.state = "migration"
-        self._routing = False
 
     def moved(self, distance: float) -> None:
         """A move ended (completed or cut short) after ``distance`` metres."""

@@ -9,7 +9,7 @@ from bus.bus import Bus
 from bus.process import freeze_start_up_heap
 from bus.world_watch import ClockWatch
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
-from rover_agent.saved_state import STATE_WRITER
+from rover_agent.restarts.saved_state import STATE_WRITER
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m

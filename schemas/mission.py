@@ -17,7 +17,7 @@ def calibration(scenario: Scenario, rover_id: int) -> Calibration:
 
 def dispatch_pose(lander: LanderSpec, spawn: RoverSpawn) -> Calibration:
     """A spawn relative to the lander: the lander's calibration, and what a rover's own mission file says when that
-    word never comes (``rover_agent.contact``)."""
+    word never comes (``rover_agent.mission.contact``)."""
     return Calibration(x=spawn.x - lander.x, z=spawn.z - lander.z, heading_deg=spawn.heading_deg)
 
 

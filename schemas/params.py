@@ -140,7 +140,7 @@ class CameraParams(Params):
 
 
 class MappingParams(Params):
-    """What a rover tells the lander for the traverse map (``rover_agent.map_report``, ``lander_agent.mapping``)."""
+    """What a rover tells the lander for its map (``rover_agent.mission.traverse_map``, ``lander_agent.mapping``)."""
 
     cell_m: float = Field(1.0, gt=0, le=100, description="side of a map cell, m: the rover keeps one point per "
                                                          "cell and kind, the lander's grid uses the same size")

@@ -113,7 +113,7 @@ _PLUGIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 
 
 def behaviour_spec(spec: str) -> str:
-    """A behaviour as the rover agent finds it (``rover_agent.behaviours``): a built-in or plugin name, or
+    """A behaviour as the rover agent finds it (``rover_agent.registry``): a built-in or plugin name, or
     ``package.module:Class``; checked here for its form only, since importing it is for the processes."""
     module, colon, attr = spec.partition(":")
     if colon:

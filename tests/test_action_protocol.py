@@ -10,10 +10,11 @@ import pytest
 from agent_kit import RUN, joined_agent
 
 from harness.loopback import run_mission
+from rover_agent.actions.ids import ActionIds
+from rover_agent.actions.in_flight import ACTION_QUERY_S
 from rover_agent.agent import RoverAgent
 from rover_agent.dead_reckoning import Pose
-from rover_agent.in_flight import ACTION_QUERY_S, ActionIds
-from rover_agent.saved_state import SavedState, load_state, save_state
+from rover_agent.restarts.saved_state import SavedState, load_state, save_state
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -168,17 +169,17 @@ def _clock(t: float) -> m.Clock:
 
 def test_an_agent_that_hears_nothing_of_its_action_asks_again_with_the_same_id():
     agent = _moving_agent()
-    sent = agent.in_flight.action_id
+    sent = agent.actions.in_flight.action_id
     assert not [key for key, _ in agent.on_clock(_clock(0.2 + ACTION_QUERY_S / 2)) if key.endswith(ks.MOVE_ACTION)]
     asked = [msg for key, msg in agent.on_clock(_clock(0.3 + ACTION_QUERY_S)) if key.endswith(ks.MOVE_ACTION)]
     assert len(asked) == 1 and asked[0].action_id == sent
-    assert agent.in_flight.query_due() == pytest.approx(0.3 + 2 * ACTION_QUERY_S)
-    assert agent.next_wake() <= agent.in_flight.query_due()  # a lockstep world waits for the query
+    assert agent.actions.in_flight.query_due() == pytest.approx(0.3 + 2 * ACTION_QUERY_S)
+    assert agent.next_wake() <= agent.actions.in_flight.query_due()  # a lockstep world waits for the query
 
 
 def test_running_status_keeps_the_agent_from_asking():
     agent = _moving_agent()
-    sent = agent.in_flight.action_id
+    sent = agent.actions.in_flight.action_id
     for t in (0.4, 1.0, 1.6, 2.2, 2.8):
         agent.handle(ks.NAVIGATION_STATUS, codec.encode(m.NavigationStatus(stamp=t, action="move", remaining=3.0,
                                                                            action_id=sent)))
@@ -188,17 +189,17 @@ def test_running_status_keeps_the_agent_from_asking():
 def test_an_old_actions_end_sent_again_does_not_end_the_new_one():
     agent = _moving_agent()
     old = m.NavigationStatus(stamp=0.5, action="move", remaining=0.0, outcome="completed",
-                             action_id=agent.in_flight.action_id - 1)
+                             action_id=agent.actions.in_flight.action_id - 1)
     agent.handle(ks.NAVIGATION_STATUS, codec.encode(old))
-    assert agent.in_flight is not None and agent.pose == Pose(0.0, 20.0, 180.0)
+    assert agent.actions.in_flight is not None and agent.pose == Pose(0.0, 20.0, 180.0)
 
 
 def test_a_cancel_the_world_never_had_an_action_for_settles_where_it_started():
     agent = _moving_agent()
-    flight = agent.in_flight
+    flight = agent.actions.in_flight
     agent.handle(ks.ACTION_REJECTED, codec.encode(m.ActionRejected(action="cancel", reason="no_action",
                                                                    action_id=flight.action_id)))
-    assert agent.in_flight is None and agent.pose == flight.start
+    assert agent.actions.in_flight is None and agent.pose == flight.start
 
 
 def test_ids_of_an_agent_restarted_without_its_state_never_repeat_its_earlier_ones():
@@ -215,9 +216,9 @@ def test_ids_of_an_agent_restarted_without_its_state_never_repeat_its_earlier_on
 def test_a_restarted_agent_resumes_its_pose_and_asks_how_its_action_ended(tmp_path):
     path = tmp_path / "rover1.json"
     agent = _moving_agent(path)
-    flight = agent.in_flight
+    flight = agent.actions.in_flight
     agent._save()
-    from rover_agent.saved_state import STATE_WRITER
+    from rover_agent.restarts.saved_state import STATE_WRITER
 
     STATE_WRITER.flush()
     saved = load_state(path)
@@ -229,23 +230,23 @@ def test_a_restarted_agent_resumes_its_pose_and_asks_how_its_action_ended(tmp_pa
     done = m.NavigationStatus(stamp=30.0, action="move", remaining=0.0, outcome="completed",
                               action_id=flight.action_id)
     again.handle(ks.NAVIGATION_STATUS, codec.encode(done))
-    assert again.in_flight is None and again.pose.z == pytest.approx(20.0 - flight.decision.z)
+    assert again.actions.in_flight is None and again.pose.z == pytest.approx(20.0 - flight.decision.z)
 
 
 def test_a_state_saved_in_another_run_is_not_resumed(tmp_path):
     path = tmp_path / "rover1.json"
     save_state(path, SavedState("old-run", Pose(50.0, 50.0, 0.0)))
     agent = joined_agent(1, KEYS, _moving_agent().params, state_file=path)
-    assert agent.pose is None and not agent.lost
+    assert agent.pose is None and not agent.restarts.lost
 
 
 def test_an_agent_joining_late_without_a_saved_pose_says_it_is_lost_and_does_not_drive(caplog):
     agent = RoverAgent(1, KEYS, _moving_agent().params)
     agent.on_clock(_clock(40.0))
-    assert agent.lost and "does not know where it is" in caplog.text
+    assert agent.restarts.lost and "does not know where it is" in caplog.text
     agent.handle(ks.CALIBRATION, codec.encode(m.Calibration(x=0.0, z=20.0, heading_deg=180.0)))
     assert agent.pose is None  # the dispatch pose is not where a rover 40 s into its mission stands
-    status = agent._status()[1]
+    status = agent.status()[1]
     assert "position unknown" in status.detail
 
 
@@ -253,7 +254,7 @@ def test_a_restarted_agent_neither_acts_nor_assumes_a_pose_before_its_first_cloc
     """Perception can reach a restarted agent before the clock: long silence from the lander then looks like a
     lost calibration, and an action sent on an assumed pose would outrank every id the agent resumes with."""
     path = tmp_path / "rover1.json"
-    flight = _moving_agent().in_flight
+    flight = _moving_agent().actions.in_flight
     save_state(path, SavedState(RUN, Pose(0.0, 20.0, 180.0), flight.saved(), flight.action_id + 1))
     again = RoverAgent(1, KEYS, _moving_agent().params, state_file=path,
                        dispatch=m.Calibration(x=0.0, z=20.0, heading_deg=180.0))
@@ -261,7 +262,7 @@ def test_a_restarted_agent_neither_acts_nor_assumes_a_pose_before_its_first_cloc
         again.handle(ks.GYROSCOPE, codec.encode(m.Gyroscope(stamp=float(t), pitch_deg=0.0)))
         assert again.handle(ks.PERCEPTION, codec.encode(m.Perception(stamp=float(t), angles_deg=[], distances_m=[],
                                                                       kinds=[]))) == []
-    assert again.pose is None and again.in_flight is None
+    assert again.pose is None and again.actions.in_flight is None
     asked = again.on_clock(_clock(90.0))
     assert [msg.action_id for key, msg in asked if key.endswith(ks.MOVE_ACTION)] == [flight.action_id]
 
@@ -276,11 +277,11 @@ def test_an_action_refused_as_older_than_the_rovers_latest_renews_the_agents_ids
     _send(world, ks.MOVE_ACTION, m.MoveAction(x=0.0, z=1.0, action_id=earlier))
     _until_idle(world)
     agent = _moving_agent()
-    out = _send(world, ks.MOVE_ACTION, agent.in_flight.request(KEYS, 1)[1])
+    out = _send(world, ks.MOVE_ACTION, agent.actions.in_flight.request(agent.send)[1])
     (refusal,) = _of(out, ks.ACTION_REJECTED)
     assert refusal.reason == "stale"
     agent.handle(ks.ACTION_REJECTED, codec.encode(refusal))
-    assert agent.in_flight is None and agent.pose == Pose(0.0, 20.0, 180.0)
+    assert agent.actions.in_flight is None and agent.pose == Pose(0.0, 20.0, 180.0)
     agent.handle(ks.GYROSCOPE, codec.encode(m.Gyroscope(stamp=12.0, pitch_deg=0.0)))
     (_, move), = agent.handle(ks.PERCEPTION, codec.encode(m.Perception(stamp=12.0, angles_deg=[], distances_m=[],
                                                                           kinds=[])))

@@ -12,8 +12,8 @@ from procs import REPO
 from deploy.behaviour_check import scripted_problems
 from harness.loopback import run_mission
 from rover_agent.behaviour import BaseBehaviour, DefaultBehaviour, MoveTo, Rotate
-from rover_agent.behaviours import UnknownBehaviour, load_behaviour
 from rover_agent.examples import StraightLine
+from rover_agent.registry import UnknownBehaviour, load_behaviour
 from schemas.params import RoverParams
 from schemas.scenario import load_scenario
 

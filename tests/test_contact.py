@@ -1,5 +1,5 @@
-"""Lost radio (``rover_agent.contact``): a rover that waits for the lander's word and hears none heads for the lander
-to regain contact, starting from its planned dispatch pose when no calibration came; the first word ends it.
+"""Lost radio (``rover_agent.mission.contact``): a rover that waits for the lander's word and hears none heads for
+the lander to regain contact, starting from its planned dispatch pose when no calibration came; the first word ends it.
 
 Scripted sensor streams into a real ``RoverAgent``; the last test runs whole missions in process."""
 
@@ -12,7 +12,7 @@ import pytest
 from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import Rotate
-from rover_agent.contact import CONTACT_WAIT_S
+from rover_agent.mission.contact import CONTACT_WAIT_S
 from scenarios.generator import generate
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -64,7 +64,7 @@ def test_a_rover_that_never_hears_the_lander_heads_for_it_from_its_planned_dispa
         assert action.x > 0 and action.z < 0
     else:
         assert 0 < action.degrees <= 180
-    assert agent.contact.seeking and "regain radio contact" in agent._status()[1].detail
+    assert agent.mission.contact.seeking and "regain radio contact" in agent.status()[1].detail
 
 
 def test_without_a_dispatch_pose_it_stays_and_says_it_does_not_know_where_it_is(caplog):
@@ -78,29 +78,30 @@ def test_a_few_seconds_of_silence_change_nothing():
     agent = _running(RoverAgent(1, KEYS, PARAMS, dispatch=DISPATCH))
     for t in range(1, int(CONTACT_WAIT_S) - 1):
         assert _moves(_sense(agent, float(t))) == []
-    assert agent.pose is None and not agent.contact.seeking
+    assert agent.pose is None and not agent.mission.contact.seeking
 
 
 def test_the_first_mission_direction_ends_the_search_and_the_rover_takes_its_goal():
     agent = _running(RoverAgent(1, KEYS, PARAMS, dispatch=DISPATCH))
     _silent_until_it_moves(agent)
-    flight = agent.in_flight
+    flight = agent.actions.in_flight
     kind = "rotate" if isinstance(flight.decision, Rotate) else "move"
     _feed(agent, m.NavigationStatus(stamp=flight.sent_at + 2, action=kind, remaining=0.0, outcome="completed",
                                     action_id=flight.action_id))
     _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="waypoint", bearing_deg=0.0, distance_m=200.0))
-    assert not agent.contact.seeking and agent.state == "migration" and agent.goal.z == pytest.approx(200.0)
-    assert agent._status()[1].detail == ""
+    assert not agent.mission.contact.seeking and agent.state == "migration"
+    assert agent.mission.goal.z == pytest.approx(200.0)
+    assert agent.status()[1].detail == ""
 
 
 def test_a_rover_between_goals_with_no_word_for_its_next_one_heads_for_the_lander():
     agent = _running(RoverAgent(1, KEYS, PARAMS))
     _feed(agent, m.Calibration(x=0.0, z=70.0, heading_deg=0.0))
     _feed(agent, m.MissionDirection(goal_index=0, goals_total=2, kind="waypoint", bearing_deg=0.0, distance_m=6.0))
-    agent._finish("reached")  # the first goal done; its report will go unanswered
-    assert agent.state == "waiting" and agent.finished_goal == (0, "reached")
+    agent.finish("reached")  # the first goal done; its report will go unanswered
+    assert agent.state == "waiting" and agent.mission.finished_goal == (0, "reached")
     started, _ = _silent_until_it_moves(agent)
-    assert started >= CONTACT_WAIT_S and agent.contact.seeking
+    assert started >= CONTACT_WAIT_S and agent.mission.contact.seeking
 
 
 def test_rovers_out_of_every_radio_reach_at_the_start_reach_their_goals():
@@ -124,12 +125,12 @@ def test_a_stop_from_the_lander_ends_the_search_and_the_rover_stays_stopped():
     _feed(agent, m.Calibration(x=0.0, z=70.0, heading_deg=0.0))
     done = m.MissionDirection(goal_index=0, goals_total=2, kind="waypoint", bearing_deg=0.0, distance_m=76.0)
     _feed(agent, done)
-    agent._finish("reached")
+    agent.finish("reached")
     _silent_until_it_moves(agent)
     agent.handle(ks.COMM_IN, codec.encode(m.InboundComm(sender=ks.LANDER_ID,
                                                         payload=radio.pack(radio.StopCommand()))))
-    assert agent.state == "stopped" and not agent.contact.seeking
-    agent.in_flight = None  # the cancel has come back
+    assert agent.state == "stopped" and not agent.mission.contact.seeking
+    agent.actions.in_flight = None  # the cancel has come back
     for t in range(60, 60 + 3 * int(CONTACT_WAIT_S)):
         if t % 5 == 0:
             _feed(agent, done)
@@ -140,9 +141,9 @@ def test_a_stop_from_the_lander_ends_the_search_and_the_rover_stays_stopped():
 def test_a_search_that_got_nowhere_sets_off_again_after_another_wait():
     agent = _running(RoverAgent(1, KEYS, PARAMS, dispatch=DISPATCH))
     started, _ = _silent_until_it_moves(agent)
-    agent.in_flight = None
-    agent._finish("stuck")  # blocked on the way: it waits, and says so
-    assert agent.state == "waiting" and "blocked" in agent._status()[1].detail
+    agent.actions.in_flight = None
+    agent.finish("stuck")  # blocked on the way: it waits, and says so
+    assert agent.state == "waiting" and "blocked" in agent.status()[1].detail
     t = started + 1
     while not _moves(_sense(agent, t)):
         t += 1

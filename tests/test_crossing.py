@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 
 from rover_agent.behaviour import DefaultBehaviour, Goal, Hit, View
-from rover_agent.crossing import STOP_WITHIN_S, CrossingWatch, contact_time
 from rover_agent.dead_reckoning import Pose
+from rover_agent.rules.crossing import STOP_WITHIN_S, CrossingWatch, contact_time
 from schemas.params import RoverParams
 
 PARAMS = RoverParams()

@@ -103,7 +103,7 @@ def _relay_on_its_spot(params: RoverParams | None = None) -> RoverAgent:
     agent.on_clock(m.Clock(tick=0, sim_time=0.0, time_scale=1.0, run="r1"))
     _feed(agent, m.Calibration(x=0.0, z=5.0, heading_deg=0.0))
     _feed(agent, RELAY_DIRECTION)
-    agent._finish("relay")
+    agent.finish("relay")
     return agent
 
 
@@ -135,9 +135,10 @@ def test_a_relay_cut_off_from_the_lander_at_the_last_goal_walks_on_to_it_and_not
     _quiet_until(agent, cut_off - 5)
     assert agent.state == "relay"  # a quiet spell is not yet a cut chain
     _quiet_until(agent, cut_off + 2)
-    assert agent.state == "migration" and agent.goal.kind == "crater" and agent.goal.z == pytest.approx(130.0)
+    assert agent.state == "migration" and agent.mission.goal.kind == "crater"
+    assert agent.mission.goal.z == pytest.approx(130.0)
     _feed(agent, RELAY_DIRECTION)  # the chain's word again, say a link came back: it does not walk back
-    assert agent.goal.kind == "crater" and agent.finished_goal is None
+    assert agent.mission.goal.kind == "crater" and agent.mission.finished_goal is None
 
 
 @pytest.mark.parametrize("release", [True, False])
@@ -152,17 +153,18 @@ def test_a_relay_that_hears_the_lander_or_is_told_to_hold_stays(release):
 
 def test_a_relay_goes_on_to_the_last_goal_once_the_lander_releases_it_and_not_before():
     agent = _relay_on_its_spot()
-    assert agent.state == "relay" and agent.finished_goal == (0, "relay")
+    assert agent.state == "relay" and agent.mission.finished_goal == (0, "relay")
     _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="relay", bearing_deg=0.0, distance_m=26.0))
     assert agent.state == "relay"  # the chain's direction again, resent every second: it holds
     _feed(agent, m.MissionDirection(goal_index=0, goals_total=1, kind="crater", bearing_deg=0.0, distance_m=130.0,
                                     station=(0.0, -20.0), shared=True))
-    assert agent.state == "migration" and agent.finished_goal is None and agent.goal.station == (0.0, -20.0)
+    assert agent.state == "migration" and agent.mission.finished_goal is None
+    assert agent.mission.goal.station == (0.0, -20.0)
 
 
 def test_a_rover_tells_the_lander_how_many_photos_it_still_holds_with_its_goal_report():
     agent = _relay_on_its_spot()
-    agent.photo_outbox["crest-1"] = radio.PhotoReport(goal_index=0, label="crest-1", stamp=1.0, png=b"x")
+    agent.photos.reports["crest-1"] = radio.PhotoReport(goal_index=0, label="crest-1", stamp=1.0, png=b"x")
     sent = [radio.unpack(msg.payload) for _, msg in agent._report_goal()]
     assert sent == [radio.GoalReport(goal_index=0, outcome="relay", photos_pending=1)]
 

@@ -510,13 +510,13 @@ def test_an_agent_that_hears_its_own_ids_ignores_refusals_of_id_less_actions():
                                                                        bearing_deg=180.0, distance_m=100.0)))
     agent.handle(ks.GYROSCOPE, codec.encode(m.Gyroscope(stamp=0.1, pitch_deg=0.0)))
     agent.handle(ks.PERCEPTION, codec.encode(m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[])))
-    flight = agent.in_flight
+    flight = agent.actions.in_flight
     assert flight is not None and flight.action_id > 0
     agent.handle(ks.NAVIGATION_STATUS, codec.encode(m.NavigationStatus(stamp=0.3, action="move", remaining=3.0,
                                                                        action_id=flight.action_id)))
     agent.handle(ks.ACTION_REJECTED, codec.encode(m.ActionRejected(action="move", reason="action_in_progress",
                                                                    detail="a move or rotate is still running")))
-    assert agent.in_flight is flight
+    assert agent.actions.in_flight is flight
     done = m.NavigationStatus(stamp=2.0, action="move", remaining=0.0, outcome="completed", action_id=flight.action_id)
     agent.handle(ks.NAVIGATION_STATUS, codec.encode(done))
-    assert agent.in_flight is None and agent.pose.z == pytest.approx(20.0 - flight.decision.z)
+    assert agent.actions.in_flight is None and agent.pose.z == pytest.approx(20.0 - flight.decision.z)

@@ -1,6 +1,7 @@
-"""The pose estimator (``rover_agent.localisation``) and what perception shows it (``rover_agent.sightings``), with
-scripted sensor streams: a known path driven with the world's own noise model from a seeded generator, and the
-hits a perception scan would give of the lander and of other rovers from the true pose. No world, no router."""
+"""The pose estimator (``rover_agent.estimation.pose_filter``) and what perception shows it
+(``rover_agent.estimation.sightings``), with scripted sensor streams: a known path driven with the world's own noise
+model from a seeded generator, and the hits a perception scan would give of the lander and of other rovers from the
+true pose. No world, no router."""
 
 from __future__ import annotations
 
@@ -11,8 +12,8 @@ import pytest
 
 from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Hit
-from rover_agent.localisation import CI_WEIGHTS, Landmark, Localisation, NoiseModel
-from rover_agent.sightings import (
+from rover_agent.estimation.pose_filter import CI_WEIGHTS, Landmark, Localisation, NoiseModel
+from rover_agent.estimation.sightings import (
     Teammate,
     lander_centre,
     lander_landmark,
@@ -306,7 +307,7 @@ def test_a_walking_teammate_counts_as_less_sure():
 def test_the_intersection_weight_in_closed_form_is_the_best_on_the_grid_or_better():
     """det(w P^-1 + (1 - w) R^-1) is a quadratic in w: its maximum needs no search (the grid is the fallback for a
     position covariance that is still singular)."""
-    from rover_agent.localisation import _intersection_weight, _intersection_weight_on_grid, _kalman, scaled
+    from rover_agent.estimation.pose_filter import _intersection_weight, _intersection_weight_on_grid, _kalman, scaled
 
     def volume(p, r, w):
         c = _kalman(scaled(p, 1 / w), scaled(p, 1 / w), scaled(p, 1 / w), scaled(r, 1 / (1 - w)), [0.0, 0.0])[0]

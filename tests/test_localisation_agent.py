@@ -1,6 +1,6 @@
-"""The pose estimator inside the rover agent (``rover_agent.localising``), fed scripted samples as the world and the
-radio would send them: zero noise changes nothing, the lander seen corrects the estimate, teammates in range hear
-it, and a rover too unsure for its waypoint goes by the lander first (``rover_agent.relocalise``)."""
+"""The pose estimator inside the rover agent (``rover_agent.estimation.estimator``), fed scripted samples as the world
+and the radio would send them: zero noise changes nothing, the lander seen corrects the estimate, teammates in range
+hear it, and a rover too unsure for its waypoint goes by the lander first (``rover_agent.estimation.lander_fix``)."""
 
 from __future__ import annotations
 
@@ -12,12 +12,20 @@ from agent_kit import joined_agent
 
 from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
-from rover_agent.contact import LANDER_GOAL
 from rover_agent.dead_reckoning import Pose
-from rover_agent.localisation import Localisation, NoiseModel
-from rover_agent.localising import Localising
-from rover_agent.relocalise import DETAIL, FIX_STD_M, MAX_RINGS, RING_SPACING, SEARCH_SIGMAS, LanderFix, search_spots
-from rover_agent.saved_state import SavedState
+from rover_agent.estimation.estimator import Estimator
+from rover_agent.estimation.lander_fix import (
+    DETAIL,
+    FIX_STD_M,
+    LANDER_GOAL,
+    MAX_RINGS,
+    RING_SPACING,
+    SEARCH_SIGMAS,
+    LanderFix,
+    search_spots,
+)
+from rover_agent.estimation.pose_filter import Localisation, NoiseModel
+from rover_agent.restarts.saved_state import SavedState
 from scenarios.generator import generate
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -63,7 +71,7 @@ def _walked(params: RoverParams, partners: list[int] = ()) -> RoverAgent:
                     if o[0] != KEYS.rover(1, ks.COMM_OUT)]
     assert key == KEYS.rover(1, ks.MOVE_ACTION)
     _feed(agent, m.NavigationStatus(stamp=3.0, action="move", remaining=0.0, outcome="completed",
-                                    action_id=agent.in_flight.action_id))
+                                    action_id=agent.actions.in_flight.action_id))
     _feed(agent, m.Gyroscope(stamp=3.1, pitch_deg=0.0))
     return agent
 
@@ -75,7 +83,7 @@ def _estimates(out: list) -> list[radio.PoseEstimate]:
 
 def test_without_noise_the_lander_seen_changes_nothing_and_nothing_is_told():
     agent = _walked(QUIET, partners=[2])
-    assert agent.localisation.exact
+    assert agent.estimator.localisation.exact
     before = agent.pose
     truth = Pose(0.3, -6.2, 3.0)  # wherever the rover really is, an exact estimate is not corrected
     out = _feed(agent, _lander_scan(3.2, truth))
@@ -85,12 +93,13 @@ def test_without_noise_the_lander_seen_changes_nothing_and_nothing_is_told():
 def test_the_lander_seen_standing_still_corrects_the_estimate():
     agent = _walked(NOISY)
     p = agent.pose
-    assert math.hypot(p.x, p.z + 15.0) == pytest.approx(9.0, abs=1e-3) and agent.localisation.position_std > 0.4
+    assert math.hypot(p.x, p.z + 15.0) == pytest.approx(9.0, abs=1e-3)
+    assert agent.estimator.localisation.position_std > 0.4
     truth = Pose(p.x + 0.5, p.z - 0.4, p.heading + 2.0)  # the move slipped and turned
     for stamp in (3.2, 3.4, 3.6):  # each scan sets a move off, which the world refuses: it stays where it is
         _feed(agent, m.Gyroscope(stamp=stamp - 0.05, pitch_deg=0.0))
         _feed(agent, _lander_scan(stamp, truth))
-        _feed(agent, m.ActionRejected(action="move", reason="blocked", action_id=agent.in_flight.action_id))
+        _feed(agent, m.ActionRejected(action="move", reason="blocked", action_id=agent.actions.in_flight.action_id))
     seen = to_relative(truth.x, truth.z, truth.heading, 0.0, 0.0)
     assert to_relative(agent.pose.x, agent.pose.z, agent.pose.heading, 0.0, 0.0) == pytest.approx(seen, abs=0.1)
     assert math.hypot(agent.pose.x - truth.x, agent.pose.z - truth.z) < 0.4
@@ -99,7 +108,7 @@ def test_the_lander_seen_standing_still_corrects_the_estimate():
 def test_a_scan_taken_during_a_move_corrects_nothing():
     agent = _walked(NOISY)
     _feed(agent, m.Perception(stamp=3.2, angles_deg=[], distances_m=[], kinds=[]))  # decides: a move in flight
-    assert agent.in_flight is not None
+    assert agent.actions.in_flight is not None
     before = agent.pose
     _feed(agent, _lander_scan(3.4, Pose(0.5, -6.4, 2.0)))
     assert agent.pose == before
@@ -113,10 +122,11 @@ def test_the_estimate_goes_to_the_rovers_in_range_once_a_second():
     (estimate,) = _estimates(out)
     assert (estimate.x, estimate.z) == (round(agent.pose.x, 3), round(agent.pose.z, 3))
     assert estimate.moving  # between two moves: it may have set off by the time a teammate sees it
-    assert estimate.cov_xx == pytest.approx(agent.localisation.cov[0][0], abs=1e-6) and estimate.cov_xx > 0
+    assert estimate.cov_xx == pytest.approx(agent.estimator.localisation.cov[0][0], abs=1e-6) and estimate.cov_xx > 0
     assert _estimates(_feed(agent, m.Perception(stamp=3.4, angles_deg=[], distances_m=[], kinds=[]))) == []
     # walking: where the move has got to, from the world's metres still to go
-    _feed(agent, m.NavigationStatus(stamp=4.0, action="move", remaining=6.0, action_id=agent.in_flight.action_id))
+    _feed(agent, m.NavigationStatus(stamp=4.0, action="move", remaining=6.0,
+                                    action_id=agent.actions.in_flight.action_id))
     (walking,) = _estimates(_feed(agent, m.Perception(stamp=4.2, angles_deg=[], distances_m=[], kinds=[])))
     assert walking.moving and walking.stamp == 4.0
     assert math.hypot(walking.x - agent.pose.x, walking.z - agent.pose.z) == pytest.approx(3.0, abs=1e-3)
@@ -139,14 +149,14 @@ def test_a_teammates_estimate_is_kept_latest_first():
     for stamp, x in ((3.0, 1.0), (2.5, 2.0)):
         estimate = radio.PoseEstimate(stamp=stamp, x=x, z=0.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0)
         _feed(agent, m.InboundComm(sender=3, payload=radio.pack(estimate)))
-    assert agent.teammates[3].estimate.x == 1.0
+    assert agent.estimator.teammates[3].estimate.x == 1.0
 
 
 def test_the_saved_state_keeps_the_covariance():
     agent = _walked(NOISY)
-    state = SavedState("run", agent.pose, None, 7, agent.localisation.cov)
+    state = SavedState("run", agent.pose, None, 7, agent.estimator.localisation.cov)
     again = SavedState.from_json(state.to_json())
-    assert again.cov == agent.localisation.cov and again.pose == agent.pose
+    assert again.cov == agent.estimator.localisation.cov and again.pose == agent.pose
     assert SavedState.from_json(SavedState("run", agent.pose).to_json()).cov is None  # older files load too
 
 
@@ -154,8 +164,8 @@ def _unsure_with_a_return(distance: float, bearing: float = 90.0) -> RoverAgent:
     """A noisy rover 120 m north of the lander, unsure by several metres, sent to a waypoint (by default back near
     the lander)."""
     agent = joined_agent(1, KEYS, NOISY)
-    agent.pose = Pose(0.0, 120.0, 180.0)
-    agent.localisation.cov = [[16.0, 0.0, 0.0], [0.0, 16.0, 0.0], [0.0, 0.0, math.radians(3.0) ** 2]]
+    agent.estimator.place(Pose(0.0, 120.0, 180.0))
+    agent.estimator.localisation.cov = [[16.0, 0.0, 0.0], [0.0, 16.0, 0.0], [0.0, 0.0, math.radians(3.0) ** 2]]
     _feed(agent, m.MissionDirection(goal_index=1, goals_total=2, kind="waypoint", bearing_deg=bearing,
                                     distance_m=distance))
     _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
@@ -164,38 +174,38 @@ def _unsure_with_a_return(distance: float, bearing: float = 90.0) -> RoverAgent:
 
 def test_a_rover_too_unsure_for_its_waypoint_goes_by_the_lander_first():
     agent = _unsure_with_a_return(25.0)
-    assert agent.localisation.predicted_std(agent.goal.target, 9.0) > FIX_STD_M
+    assert agent.estimator.localisation.predicted_std(agent.mission.goal.target, 9.0) > FIX_STD_M
     out = _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
-    assert agent.fix.active and agent._view(0.2, agent.pose, ()).goal == LANDER_GOAL
+    assert agent.estimator.fix.active and agent.view(0.2, agent.pose, ()).goal == LANDER_GOAL
     assert [key for key, _ in out] == [KEYS.rover(1, ks.MOVE_ACTION)]
-    assert agent._status()[1].detail == DETAIL
+    assert agent.status()[1].detail == DETAIL
 
 
 def test_a_waypoint_the_lander_is_far_off_the_way_to_is_not_worth_going_by_it():
     agent = _unsure_with_a_return(240.0, bearing=0.0)  # 120 m on, away from the lander
     _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
-    assert not agent.fix.active and agent._view(0.2, agent.pose, ()).goal == agent.goal
+    assert not agent.estimator.fix.active and agent.view(0.2, agent.pose, ()).goal == agent.mission.goal
 
 
 def test_once_sure_again_the_rover_goes_on_to_its_goal():
     agent = _unsure_with_a_return(25.0)
     _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
     _feed(agent, m.NavigationStatus(stamp=3.0, action="move", remaining=0.0, outcome="completed",
-                                    action_id=agent.in_flight.action_id))
-    agent.localisation.cov = [[0.2, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 1e-4]]  # as if it had seen the lander
+                                    action_id=agent.actions.in_flight.action_id))
+    agent.estimator.localisation.cov = [[0.2, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 1e-4]]  # as if it saw the lander
     _feed(agent, m.Gyroscope(stamp=3.1, pitch_deg=0.0))
     _feed(agent, m.Perception(stamp=3.2, angles_deg=[], distances_m=[], kinds=[]))
-    assert not agent.fix.active and agent._view(3.2, agent.pose, ()).goal == agent.goal
-    assert agent.fix.decided == 1  # once a goal: it does not set off for the lander again
+    assert not agent.estimator.fix.active and agent.view(3.2, agent.pose, ()).goal == agent.mission.goal
+    assert agent.estimator.fix.decided == 1  # once a goal: it does not set off for the lander again
 
 
 def test_a_noise_free_rover_never_goes_by_the_lander():
     agent = joined_agent(1, KEYS, QUIET)
-    agent.pose = Pose(0.0, 120.0, 180.0)
+    agent.estimator.place(Pose(0.0, 120.0, 180.0))
     _feed(agent, m.MissionDirection(goal_index=1, goals_total=2, kind="waypoint", bearing_deg=90.0, distance_m=25.0))
     _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
     _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
-    assert not agent.fix.active
+    assert not agent.estimator.fix.active
 
 
 def test_a_rover_that_does_not_see_the_lander_where_it_thought_looks_round_then_searches_then_goes_on():
@@ -214,11 +224,11 @@ def test_a_rover_that_does_not_see_the_lander_where_it_thought_looks_round_then_
 
 def test_a_rover_done_with_an_unsure_estimate_says_how_far_off_it_may_be():
     agent = joined_agent(1, KEYS, NOISY)
-    agent.pose = Pose(0.0, 40.0, 0.0)
+    agent.estimator.place(Pose(0.0, 40.0, 0.0))
     agent.behaviour.state = "done"
-    assert agent._status()[1].detail == ""  # sure of its pose: nothing to say
-    agent.localisation.cov = [[32.0, 0.0, 0.0], [0.0, 32.0, 0.0], [0.0, 0.0, 1e-3]]
-    assert agent._status()[1].detail == "at its goal by its own estimate, which may be 8 m off (1 sigma)"
+    assert agent.status()[1].detail == ""  # sure of its pose: nothing to say
+    agent.estimator.localisation.cov = [[32.0, 0.0, 0.0], [0.0, 32.0, 0.0], [0.0, 0.0, 1e-3]]
+    assert agent.status()[1].detail == "at its goal by its own estimate, which may be 8 m off (1 sigma)"
 
 
 def test_a_search_spot_the_rover_cannot_reach_is_passed_over_not_the_end_of_the_search():
@@ -275,9 +285,9 @@ def _mission(localising: bool):
     assert made.classes["noise"] == "none" and made.classes["family"] == "daisy"
     if not localising:  # plain dead reckoning: no corrections, nothing told, no way by the lander
         with pytest.MonkeyPatch.context() as patch:
-            patch.setattr(Localising, "_localise", lambda self, stamp, hits: None)
-            patch.setattr(Localising, "_share_estimate", lambda self: [])
-            patch.setattr(Localising, "_mind_fix", lambda self: None)
+            patch.setattr(Estimator, "localise", lambda self, *args: None)
+            patch.setattr(Estimator, "share", lambda self, *args: None)
+            patch.setattr(Estimator, "mind_fix", lambda self, goal: None)
             return run_mission(made.scenario, 120.0).report()
     return run_mission(made.scenario, 120.0).report()
 
@@ -306,23 +316,23 @@ def test_a_teammates_estimate_that_is_no_covariance_is_rejected_and_corrupts_not
     bad = radio.PoseEstimate.model_construct(stamp=3.0, x=round(x, 3), z=round(z, 3), cov_xx=0.0, cov_xz=0.25,
                                              cov_zz=0.0, moving=False)
     _heard(agent, 2, bad)
-    assert agent.rejected.total == 1 and 2 not in agent.teammates
+    assert agent.rejected.total == 1 and 2 not in agent.estimator.teammates
     out = _feed(agent, m.Perception(stamp=3.2, angles_deg=[0.0], distances_m=[4.5], kinds=["rover"]))
-    assert min(agent.localisation.cov[i][i] for i in range(3)) > 0 and _estimates(out)
+    assert min(agent.estimator.localisation.cov[i][i] for i in range(3)) > 0 and _estimates(out)
 
 
 def test_an_estimate_from_the_future_does_not_lock_the_teammates_real_ones_out():
     agent = _walked(NOISY)  # its clock: 3.1
     _heard(agent, 3, radio.PoseEstimate(stamp=1e9, x=50.0, z=50.0, cov_xx=0.01, cov_xz=0.0, cov_zz=0.01))
     _heard(agent, 3, radio.PoseEstimate(stamp=3.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
-    assert agent.teammates[3].estimate.stamp == 3.0 and agent.rejected.total == 1
+    assert agent.estimator.teammates[3].estimate.stamp == 3.0 and agent.rejected.total == 1
 
 
 @pytest.mark.parametrize("sender", [ks.LANDER_ID, 1, -4, 10**12])
 def test_an_estimate_from_the_lander_itself_or_no_rover_is_dropped_and_counted(sender):
     agent = _walked(NOISY)
     _heard(agent, sender, radio.PoseEstimate(stamp=3.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
-    assert agent.teammates == {} and agent.rejected.total == 1
+    assert agent.estimator.teammates == {} and agent.rejected.total == 1
 
 
 def test_teammates_not_heard_for_long_are_forgotten():
@@ -332,7 +342,7 @@ def test_teammates_not_heard_for_long_are_forgotten():
         _heard(agent, sender, radio.PoseEstimate(stamp=3.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
     agent.now = 10.0
     _heard(agent, 2, radio.PoseEstimate(stamp=10.0, x=1.0, z=2.0, cov_xx=1.0, cov_xz=0.0, cov_zz=1.0))
-    assert list(agent.teammates) == [2]
+    assert list(agent.estimator.teammates) == [2]
 
 
 @pytest.mark.parametrize("cov", [[[math.nan, 0, 0], [0, 1, 0], [0, 0, 0.01]], [[-1, 0, 0], [0, -1, 0], [0, 0, 0.01]],
@@ -347,10 +357,10 @@ def test_a_restart_with_a_corrupt_saved_covariance_resumes_without_it(tmp_path, 
                                 "next_action": 3, "cov": cov}))
     agent = RoverAgent(1, KEYS, NOISY, state_file=path)
     agent.on_clock(m.Clock(tick=500, sim_time=50.0, time_scale=1.0, run="r1"))
-    assert agent.pose == Pose(0.0, -6.0, 0.0) and not agent.lost
+    assert agent.pose == Pose(0.0, -6.0, 0.0) and not agent.restarts.lost
     _feed(agent, m.CommPartners(ids=[0, 2]))
     _feed(agent, m.Perception(stamp=50.2, angles_deg=[], distances_m=[], kinds=[]))
-    assert agent.localisation.exact  # as an older file without a covariance: nothing half-read
+    assert agent.estimator.localisation.exact  # as an older file without a covariance: nothing half-read
 
 
 def test_a_goal_any_distance_off_is_decided_at_once():
@@ -360,4 +370,4 @@ def test_a_goal_any_distance_off_is_decided_at_once():
 
     agent = _unsure_with_a_return(DISTANCE_LIMIT_M)
     _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
-    assert not agent.fix.active
+    assert not agent.estimator.fix.active

@@ -137,9 +137,9 @@ def test_a_rover_agents_timers_fire_no_earlier_than_its_wake_time():
             assert tick * DT >= wake - DT / 2, f"tick {tick} sent {sent} before its wake time {wake}"
         wake = next(message.wake for _, message in out if isinstance(message, m.Ack))
         if tick == 63:  # a finished goal adds the goal report's timer; it finishes on an input the world waits for
-            agent.finished_goal = (0, "reached")
+            agent.mission.finished_goal = (0, "reached")
             wake = 0.0
-    assert agent._last_report > 3.0, "the goal report was sent (and resent) along the way"
+    assert agent.mission.reported_at > 3.0, "the goal report was sent (and resent) along the way"
 
 
 def test_a_loopback_mission_keeps_to_the_plan_and_waits_for_few_agents(monkeypatch):

@@ -16,8 +16,8 @@ from PIL import Image
 from harness.loopback import run_mission
 from lander_agent import mapping
 from rover_agent.behaviour import Hit
-from rover_agent.behaviours import load_behaviour
-from rover_agent.map_report import CRATER, FREE, OBSTACLE, MapRecorder
+from rover_agent.mission.traverse_map import CRATER, FREE, OBSTACLE, MapRecorder
+from rover_agent.registry import load_behaviour
 from schemas import codec, radio
 from schemas.params import MappingParams, PerceptionParams, RoverParams
 from schemas.scenario import load_scenario, parse_scenario

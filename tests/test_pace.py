@@ -1,19 +1,21 @@
 """Slow moves among rovers at close quarters: the behaviour asks for them (``MoveTo.slow``), the agent sends the
-speed level with them (``in_flight.Pace``)."""
+speed level with them (``rover_agent.actions.pace``)."""
 
 from __future__ import annotations
 
 import math
 
+from rover_agent.actions.pace import FULL_AGAIN_S, FULL_LEVEL, SLOW_LEVEL, Pace
 from rover_agent.behaviour import DefaultBehaviour, Goal, Hit, MoveTo, View
 from rover_agent.dead_reckoning import Pose
-from rover_agent.in_flight import FULL_AGAIN_S, FULL_LEVEL, SLOW_LEVEL, Pace
+from rover_agent.outgoing import Sender
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.params import RoverParams
 
 PARAMS = RoverParams()
 KEYS = ks.Keyspace("w")
+SEND = Sender(KEYS, 1)
 STATION = Goal(0, 1, "waypoint", 0.0, 9.5, station=(0.0, -1.0), shared=True)  # 8.5 m ahead: parking
 ROVER_NEAR = (Hit(-60.0, 3.0, "rover"),)  # ahead-left, clear of the way ahead
 ROVER_FAR = (Hit(-60.0, 6.0, "rover"),)
@@ -55,17 +57,17 @@ def _speeds(out) -> list[int]:
 def test_the_agent_sends_the_slow_level_with_every_slow_move_and_the_full_one_for_a_while_after():
     pace = Pace()
     fast, slow = MoveTo(0.0, 2.0), MoveTo(0.0, 2.0, slow=True)
-    assert _speeds(pace.speed(fast, 0.0, KEYS, 1)) == []  # the world starts at full speed: nothing to say
-    assert _speeds(pace.speed(slow, 1.0, KEYS, 1)) == [SLOW_LEVEL]
-    assert _speeds(pace.speed(slow, 2.0, KEYS, 1)) == [SLOW_LEVEL]  # again: a lost one costs one move
-    assert _speeds(pace.speed(fast, 3.0, KEYS, 1)) == [FULL_LEVEL]
-    assert _speeds(pace.speed(fast, 3.0 + FULL_AGAIN_S, KEYS, 1)) == [FULL_LEVEL]  # one lost is not the last
-    assert _speeds(pace.speed(fast, 3.1 + FULL_AGAIN_S, KEYS, 1)) == []
-    assert pace.speed(m.RotateAction(degrees=10.0), 3.0, KEYS, 1) == []  # only moves have a speed
+    assert _speeds(pace.speed(fast, 0.0, SEND)) == []  # the world starts at full speed: nothing to say
+    assert _speeds(pace.speed(slow, 1.0, SEND)) == [SLOW_LEVEL]
+    assert _speeds(pace.speed(slow, 2.0, SEND)) == [SLOW_LEVEL]  # again: a lost one costs one move
+    assert _speeds(pace.speed(fast, 3.0, SEND)) == [FULL_LEVEL]
+    assert _speeds(pace.speed(fast, 3.0 + FULL_AGAIN_S, SEND)) == [FULL_LEVEL]  # one lost is not the last
+    assert _speeds(pace.speed(fast, 3.1 + FULL_AGAIN_S, SEND)) == []
+    assert pace.speed(m.RotateAction(degrees=10.0), 3.0, SEND) == []  # only moves have a speed
 
 
 def test_back_to_full_speed_long_after_the_last_slow_move_is_still_said():
     """A rover held long in a jam after its last slow step: its next move, at full speed, must say so."""
     pace = Pace()
-    assert _speeds(pace.speed(MoveTo(0.0, 2.0, slow=True), 0.0, KEYS, 1)) == [SLOW_LEVEL]
-    assert _speeds(pace.speed(MoveTo(0.0, 9.0), 10 * FULL_AGAIN_S, KEYS, 1)) == [FULL_LEVEL]
+    assert _speeds(pace.speed(MoveTo(0.0, 2.0, slow=True), 0.0, SEND)) == [SLOW_LEVEL]
+    assert _speeds(pace.speed(MoveTo(0.0, 9.0), 10 * FULL_AGAIN_S, SEND)) == [FULL_LEVEL]

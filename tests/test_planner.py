@@ -7,13 +7,15 @@ import heapq
 import itertools
 import math
 import random
+from collections.abc import Sequence
 from pathlib import Path
 
 import pytest
 
 from rover_agent.behaviour import Hit
 from rover_agent.dead_reckoning import Pose
-from rover_agent.planner import OccupancyGrid, disc_offsets, next_waypoint, plan, simplify
+from rover_agent.rules.occupancy import Point
+from rover_agent.rules.planner import OccupancyGrid, _farthest_visible, _forbidden, disc_offsets, next_waypoint, plan
 from schemas.scenario import load_scenario
 
 MAZE = Path(__file__).resolve().parents[1] / "scenarios" / "maze.yaml"
@@ -27,11 +29,36 @@ Segment = tuple[tuple[float, float], tuple[float, float], float]  # centreline e
 
 # ---- helpers ----
 
+def _blocked_cells(grid: OccupancyGrid) -> frozenset[tuple[int, int]]:
+    return frozenset(grid._blocked)
+
+
+def simplify(path: Sequence[Point], grid: OccupancyGrid, clearance_m: float,
+             start_xz: Point | None = None) -> list[Point]:
+    """The straight legs a rover walks along a planned path (``next_waypoint`` takes the first): intermediate
+    points dropped while the straight line between kept points stays clear.
+
+    A cell path zigzags in 45-degree steps; the rover should instead walk long straight legs, as the report's
+    rovers do. From each kept point it jumps to the farthest later point in clear line of sight. With
+    ``start_xz`` the first leg is checked from the start, which is not returned (as ``plan`` leaves it out);
+    without it the path's first point is the anchor and is kept.
+    """
+    points = ([start_xz] if start_xz is not None else []) + list(path)
+    if len(points) <= 2:
+        return list(path)
+    forbidden = _forbidden(grid, clearance_m, (grid.cell_of(*points[0]), grid.cell_of(*points[-1])))
+    kept, anchor = [points[0]], 0
+    while anchor < len(points) - 1:
+        anchor = _farthest_visible(points, anchor, forbidden, grid.cell_m)
+        kept.append(points[anchor])
+    return kept[1:] if start_xz is not None else kept
+
+
 def _inflated(grid: OccupancyGrid, clearance: float) -> set[tuple[int, int]]:
     """Cells whose centre is within the clearance of a blocked cell's centre (computed here, not by the module)."""
     out = set()
     reach = math.ceil(clearance / grid.cell_m)
-    for i, j in grid.blocked_cells:
+    for i, j in _blocked_cells(grid):
         for di in range(-reach, reach + 1):
             for dj in range(-reach, reach + 1):
                 if math.hypot(di, dj) * grid.cell_m <= clearance + 1e-9:
@@ -155,13 +182,13 @@ def _cost(start: tuple[float, float], path: list[tuple[float, float]]) -> float:
 def test_observe_places_hits_in_the_world_cell():
     grid = OccupancyGrid(1.0)
     grid.observe(Pose(0.0, 0.0, 90.0), [Hit(0.0, 5.0, "obstacle")], radius=10.0)
-    assert grid.blocked_cells == {grid.cell_of(5.0, 0.0)}
+    assert _blocked_cells(grid) == {grid.cell_of(5.0, 0.0)}
     assert grid.blocked(*grid.cell_of(5.0, 0.0))
 
     grid = OccupancyGrid(1.0)
     pose = Pose(10.0, -4.0, 180.0)  # facing -z: left is +x
     grid.observe(pose, [Hit(-90.0, 3.0, "terrain"), Hit(45.0, 4 * SQRT2, "lander")], radius=10.0)
-    assert grid.blocked_cells == {grid.cell_of(13.0, -4.0), grid.cell_of(6.0, -8.0)}
+    assert _blocked_cells(grid) == {grid.cell_of(13.0, -4.0), grid.cell_of(6.0, -8.0)}
 
 
 def test_cells_are_centred_on_multiples_of_the_cell_size():
@@ -174,7 +201,7 @@ def test_cells_are_centred_on_multiples_of_the_cell_size():
 def test_rovers_and_crater_terrain_are_not_remembered():
     grid = OccupancyGrid(1.0)
     grid.observe(Pose(0.0, 0.0, 0.0), [Hit(0.0, 3.0, "rover"), Hit(10.0, 6.0, "crater_terrain")], radius=10.0)
-    assert grid.blocked_cells == frozenset()
+    assert _blocked_cells(grid) == frozenset()
 
 
 def test_free_rays_clear_a_stale_cell_once_seen_free_more_often_than_hit():

@@ -1,5 +1,5 @@
 """Crest stations at a crater goal the team shares: the rover walks to its spoke's foot, then climbs along it
-(``rover_agent.rim``)."""
+(``rover_agent.rules.rim``)."""
 
 from __future__ import annotations
 
@@ -7,12 +7,12 @@ import math
 
 import pytest
 
-from rover_agent import rim
 from rover_agent.behaviour import DefaultBehaviour
-from rover_agent.crater_rules import near_station_m
 from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Finish, Goal, Hit, MoveTo, Rotate, TakePhoto, View
-from rover_agent.tuning import CROWD_SQUEEZE_S, MAX_CROWD_WAIT_S
+from rover_agent.rules import rim
+from rover_agent.rules.crater import near_station_m
+from rover_agent.rules.tuning import CROWD_SQUEEZE_S, MAX_CROWD_WAIT_S
 from schemas.params import RoverParams
 
 PARAMS = RoverParams()

@@ -10,9 +10,9 @@ from procs import SCENARIOS
 
 from harness.loopback import run_mission
 from rover_agent.behaviour import DefaultBehaviour, Goal, Hold, MoveTo, Rotate, View
-from rover_agent.behaviours import load_behaviour
 from rover_agent.dead_reckoning import Pose
 from rover_agent.examples import SunIgnoring
+from rover_agent.registry import load_behaviour
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -69,7 +69,7 @@ def test_walking_into_shadow_when_low_it_stops_and_walks_back_to_the_light():
     assert not b.should_cancel(_view(battery=0.55, sunlit=True))
     assert b.should_cancel(_view(battery=0.45, sunlit=False))  # the panel went dark with the charge low
     b.cancelled(1.0)
-    assert b._hold_until == 0.0  # no rover to give way to: no wait
+    assert b.crowd.hold_until == 0.0  # no rover to give way to: no wait
     back = b.decide(_view(battery=0.44, sunlit=False, pose=Pose(0.0, 4.0, 0.0), time=1.2))
     assert back == Rotate(180.0) or back == Rotate(-180.0)  # turn round towards the lit spot behind
     back = b.decide(_view(battery=0.44, sunlit=False, pose=Pose(0.0, 4.0, 180.0), time=2.0))

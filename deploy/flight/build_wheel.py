@@ -26,7 +26,8 @@ REPO = Path(__file__).resolve().parents[2]
 """The source tree; an installed copy of this module is given the checkout explicitly (``source=``)."""
 DIST_NAME = "lunarsim-rover"
 FLIGHT_PACKAGES = ("schemas", "bus", "rover_agent", "hardware")
-"""The packages the rover carries, whole: the layout keeps ground-side code out of them (``tests/test_layout.py``)."""
+"""The packages the rover carries, whole, with their subpackages: the layout keeps ground-side code out of them
+(``tests/test_layout.py``)."""
 DEPENDENCIES = ("eclipse-zenoh>=1.10,<2", "msgpack>=1.0", "pydantic>=2.6,<3", "pyyaml>=6")
 EXTRAS = {"serial": ("pyserial>=3.5",)}
 SCRIPTS = {"lunarsim-rover": "rover_agent.app:main", "lunarsim-bridge": "hardware.bridge_app:main"}
@@ -43,20 +44,30 @@ def project_version(source: Path = REPO) -> str:
 
 
 def staged_files(source: Path = REPO) -> list[Path]:
-    """Every source file of the wheel, relative to the repository."""
+    """Every source file of the wheel, relative to the repository: each package's modules and those of its
+    subpackages (folders with an ``__init__.py``, all the way down)."""
     files: list[Path] = []
     for package in FLIGHT_PACKAGES:
-        folder = source / package.replace(".", "/")
-        files += [p.relative_to(source) for p in sorted(folder.glob("*.py"))]
+        top = source / package.replace(".", "/")
+        files += [p.relative_to(source) for p in sorted(top.rglob("*.py")) if _importable(p.parent, top)]
     return files
 
 
-def _pyproject(version: str) -> str:
+def _importable(folder: Path, top: Path) -> bool:
+    """Whether ``folder``, under the package folder ``top``, is a subpackage, and so is every folder between."""
+    return all((f / "__init__.py").is_file() for f in (folder, *folder.parents) if f != top and top in f.parents)
+
+
+def package_names(source: Path = REPO) -> list[str]:
+    """The wheel's packages, subpackages included: setuptools installs only those it is told of."""
+    return sorted({".".join(rel.parent.parts) for rel in staged_files(source) if rel.name == "__init__.py"})
+
+
+def _pyproject(version: str, packages: list[str]) -> str:
     """TOML by hand: its arrays of strings are JSON's, and the standard library writes no TOML."""
     extras = "\n".join(f"{name} = {json.dumps(list(deps))}" for name, deps in EXTRAS.items())
     scripts = "\n".join(f"{name} = {json.dumps(target)}" for name, target in SCRIPTS.items())
     data = "\n".join(f"{json.dumps(dest)} = {json.dumps(list(sources))}" for dest, sources in DATA.items())
-    packages = json.dumps(sorted(FLIGHT_PACKAGES))
     return f"""[build-system]
 requires = ["setuptools>=68", "wheel"]
 build-backend = "setuptools.build_meta"
@@ -76,7 +87,7 @@ dependencies = {json.dumps(list(DEPENDENCIES))}
 {scripts}
 
 [tool.setuptools]
-packages = {packages}
+packages = {json.dumps(packages)}
 
 [tool.setuptools.data-files]
 {data}
@@ -91,7 +102,7 @@ def stage(into: Path, source: Path = REPO) -> Path:
     for src in (src for sources in DATA.values() for src in sources):
         (into / src).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(source / src, into / src)
-    (into / "pyproject.toml").write_text(_pyproject(project_version(source)))
+    (into / "pyproject.toml").write_text(_pyproject(project_version(source), package_names(source)))
     return into
 
 

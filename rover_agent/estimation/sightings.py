@@ -2,7 +2,7 @@
 
 Perception gives, for each ray that met something, its angle, distance and kind (report 10.1.3), so a thing is a
 run of hits on its near side. Lander and rovers are upright cylinders: their centre, the point the filter needs
-(``rover_agent.localisation``), is fitted from the hits. Perception says a hit is a rover, not which one; the radio
+(``pose_filter``), is fitted from the hits. Perception says a hit is a rover, not which one; the radio
 says which rovers are in range (``CommPartners``) and what each believes of its own place (``radio.PoseEstimate``),
 so a rover seen is matched to a teammate's estimate only where the match can hardly be another
 (``match_teammates``).
@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from rover_agent.decisions import Hit
-from rover_agent.localisation import Landmark
+from rover_agent.estimation.pose_filter import Landmark
 from schemas import radio
 
 LANDER_SIGHTING_STD_M = 0.2

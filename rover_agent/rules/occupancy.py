@@ -1,5 +1,5 @@
 """The rover's memory of the static things it has seen: a sparse occupancy grid in its own (lander) frame, which
-the planner (``rover_agent.planner``) searches. Pure standard library: it runs on the flight computer."""
+the planner (``planner``) searches. Pure standard library: it runs on the flight computer."""
 
 from __future__ import annotations
 
@@ -51,10 +51,6 @@ class OccupancyGrid:
 
     def blocked(self, i: int, j: int) -> bool:
         return (i, j) in self._blocked
-
-    @property
-    def blocked_cells(self) -> frozenset[Cell]:
-        return frozenset(self._blocked)
 
     def block(self, cells: Iterable[Cell]) -> None:
         """Mark cells as hit once each: for a map known in advance (and for tests)."""

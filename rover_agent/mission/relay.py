@@ -3,29 +3,26 @@ the route for, when the lander releases it at the last goal, or on its own once 
 there (``CommunicationParams.relay_cut_off_s``): a relay whose own route is gone carries nobody's traffic where it
 stands. The lander places the spots knowing nothing of walls, and links need line of sight, so a wall between two
 spots cuts a chain; the relays beyond it never hear the release. Both only with ``release_relays``.
-
-A mixin of ``RoverAgent`` (its state: ``params``, ``goal``, ``finished_goal``, ``contact``, ``behaviour``,
-``now``), kept apart so the agent's own module stays about its inputs and decisions.
 """
 
 from __future__ import annotations
 
-import logging
 import math
+from dataclasses import dataclass
 
 from rover_agent.decisions import Goal
 from schemas import messages as m
+from schemas.params import CommunicationParams
 
-log = logging.getLogger("lunarsim.rover")
 
-
-class Relaying:
-    relay_goal: Goal | None = None
+@dataclass
+class Relay:
+    goal: Goal | None = None
     """The goal the rover holds a relay spot for (``MissionDirection.relay_for``)."""
     left_spot: int | None = None
     """The goal index whose relay spot the rover left, cut off: the chain's direction no longer holds it there."""
 
-    def _note_relay(self, msg: m.MissionDirection) -> bool:
+    def note(self, msg: m.MissionDirection) -> bool:
         """Keep what a relay's direction says of the goal behind it; False: ignore the direction (the rover left
         that spot, cut off, and the lander does not know)."""
         if msg.kind != "relay":
@@ -35,24 +32,22 @@ class Relaying:
         place = msg.relay_for
         if place is not None:
             rad = math.radians(place.bearing_deg)
-            self.relay_goal = Goal(msg.goal_index, msg.goals_total, place.kind, place.distance_m * math.sin(rad),
-                                   place.distance_m * math.cos(rad))
+            self.goal = Goal(msg.goal_index, msg.goals_total, place.kind, place.distance_m * math.sin(rad),
+                             place.distance_m * math.cos(rad))
         return True
 
-    def _relay_released(self, goal: Goal) -> bool:
+    @staticmethod
+    def released(goal: Goal, finished: tuple[int, str] | None) -> bool:
         """The goal this rover held a relay spot for, now its own: the chain was released at the last goal."""
-        return self.finished_goal == (goal.index, "relay") and goal.kind != "relay"
+        return finished == (goal.index, "relay") and goal.kind != "relay"
 
-    def _walk_on_if_cut_off(self) -> bool:
+    def cut_off(self, finished: tuple[int, str] | None, silent_s: float, radio: CommunicationParams) -> Goal | None:
         """A relay on its spot at the last goal, with no word from the lander for ``relay_cut_off_s``, takes up the
         goal it held the route for, with no station (none can come): the report's rule, it stops where it meets
-        the goal. True when it did (its status changed)."""
-        goal, radio = self.relay_goal, self.params.communication
-        if (goal is None or not goal.final or self.finished_goal != (goal.index, "relay") or not radio.release_relays
-                or self.now - self.contact.heard_at < radio.relay_cut_off_s):
-            return False
-        log.info("rover %d: no word from the lander for %.0f s on its relay spot; walking on to goal %d", self.id,
-                 self.now - self.contact.heard_at, goal.index)
-        self.goal, self.finished_goal, self.left_spot = goal, None, goal.index
-        self.behaviour.start_goal(goal)
-        return True
+        the goal. That goal, when it does (the rover leaves its spot for good)."""
+        goal = self.goal
+        if (goal is None or not goal.final or finished != (goal.index, "relay") or not radio.release_relays
+                or silent_s < radio.relay_cut_off_s):
+            return None
+        self.left_spot = goal.index
+        return goal

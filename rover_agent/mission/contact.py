@@ -3,7 +3,7 @@
 A rover waits for the lander before each goal (its mission direction), and at the start for its calibration, the
 origin of its dead reckoning. Both come by radio, sent again every second while the rover can be reached, directly
 or through other rovers (the daisy chain). A rover that starts in a crater, behind a ridge or beyond every radio's
-range hears nothing, and before this waited there for ever in silence.
+range hears nothing, and would wait there for ever in silence.
 
 After ``CONTACT_WAIT_S`` of silence it goes looking for contact instead:
 - with no calibration, it takes its planned dispatch pose from its mission file (``dispatch``: where the lander
@@ -24,6 +24,7 @@ import logging
 from dataclasses import dataclass
 
 from rover_agent.decisions import Goal
+from rover_agent.estimation.lander_fix import LANDER_GOAL
 from schemas import messages as m
 
 log = logging.getLogger("lunarsim.rover")
@@ -31,8 +32,6 @@ log = logging.getLogger("lunarsim.rover")
 CONTACT_WAIT_S = 15.0
 """Simulated seconds without a word from the lander before a waiting rover goes looking for it: many times the
 lander's 1 s resend period, so a few lost samples never set it off."""
-LANDER_GOAL = Goal(index=0, total=1, kind="waypoint", x=0.0, z=0.0)
-"""The search's target: the lander, at the origin of the lander frame every rover navigates in."""
 
 
 @dataclass

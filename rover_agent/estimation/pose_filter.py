@@ -11,8 +11,8 @@ this one (they may have corrected each other before), so it is fused by covarian
 consistent whatever the correlation, rather than by a plain Kalman update, which would grow overconfident.
 
 With zero noise parameters the covariance stays exactly zero and ``observe`` changes nothing, so a noise-free
-mission runs exactly as plain dead reckoning did. Pure logic on plain floats (a flight computer needs no numeric
-stack for 3 x 3 matrices); the agent feeds it (``rover_agent.localising``).
+mission runs exactly as plain dead reckoning does. Pure logic on plain floats (a flight computer needs no numeric
+stack for 3 x 3 matrices); the agent feeds it (``estimator``).
 """
 
 from __future__ import annotations

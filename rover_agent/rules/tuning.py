@@ -1,5 +1,6 @@
 """The default behaviour's tuning: thresholds in degrees, metres and seconds, each with the reason for its value.
-Kept apart from the rules that use them (``rover_agent.behaviour``) so they can be read, and changed, together."""
+Kept apart from the rules that use them (``rover_agent.behaviour``, ``crater``, ``crowd``) so they can be read, and
+changed, together."""
 
 from __future__ import annotations
 
@@ -25,7 +26,7 @@ circle it until the world's watchdog counts it stuck (development seed 175's fir
 m off for 300 s). Twice ``RELAY_CLOSE_M``: a chain's link lengthens by no more than the circling did."""
 STATION_CLOSE_M = 1.5
 """A station (the rover's own spot at a shared waypoint) is reached within ``STATION_CLOSE_M``; when rovers
-leave no way in and first did ``CROWD_SQUEEZE_S`` before (``rover_agent.crowd``), wherever the waypoint is in
+leave no way in and first did ``CROWD_SQUEEZE_S`` before (``crowd``), wherever the waypoint is in
 view (the report's rule), but not short of the station with the waypoint out of view: not at the goal."""
 MAX_BLOCKED_ROTATIONS = 12
 """Rotations with every direction blocked by obstacles, without progress, before giving up on a goal."""
@@ -39,7 +40,7 @@ NO_PROGRESS_WALK_M = 300.0
 """Metres walked without getting any closer to the goal, routing or not, before giving up."""
 KNOT_ROUTE_RADII = 2.0
 """Farther than this many perception radii from its goal, a rover long held up by rovers plans a route round them
-(``CrowdRules._round_the_knot``); nearer, they are the team at the goal, and the route only led it to and fro
+(``CrowdRules.rovers_in_way``); nearer, they are the team at the goal, and the route only led it to and fro
 among their stations (within one radius, rovers of the 20-rover maze were stopped by the world's watchdog)."""
 KNOT_MEMORY_S = 10.0
 """...and keeps clear of the rovers it saw in the last this many seconds, in view or not now: long enough to turn
@@ -47,7 +48,7 @@ round and look, short enough that a rover that walked on does not stay in the wa
 CROWD_SQUEEZE_S = 15.0
 """After this long without progress among rovers, the rover keeps only close-quarters gaps to squeeze by."""
 GIVE_WAY_S = 30.0
-"""After this long held up by rovers, a rover steps aside, away from its goal (``rover_agent.crowd``): rovers
+"""After this long held up by rovers, a rover steps aside, away from its goal (``crowd``): rovers
 that block each other, each waiting for the others (two head on in a gap, four in a knot in a corridor), would
 otherwise all give up at ``MAX_CROWD_WAIT_S``."""
 GIVE_WAY_TRIES = 2
@@ -61,7 +62,7 @@ CROWD_LOOKS = 3
 """While waiting in a crowd, every this many waits the rover rotates to look for another way."""
 FOLLOW_SHARE = 0.5
 """A rover ahead that leaves less than this share of the step the rover wanted: wait for it to walk on rather
-than creep after it (``CrowdRules._follow``)."""
+than creep after it (``CrowdRules.follow``)."""
 FOLLOW_WAITS = 3
 """...at most this many waits in a row; then the short step."""
 RIGHT_OF_WAY_DEG = 10.0

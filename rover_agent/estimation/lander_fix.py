@@ -2,7 +2,7 @@
 
 The lander is the one landmark whose place every rover knows exactly: it is the origin of the frame the rover
 navigates in. Seen in perception from a few places, it brings the estimate's uncertainty down to about the
-sighting's (``rover_agent.localisation``). When a waypoint goal comes, the rover asks its filter how unsure it
+sighting's (``pose_filter``). When a waypoint goal comes, the rover asks its filter how unsure it
 would be on arriving there by the direct way, from its own noise parameters. If that is more than ``FIX_STD_M``,
 and going by the lander leaves it surer at the goal (``WORTH``) for a way at most ``MAX_DETOUR`` longer than the
 direct one, it heads for the lander first; it goes on to its goal once the estimate is sure again
@@ -20,11 +20,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from rover_agent.contact import LANDER_GOAL
 from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Goal
-from rover_agent.localisation import Localisation
+from rover_agent.estimation.pose_filter import Localisation
 from schemas.params import RoverParams
+
+LANDER_GOAL = Goal(index=0, total=1, kind="waypoint", x=0.0, z=0.0)
+"""The lander as a goal: at the origin of the lander frame every rover navigates in."""
 
 FIX_STD_M = 1.5
 """A waypoint the estimate would reach more unsure than this (1 sigma, metres) is worth a fix first: at a waypoint

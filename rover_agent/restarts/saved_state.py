@@ -40,7 +40,7 @@ class SavedState:
     pose: Pose
     flight: SavedFlight | None = None
     next_action: int = 0  # the id the agent's next action takes
-    cov: list[list[float]] | None = None  # the pose estimate's covariance (``rover_agent.localisation``)
+    cov: list[list[float]] | None = None  # the pose estimate's covariance (``estimation.pose_filter``)
 
     def to_json(self) -> str:
         return json.dumps(asdict(self))

@@ -24,7 +24,8 @@ KIND_OF_HIT = {"obstacle": OBSTACLE, "lander": OBSTACLE, "terrain": CRATER, "cra
 CELL_INDEX_LIMIT = 32767
 """Cells are sent as int16: points farther than this many cells from the lander are not reported."""
 
-Cell = tuple[int, int, int]  # (ix, iz, kind)
+MappedCell = tuple[int, int, int]
+"""A cell and what was seen in it: (ix, iz, kind)."""
 
 
 class MapRecorder:
@@ -36,8 +37,8 @@ class MapRecorder:
         self.fov = p.field_of_view_degrees
         self.step_deg = p.ray_step_deg
         self.rays = [-self.fov / 2 + i * self.step_deg for i in range(p.perception_granularity)]
-        self.known: set[Cell] = set()
-        self.pending: list[Cell] = []
+        self.known: set[MappedCell] = set()
+        self.pending: list[MappedCell] = []
         self.outbox: dict[int, radio.MapReport] = {}
         self.next_seq = 0
         self.last_pose: tuple[float, float, float] | None = None
@@ -45,7 +46,7 @@ class MapRecorder:
 
     def fold_scan(self, x: float, z: float, heading_deg: float, hits: Iterable) -> None:
         """Note what a scan from a standing rover at (x, z) facing ``heading_deg`` saw (hits: angle, distance,
-        kind as ``behaviour.Hit``). A second scan from the same pose adds nothing and is skipped."""
+        kind as ``decisions.Hit``). A second scan from the same pose adds nothing and is skipped."""
         if self.last_pose == (x, z, heading_deg):
             return
         self.last_pose = (x, z, heading_deg)

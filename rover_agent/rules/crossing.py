@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass, field
 
 from rover_agent.decisions import Hit
-from rover_agent.sightings import rover_centres
+from rover_agent.estimation.sightings import rover_centres
 from schemas.params import RoverParams
 
 CONTACT_MARGIN_M = 0.3

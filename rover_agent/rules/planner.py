@@ -20,7 +20,7 @@ import math
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING
 
-from rover_agent.occupancy import TIE, Cell, OccupancyGrid, Point, disc_offsets, segment_clear
+from rover_agent.rules.occupancy import TIE, Cell, OccupancyGrid, Point, disc_offsets, segment_clear
 
 if TYPE_CHECKING:
     from rover_agent.dead_reckoning import Pose
@@ -326,26 +326,6 @@ def _trace(parent: dict[int, int], key: int, cell_ij: dict[int, Cell]) -> list[C
     return [cell_ij[k] for k in reversed(keys)]
 
 
-def simplify(path: Sequence[Point], grid: OccupancyGrid, clearance_m: float,
-             start_xz: Point | None = None) -> list[Point]:
-    """Drop intermediate points while the straight line between kept points stays clear.
-
-    A cell path zigzags in 45-degree steps; the rover should instead walk long straight legs, as the report's
-    rovers do. From each kept point it jumps to the farthest later point in clear line of sight. With
-    ``start_xz`` the first leg is checked from the start, which is not returned (as ``plan`` leaves it out);
-    without it the path's first point is the anchor and is kept.
-    """
-    points = ([start_xz] if start_xz is not None else []) + list(path)
-    if len(points) <= 2:
-        return list(path)
-    forbidden = _forbidden(grid, clearance_m, (grid.cell_of(*points[0]), grid.cell_of(*points[-1])))
-    kept, anchor = [points[0]], 0
-    while anchor < len(points) - 1:
-        anchor = _farthest_visible(points, anchor, forbidden, grid.cell_m)
-        kept.append(points[anchor])
-    return kept[1:] if start_xz is not None else kept
-
-
 def _farthest_visible(points: Sequence[Point], anchor: int, forbidden: frozenset[Cell], cell_m: float) -> int:
     for far in range(len(points) - 1, anchor + 1, -1):
         if segment_clear(points[anchor], points[far], forbidden, cell_m):
@@ -364,7 +344,7 @@ def next_waypoint(grid: OccupancyGrid, pose: Pose, goal_xz: Point, clearance_m: 
         return None
     points = [start, *path]
     forbidden = _forbidden(grid, clearance_m, (grid.cell_of(*start), grid.cell_of(*path[-1])), avoid)
-    x, z = points[_farthest_visible(points, 0, forbidden, grid.cell_m)]  # simplify's first leg, and only that
+    x, z = points[_farthest_visible(points, 0, forbidden, grid.cell_m)]  # the first straight leg
     length = math.hypot(x - pose.x, z - pose.z)
     if length <= max_step_m:
         return x, z

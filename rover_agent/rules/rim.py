@@ -14,7 +14,7 @@ import math
 
 from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Goal
-from rover_agent.tuning import CREST_FACING
+from rover_agent.rules.tuning import CREST_FACING
 from schemas.frames import bearing_deg, wrap_deg
 
 FOOT_OUT = 0.6

@@ -1,0 +1,35 @@
+"""A rover's own spot at a goal the team shares: asked of the lander as the rover nears the goal (the lander's side
+is ``lander_agent.stations``)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from rover_agent.dead_reckoning import Pose
+from rover_agent.decisions import Goal, Hit
+from schemas import radio
+
+STATION_ASK_M = 15.0
+"""Near a shared waypoint, closer than this, the rover asks the lander for its station: just before it reaches
+a 20-rover formation (8.5 m in radius at the default spacing), so stations go out in the order rovers arrive."""
+STATION_ASK_RETRY_S = 2.0
+
+
+@dataclass
+class StationAsk:
+    asked_at: float = -math.inf
+
+    def ask(self, goal: Goal | None, pose: Pose | None, hits: tuple[Hit, ...],
+            now: float) -> radio.StationRequest | None:
+        """Near a goal the team shares and with no station yet: ask the lander for one, again every
+        ``STATION_ASK_RETRY_S`` until it comes (a lost request, or a lander out of reach for now). Near is
+        ``STATION_ASK_M`` from the goal; for a crater, whose size the rover does not know, also once its terrain is
+        in view, some metres before the rim (a rover in the bowl sees no rim ahead: it asks by the distance)."""
+        if (goal is None or pose is None or not goal.shared or goal.station is not None
+                or now - self.asked_at < STATION_ASK_RETRY_S
+                or not (math.hypot(goal.x - pose.x, goal.z - pose.z) <= STATION_ASK_M
+                        or (goal.kind == "crater" and any(h.kind == "crater_terrain" for h in hits)))):
+            return None
+        self.asked_at = now
+        return radio.StationRequest(goal_index=goal.index, x=round(pose.x, 3), z=round(pose.z, 3))
