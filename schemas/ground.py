@@ -19,6 +19,7 @@ from schemas.wire_limits import (
     RoverId,
     RoverIds,
     Seconds,
+    Stamp,
     Text,
 )
 
@@ -79,7 +80,7 @@ class GroundCommand(Message):
     x: Coordinate | None = Field(None, description="set_target: the target in map coordinates, m")
     z: Coordinate | None = None
     kind: GoalKind = "waypoint"
-    seconds: Seconds | None = Field(None, ge=0, description="seek: seconds from the start of the recording")
+    seconds: Stamp | None = Field(None, description="seek: seconds from the start of the recording")
 
 
 class CommandResult(Message):

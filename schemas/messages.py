@@ -34,12 +34,15 @@ from schemas.wire_limits import (
     ActionId,
     Count,
     Degrees,
+    Distance,
+    GoalCount,
     GoalIndex,
     Label,
     Metres,
     RoverId,
     RoverIds,
     Seconds,
+    Stamp,
     Text,
     Tick,
 )
@@ -195,7 +198,7 @@ class GoalPlace(Message):
 
     kind: GoalKind
     bearing_deg: Degrees
-    distance_m: Metres = Field(ge=0)
+    distance_m: Distance
 
 
 class MissionDirection(Message):
@@ -208,10 +211,10 @@ class MissionDirection(Message):
     """
 
     goal_index: GoalIndex
-    goals_total: GoalIndex = Field(ge=1)
+    goals_total: GoalCount
     kind: DirectionKind
     bearing_deg: Degrees
-    distance_m: Metres = Field(ge=0)
+    distance_m: Distance
     station: tuple[Metres, Metres] | None = Field(
         None, description="offset (x, z) in metres from the goal, lander axes, of this rover's spot at it")
     shared: bool = Field(False, description="a waypoint or crater the team shares: ask the lander for a station "
@@ -266,7 +269,7 @@ class RoverStatus(Message):
 
 class Clock(Message):
     tick: Tick
-    sim_time: Seconds = Field(ge=0)
+    sim_time: Stamp
     time_scale: float = Field(ge=0, le=1e6)
     running: bool = True
     lockstep: bool = False

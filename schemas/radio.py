@@ -26,6 +26,7 @@ from schemas.wire_limits import (
     GoalIndex,
     Label,
     Seconds,
+    Stamp,
 )
 
 
@@ -124,16 +125,16 @@ class StationRequest(Message):
 MAX_VARIANCE_M2 = COORDINATE_LIMIT_M ** 2
 """The largest position variance a PoseEstimate may carry: a 1-sigma error as wide as the frame itself."""
 COV_ROUNDING_M2 = 5e-7
-"""A sender rounds each covariance entry to 6 decimals (``rover_agent.localising``)."""
+"""A sender rounds each covariance entry to 6 decimals (``rover_agent.estimation.estimator``)."""
 
 
 class PoseEstimate(Message):
     """A rover's estimate of its own place, for the rovers in range that may see it (report 7.2.2: rovers exchange
     position estimates). Lander frame; ``cov_*``: its covariance, square metres; ``stamp``: when it held (simulated
     seconds); ``moving``: the rover was walking then, or may have set off since, so it may be elsewhere by now
-(``rover_agent.sightings``)."""
+(``rover_agent.estimation.sightings``)."""
 
-    stamp: Seconds = Field(ge=0)
+    stamp: Stamp
     x: Coordinate
     z: Coordinate
     cov_xx: float = Field(ge=0, le=MAX_VARIANCE_M2)

@@ -70,12 +70,17 @@ Count = Annotated[int, Field(ge=0, le=COUNT_LIMIT)]
 Tally = Annotated[int, Field(ge=0, lt=2**63)]
 """A sum of counts (the world's counters over every rover): what int64 holds."""
 GoalIndex = Annotated[int, Field(ge=0, lt=INDEX_LIMIT)]
+GoalCount = Annotated[int, Field(ge=1, le=INDEX_LIMIT)]
 RoverId = Annotated[int, Field(ge=0, le=MAX_ID)]
 ActionId = Annotated[int, Field(ge=0, lt=ACTION_ID_LIMIT)]
 Tick = Annotated[int, Field(ge=0, lt=2**63)]
 Seconds = Annotated[float, Field(ge=-SECONDS_LIMIT, le=SECONDS_LIMIT)]
+Stamp = Annotated[float, Field(ge=0, le=SECONDS_LIMIT)]
+"""Simulated time since the start. (A bound given again in a field's own ``Field`` does not narrow an annotated
+type's: pydantic keeps the type's, so each bound a field needs is a type of its own here.)"""
 Degrees = Annotated[float, Field(ge=-ANGLE_LIMIT_DEG, le=ANGLE_LIMIT_DEG)]
 Metres = Annotated[float, Field(ge=-DISTANCE_LIMIT_M, le=DISTANCE_LIMIT_M)]
+Distance = Annotated[float, Field(ge=0, le=DISTANCE_LIMIT_M)]
 Text = Annotated[str, Field(max_length=MAX_TEXT, pattern=_NO_CONTROL)]
 Label = Annotated[str, Field(max_length=MAX_LABEL, pattern=_NO_CONTROL)]
 RoverIds = Annotated[list[RoverId], Field(max_length=MAX_TARGETS)]

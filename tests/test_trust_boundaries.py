@@ -177,7 +177,7 @@ def agent() -> RoverAgent:
 
 
 def _clock(agent: RoverAgent) -> m.Clock:
-    return m.Clock(tick=1, sim_time=agent.now + 0.2, time_scale=1.0, run=agent.run)
+    return m.Clock(tick=1, sim_time=agent.now + 0.2, time_scale=1.0, run=agent.restarts.run)
 
 
 @FAST
@@ -190,14 +190,14 @@ def test_a_rover_agent_counts_what_it_refuses(agent, topic, model, data):
     if _refused(model, payload):
         assert agent.rejected.total == before + 1 and out == []
     _encodes(out)
-    _encodes([agent._status(), *agent.on_clock(_clock(agent))])
+    _encodes([agent.status(), *agent.on_clock(_clock(agent))])
 
 
 @FAST
 @given(inner=radio_payloads(), sender=st.sampled_from([0, 2, 3]))
 def test_a_rover_agent_takes_any_radio_message_as_data(agent, inner, sender):
     _encodes(agent.handle(ks.COMM_IN, codec.encode(m.InboundComm(sender=sender, payload=inner))))
-    _encodes([agent._status(), *agent.on_clock(_clock(agent))])
+    _encodes([agent.status(), *agent.on_clock(_clock(agent))])
 
 
 def test_the_worlds_copy_of_a_photo_is_named_by_the_world(tmp_path):
@@ -216,3 +216,17 @@ def test_the_worlds_copy_of_a_photo_is_named_by_the_world(tmp_path):
                      "photos/rover4_t000003.00.png"]
     index = [json.loads(line) for line in (tmp_path / "photos" / "index.jsonl").read_text().splitlines()]
     assert [entry["label"] for entry in index] == ["../../escape/x", "/tmp/escape/x", ""]
+
+
+@pytest.mark.parametrize(("model", "fields"), [
+    (m.MissionDirection, {"goal_index": 0, "goals_total": 0, "kind": "crater", "bearing_deg": 0.0, "distance_m": 1.0}),
+    (m.MissionDirection, {"goal_index": 0, "goals_total": 1, "kind": "crater", "bearing_deg": 0.0, "distance_m": -1.0}),
+    (m.Clock, {"tick": 0, "sim_time": -1.0, "time_scale": 1.0}),
+    (radio.PoseEstimate, {"stamp": -5.0, "x": 0.0, "z": 0.0, "cov_xx": 0.0, "cov_xz": 0.0, "cov_zz": 0.0}),
+    (m.GroundCommand, {"command": "seek", "seconds": -1.0}),
+], ids=["no goals", "negative distance", "negative time", "negative stamp", "negative seek"])
+def test_a_fields_own_bound_is_kept_beside_its_types(model, fields):
+    """A bound written in a field's ``Field`` beside an annotated type was dropped for the type's (pydantic keeps the
+    type's): each needs a type of its own (``schemas.wire_limits``)."""
+    with pytest.raises(codec.DecodeError):
+        codec.decode(model, pack(fields))
