@@ -35,11 +35,13 @@ COMMANDS = {
     "bridge": ("hardware.bridge_app", "put one real rover (a hardware driver) on a rover's keys"),
     "emulate-device": ("hardware.emulator", "an emulated serial rover base on a pseudo-terminal"),
     "check-driver": ("hardware.check_cli", "drive a hardware driver through the interface, list violations"),
+    "ros2": ("ros2_bridge.app", "a mission's rovers as ROS 2 topics for nodes on rmw_zenoh"),
+    "export-rosbag": ("ros2_bridge.rosbag_cli", "write a recording as a rosbag2 (MCAP) with the ROS 2 bridge's topics"),
     "acl": ("deploy.security.acl_cli", "secured router config: TLS, mTLS, passwords, access control per role"),
 }
 
 
-MISSION_PROCESSES = frozenset({"world", "lander", "rover", "router", "record", "bridge"})
+MISSION_PROCESSES = frozenset({"world", "lander", "rover", "router", "record", "bridge", "ros2"})
 """Commands that run as a process of a mission, and log its events (``process.setup_logging``)."""
 
 

@@ -20,6 +20,7 @@ from pathlib import Path
 from bus import priority, process
 from bus.zenoh_config import DEFAULT_PORT
 from deploy.agent_lag import AgentLag
+from deploy.rover_groups import external_ids, groups
 
 START_TIMEOUT_S = 30.0
 SESSION_FILE = "session.mcap"
@@ -73,6 +74,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", "-q", action="store_true", help="no live progress, only the summary")
     parser.add_argument("--no-record", action="store_true", help="do not record the session (by default it "
                         "goes to session.mcap in the run folder)")
+    parser.add_argument("--ros2", action="store_true", help="also run the ROS 2 bridge ('lunarsim ros2'), on "
+                        "$ROS_DOMAIN_ID (default 0): the rovers' topics for ROS 2 nodes on rmw_zenoh")
+    parser.add_argument("--external", metavar="IDS", help="rovers an outside ROS 2 node drives, e.g. 1 or 1,3: no "
+                        "agent is started for them and the ROS 2 bridge runs with --drive IDS (real time only)")
     parser.add_argument("--fault-loss", type=_share, default=0.0, metavar="P",
                         help="fault injection: the world drops this share (0-1) of the samples it publishes, as a "
                              "bad link would (seeded by the scenario's seed); to test what the agents survive")
@@ -86,9 +91,13 @@ def run_from_args(args: argparse.Namespace) -> int:
 
     if args.time_scale <= 0:
         raise process.UsageError(f"--time-scale must be positive for a live run, got {args.time_scale}")
+    if args.external and args.lockstep:
+        raise process.UsageError("--external with --lockstep: a lockstep tick waits for every agent's ack, and a "
+                                 "ROS 2 node does not acknowledge ticks; run the outside rovers in real time")
     params = load_rover_params(args.params) if args.params else None
     scenario = _base_scenario(args).with_overrides(seed=args.seed, rovers=args.rovers, rover_params=params)
     require_behaviour(scenario.behaviour, str(args.scenario or args.from_recording))  # before any process starts
+    args.external_ids = external_ids(args.external, len(scenario.rovers))
     if not args.connect:
         _check_port_free(args.port)  # before the run folder is made: a run that cannot start leaves nothing
     out = args.out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
@@ -194,11 +203,16 @@ class Mission:
             self._start_world_as_router()
             self._start_recorder(common)
         agents = priority.for_mode(self.args.agent_priority, self.args.lockstep)
+        external = getattr(self.args, "external_ids", frozenset())
+        if getattr(self.args, "ros2", False) or external:
+            drive = ["--drive", ",".join(map(str, sorted(external)))] if external else []
+            self.children.start("ros2", "ros2_bridge", "--params", str(self.scenario_file), *drive, *common)
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
-                            str(self.out / "lander_archive"), "--map-out", str(self.out), *common, priority=agents)
+                            str(self.out / "lander_archive"), "--map-out", str(self.out), "--state",
+                            str(self.out / "state"), *common, priority=agents)
         count, per = len(self.scenario.rovers), self.args.agents_per_process
-        for first in range(1, count + 1, per):
-            name, which = self._rover_group(first, min(first + per - 1, count))
+        for first, last in groups([i for i in range(1, count + 1) if i not in external], per):
+            name, which = self._rover_group(first, last)
             self.children.start(name, "rover_agent", *which, "--params", str(self.scenario_file),
                                 "--behaviour", self.scenario.behaviour, *common, warm=True, priority=agents)
 
@@ -247,6 +261,20 @@ class Mission:
                 raise RuntimeError(f"the recorder did not start: {self.children.log_tail('recorder')}")
             time.sleep(0.05)
 
+    def _open_session(self, open_session, build_config):
+        """The launcher's own session. When the run's router is its own world and that world has died, say so:
+        "no router reachable" would send the user to start one."""
+        from bus.errors import RouterUnreachable
+
+        try:
+            return open_session(build_config(connect=[self.endpoint]), self.endpoint, 10.0, who="lunarsim run")
+        except RouterUnreachable:
+            world = self.children.procs.get("world")
+            if world is not None and world.poll() is not None:
+                raise RuntimeError(f"the world service exited (code {world.returncode}) before the run could "
+                                   f"connect: {self.children.log_tail('world')}") from None
+            raise
+
     def _monitor(self, stop) -> tuple:
         """Follow the world's statistics until the final report; returns (report, interrupted)."""
         from bus.bus import Bus
@@ -269,7 +297,7 @@ class Mission:
                 state = None
             return last
 
-        session = open_session(build_config(connect=[self.endpoint]), self.endpoint, 10.0, who="lunarsim run")
+        session = self._open_session(open_session, build_config)
         start_up = StartUp(len(self.scenario.rovers), keys.alive_lander)
         with Bus(session) as bus, ProgressView(self.console, self.scenario.name, self.args.quiet) as view:
             bus.watch_liveliness(keys.alive_rovers)

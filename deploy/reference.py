@@ -26,8 +26,14 @@ HELP_COLUMNS = "100"
 def pages(docs: Path) -> dict[str, str]:
     """File name (under the ``docs`` folder, beside the README) -> content."""
     return {"index.md": index_page(docs.parent / "README.md"), "reference/keyspace.md": keyspace_page(),
-            "reference/scenario.md": scenario_page(), "reference/cli.md": cli_page(),
+            "reference/scenario.md": scenario_page(), "reference/cli.md": cli_page(), "reference/ros2.md": ros2_page(),
             "scenario.schema.json": scenario_schema()}
+
+
+def ros2_page() -> str:
+    from ros2_bridge.reference import page
+
+    return page()
 
 
 def index_page(readme: Path) -> str:

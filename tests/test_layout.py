@@ -23,10 +23,27 @@ MAY_IMPORT: dict[str, set[str]] = {
     "sessions": {"schemas", "bus", "world_service", "lander_agent"},
     "hardware": {"schemas", "bus"},
     "web": {"schemas", "bus", "sessions", "world_service", "lander_agent"},
+    "ros2_bridge": {"schemas", "bus", "sessions", "world_service", "lander_agent"},
     "deploy": {"schemas", "bus", "world_service", "rover_agent", "lander_agent", "scenarios", "harness", "rover_env",
-               "sessions", "hardware", "web"},
+               "sessions", "hardware", "web", "ros2_bridge"},
 }
 """Each package's allowed imports among LunarSim's own: downwards only (the table in docs/concepts/processes.md)."""
+UNITS: dict[str, set[str]] = {
+    "rover_agent.dead_reckoning": set(),
+    "rover_agent.decisions": {"rover_agent.dead_reckoning"},
+    "rover_agent.outgoing": set(),
+    "rover_agent.restarts": {"rover_agent.dead_reckoning"},
+    "rover_agent.actions": {"rover_agent.dead_reckoning", "rover_agent.decisions", "rover_agent.outgoing",
+                            "rover_agent.restarts"},
+    "rover_agent.estimation": {"rover_agent.dead_reckoning", "rover_agent.decisions", "rover_agent.actions"},
+    "rover_agent.mission": {"rover_agent.dead_reckoning", "rover_agent.decisions", "rover_agent.estimation"},
+    "rover_agent.rules": {"rover_agent.dead_reckoning", "rover_agent.decisions", "rover_agent.estimation"},
+}
+"""Inside a package: each subpackage's allowed imports among the package's own subpackages and modules, and those
+of the modules all its parts speak in (the rover agent's behaviour interface, its pose, what it publishes). A
+package's other top-level modules (its coordinator, its command) stand above every unit and may import them all."""
+LAYERED = ("rover_agent",)
+"""Packages whose every subpackage is a unit of ``UNITS``."""
 MAX_LINES = 400
 
 
@@ -66,6 +83,12 @@ def _imports(name: str, path: Path) -> set[str]:
 GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
 
 
+def _unit(name: str) -> str | None:
+    """The unit of ``UNITS`` a module belongs to: the longest that names it or a package holding it."""
+    found = [unit for unit in UNITS if name == unit or name.startswith(unit + ".")]
+    return max(found, key=len, default=None)
+
+
 @pytest.mark.parametrize("package", sorted(MAY_IMPORT))
 def test_each_package_imports_only_the_packages_below_it(package):
     wrong = sorted(f"{name} imports {target}" for name, targets in GRAPH.items() if name.split(".")[0] == package
@@ -95,3 +118,33 @@ def test_no_modules_import_each_other_round_a_circle():
 def test_no_module_is_over_400_lines():
     long = {name: n for name, path in MODULES.items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
     assert not long, long
+
+
+@pytest.mark.parametrize("unit", sorted(UNITS))
+def test_each_subpackage_imports_only_the_units_below_it(unit):
+    package = unit.split(".")[0]
+    wrong = sorted(f"{name} imports {target}" for name, targets in GRAPH.items() if _unit(name) == unit
+                   for target in targets
+                   if target.split(".")[0] == package and _unit(target) != unit and _unit(target) not in UNITS[unit])
+    assert not wrong, "\n".join(wrong)
+
+
+def test_the_units_stack_without_a_circle():
+    stack: list[str] = []
+
+    def below(unit: str, path: tuple[str, ...]) -> None:
+        for lower in sorted(UNITS[unit]):
+            assert lower not in path, " -> ".join([*path, lower])
+            below(lower, (*path, lower))
+        stack.append(unit)
+
+    for unit in sorted(UNITS):
+        below(unit, (unit,))
+    assert set(stack) == set(UNITS)
+
+
+@pytest.mark.parametrize("package", LAYERED)
+def test_every_subpackage_says_what_it_may_import(package):
+    subpackages = {name for name, path in MODULES.items() if path.name == "__init__.py" and "." in name
+                   and name.split(".")[0] == package}
+    assert subpackages <= set(UNITS), sorted(subpackages - set(UNITS))

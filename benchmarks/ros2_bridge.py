@@ -1,0 +1,232 @@
+"""The ROS 2 bridge under a real-time mission: does a ROS 2 subscriber get every sample, how much later than a plain
+Zenoh subscriber, and what the bridge costs.
+
+Part 1, five rovers: a router, the bridge (``lunarsim ros2``) and ``lunarsim run`` (world, lander, five agents) on
+loopback, real time. A ``zenoh-ros2-sdk`` process (``ros2_sdk_meter.py``) subscribes to every rover's scan and imu
+through the bridge, and this process subscribes to the same perception and gyroscope keys in plain Zenoh. Each
+sample's trip is timed from the world's publication (its Zenoh timestamp) to each subscriber, side by side:
+the bridge's added latency is the ROS 2 trip minus the plain one. A third, plain Zenoh subscriber on the bridge's
+ROS 2 keys times arrival before decoding: the bridge's share without the SDK's. Lost: world samples the SDK never got.
+
+Part 2, twenty rovers: the world alone (``--no-lander``, no agents: every rover's sensors still flow), the bridge and
+the SDK subscriber; the bridge's CPU time over a window, as a share of one core.
+
+    python benchmarks/ros2_bridge.py [--quick] [--json FILE]
+
+Targets (issue): 0 samples lost on loopback; the bridge adds at most 2 ms at p99; 20 rovers under 20 % of a core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import zenoh
+from latency_summary import Summary
+from proc_meter import cpu_seconds
+
+from bus.zenoh_config import build_config
+from deploy.children import wait_for_port
+from schemas import codec
+from schemas import messages as m
+from schemas.keyspace import Keyspace
+
+REPO = Path(__file__).resolve().parents[1]
+SCENARIO = REPO / "scenarios" / "crater_observation.yaml"
+WORLD = "rosbench"
+TOPICS = {"perception": "scan", "gyroscope": "imu"}
+TARGET_ADDED_P99_MS = 2.0
+TARGET_CPU_SHARE = 0.20
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _python(*args: str, log: Path, **kwargs) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, *args], cwd=REPO, stdout=log.open("wb"), stderr=subprocess.STDOUT,
+                            **kwargs)
+
+
+def _stop(*procs: subprocess.Popen) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.terminate()
+    for p in procs:
+        try:
+            p.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            p.kill()
+
+
+def _ntp64_ns(ts: zenoh.Timestamp) -> int:
+    return ts.get_time_as_ntp64().as_nanos()
+
+
+class PlainMeter:
+    """Plain Zenoh subscribers on the world's perception and gyroscope keys: (topic, stamp ns) -> (sent, got)."""
+
+    def __init__(self, session: zenoh.Session, keys: Keyspace) -> None:
+        self.seen: dict[tuple[str, int], tuple[int, int]] = {}
+        self.lock = threading.Lock()
+        self.subs = [session.declare_subscriber(keys.rovers(topic), self._on) for topic in TOPICS]
+
+    def _on(self, sample: zenoh.Sample) -> None:
+        got = time.time_ns()
+        parts = str(sample.key_expr).split("/")
+        topic = TOPICS[parts[4]]
+        model = m.Perception if topic == "scan" else m.Gyroscope
+        stamp = codec.decode(model, sample.payload.to_bytes()).stamp
+        with self.lock:
+            self.seen[(f"/rover_{parts[3]}/{topic}", round(stamp * 1e9))] = (_ntp64_ns(sample.timestamp), got)
+
+
+class RawRosMeter:
+    """Plain Zenoh subscribers on the bridge's scan and imu keys, timing arrival before any decoding: the bridge's
+    own share of the ROS 2 trip, without the SDK's."""
+
+    def __init__(self, session: zenoh.Session) -> None:
+        here, saved = str(Path(__file__).resolve().parent), list(sys.path)
+        sys.path[:] = [p for p in sys.path if p not in ("", here)]  # this script has the name of the package
+        try:
+            from ros2_bridge import rmw, ros_types
+        finally:
+            sys.path[:] = saved
+
+        self.seen: dict[tuple[str, int], int] = {}
+        self.lock = threading.Lock()
+        self.types = {"scan": "sensor_msgs/msg/LaserScan", "imu": "sensor_msgs/msg/Imu"}
+        self.decode = ros_types.typestore().deserialize_cdr
+        self.subs = [session.declare_subscriber(rmw.topic_key(0, f"/*/{name}", ros_type,
+                                                              ros_types.type_hash(ros_type)), self._on)
+                     for name, ros_type in self.types.items()]
+
+    def _on(self, sample: zenoh.Sample) -> None:
+        got = time.time_ns()
+        parts = str(sample.key_expr).split("/")
+        stamp = self.decode(sample.payload.to_bytes(), self.types[parts[2]]).header.stamp
+        with self.lock:
+            self.seen[(f"/{parts[1]}/{parts[2]}", stamp.sec * 1_000_000_000 + stamp.nanosec)] = got
+
+
+class SdkMeter:
+    def __init__(self, port: int, rovers: int, log: Path) -> None:
+        self.proc = subprocess.Popen([sys.executable, str(REPO / "benchmarks" / "ros2_sdk_meter.py"), "--port",
+                                      str(port), "--rovers", str(rovers)], cwd=REPO, stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE, stderr=log.open("wb"), text=True)
+        if self.proc.stdout.readline().strip() != "ready":
+            raise RuntimeError(f"the SDK meter did not start: {log.read_text()[-500:]}")
+
+    def results(self) -> list[tuple[str, int, int]]:
+        out, _ = self.proc.communicate("stop\n", timeout=60)
+        return [tuple(row) for row in json.loads(out.strip().splitlines()[-1])]
+
+
+def five_rovers(folder: Path, seconds: float) -> dict:
+    port = _free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    router = _python("-m", "deploy.router", "--listen", endpoint, log=folder / "router.log")
+    procs = [router]
+    try:
+        assert wait_for_port("127.0.0.1", port, 15, router), "router did not start"
+        bridge = _python("-m", "ros2_bridge", "--world", WORLD, "--connect", endpoint, "--params", str(SCENARIO),
+                         log=folder / "bridge.log")
+        procs.append(bridge)
+        sdk = SdkMeter(port, 5, folder / "sdk.log")
+        procs.append(sdk.proc)
+        with zenoh.open(build_config(connect=[endpoint])) as session:
+            plain = PlainMeter(session, Keyspace(WORLD))
+            raw = RawRosMeter(session)
+            mission = _python("-m", "deploy.cli", "run", str(SCENARIO), "--connect", endpoint, "--world", WORLD,
+                              "--max-sim-time", str(seconds), "--no-record", "--quiet", "--out", str(folder / "run"),
+                              log=folder / "run.log")
+            procs.append(mission)
+            mission.wait(timeout=seconds * 4 + 120)
+            time.sleep(1.0)  # the last samples' way through the bridge
+            ros = sdk.results()
+            with plain.lock, raw.lock:
+                world, bridged = dict(plain.seen), dict(raw.seen)
+    finally:
+        _stop(*reversed(procs))
+    got = {(topic, stamp): at for topic, stamp, at in ros}
+    lost = [k for k in world if k not in got]
+    plain_ns = [world[k][1] - world[k][0] for k in world if k in got]
+    ros_ns = [got[k] - world[k][0] for k in world if k in got]
+    raw_ns = [bridged[k] - world[k][0] for k in world if k in bridged]
+    return {"world_samples": len(world), "sdk_samples": len(got), "lost": len(lost),
+            "lost_by_topic": sorted({k[0].rsplit("/", 1)[1] for k in lost}),
+            "plain": Summary.of(plain_ns), "ros2": Summary.of(ros_ns), "ros2_raw": Summary.of(raw_ns)}
+
+
+def twenty_rovers_cpu(folder: Path, seconds: float, rovers: int = 20) -> dict:
+    port = _free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    router = _python("-m", "deploy.router", "--listen", endpoint, log=folder / "router20.log")
+    procs = [router]
+    try:
+        assert wait_for_port("127.0.0.1", port, 15, router), "router did not start"
+        bridge = _python("-m", "ros2_bridge", "--world", WORLD, "--connect", endpoint, "--params", str(SCENARIO),
+                         log=folder / "bridge20.log")
+        procs.append(bridge)
+        sdk = SdkMeter(port, rovers, folder / "sdk20.log")
+        procs.append(sdk.proc)
+        world = _python("-m", "world_service", str(SCENARIO), "--world", WORLD, "--connect", endpoint, "--rovers",
+                        str(rovers), "--no-lander", "--start-timeout", "1", "--max-sim-time", str(seconds + 30),
+                        log=folder / "world20.log")
+        procs.append(world)
+        time.sleep(8.0)  # the world's start and the bridge's first declarations
+        cpu0, t0 = cpu_seconds(bridge.pid), time.monotonic()
+        time.sleep(seconds)
+        cpu1, t1 = cpu_seconds(bridge.pid), time.monotonic()
+        samples = len(sdk.results())
+    finally:
+        _stop(*reversed(procs))
+    return {"rovers": rovers, "window_s": round(t1 - t0, 1), "bridge_cpu_share": (cpu1 - cpu0) / (t1 - t0),
+            "sdk_samples": samples}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="a 20 s mission and a 15 s CPU window")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures here")
+    args = parser.parse_args()
+    mission_s, window_s = (20.0, 15.0) if args.quick else (60.0, 60.0)
+    with tempfile.TemporaryDirectory(prefix="ros2bench-") as tmp:
+        folder = Path(tmp)
+        five = five_rovers(folder, mission_s)
+        cpu = twenty_rovers_cpu(folder, window_s)
+    plain, ros, raw = five["plain"], five["ros2"], five["ros2_raw"]
+    print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end (other work included)")
+    added = ros.p99_ms - plain.p99_ms
+    print(f"5 rovers, real time, {mission_s:g} s: world published {five['world_samples']} scan+imu samples, the "
+          f"ROS 2 subscriber got {five['sdk_samples']}, lost {five['lost']} {five['lost_by_topic'] or ''}")
+    print(f"{'trip from the world':<28}{'p50 ms':>9}{'p90 ms':>9}{'p99 ms':>9}{'max ms':>9}")
+    rows = (("plain Zenoh subscriber", plain), ("ROS 2 key, plain Zenoh", raw), ("ROS 2 via the bridge (SDK)", ros))
+    for name, s in rows:
+        print(f"{name:<28}{s.p50_ms:>9.2f}{s.p90_ms:>9.2f}{s.p99_ms:>9.2f}{s.max_ms:>9.2f}")
+    print(f"the bridge adds {added:.2f} ms at p99 to the SDK subscriber's trip, {raw.p99_ms - plain.p99_ms:.2f} ms to "
+          f"a plain subscriber's on its keys (target at most {TARGET_ADDED_P99_MS:g} ms)")
+    print(f"{cpu['rovers']} rovers, real time: the bridge used {cpu['bridge_cpu_share']:.1%} of one core over "
+          f"{cpu['window_s']:g} s (target under {TARGET_CPU_SHARE:.0%}); the ROS 2 subscriber got "
+          f"{cpu['sdk_samples']} samples")
+    if args.json:
+        figures = {"five_rovers": {**five, "plain": vars(plain), "ros2": vars(ros), "ros2_raw": vars(raw),
+                                   "added_p99_ms": added},
+                   "twenty_rovers": cpu}
+        args.json.write_text(json.dumps(figures, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,60 @@
+"""``lunarsim export-rosbag``: a recording as a rosbag2 folder (MCAP storage, CDR) with the ROS 2 bridge's topics.
+
+    lunarsim export-rosbag runs/<folder>/session.mcap -o runs/<folder>/rosbag
+
+The same topics, types and frames as ``lunarsim ros2`` (``docs/reference/ros2.md``), plus ``/clock``, made by the
+bridge's own mapping; ``ros2 bag info`` and ``ros2 bag play`` read the result. The perception rays' layout comes
+from the scenario the recording embeds (or ``--scenario``). Ground truth (``/tf``, ``/rover_<id>/truth/odom``) only
+with ``--truth``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from bus import process
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("input", type=Path, metavar="IN.mcap", help="a LunarSim recording")
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar="DIR",
+                        help="the rosbag2 folder to write (must not exist)")
+    parser.add_argument("--scenario", type=Path, metavar="FILE", help="scenario of the recording (default: the "
+                        "one it embeds): the perception rays' layout for scan")
+    parser.add_argument("--truth", action="store_true", help="also write ground truth (/tf, /rover_<id>/truth/odom)")
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    import logging
+
+    from bus.rejections import Rejections
+    from ros2_bridge.mapping import RayLayout
+    from ros2_bridge.rosbag import write_bag
+    from ros2_bridge.translator import Translator
+    from schemas.keyspace import Keyspace
+    from schemas.scenario import load_scenario
+    from sessions.format import embedded_scenario
+    from sessions.recording import check_recording
+
+    if args.output.exists():
+        raise process.UsageError(f"{args.output}: already exists (a rosbag2 export writes a new folder)")
+    recording = check_recording(args.input)
+    scenario = load_scenario(args.scenario) if args.scenario else embedded_scenario(recording.metadata,
+                                                                                     str(args.input))
+    if scenario is None:
+        print(f"warning: {args.input} embeds no scenario and none was given (--scenario): scan assumes the stock "
+              "perception layout", file=sys.stderr)
+    for note in (recording.foreign_note(), recording.gap_note()):
+        if note:
+            print(f"warning: {note}", file=sys.stderr)
+    params = scenario.rover_params if scenario is not None else None
+    layout = RayLayout.of(params.perception) if params is not None else RayLayout()
+    rejected = Rejections(logging.getLogger("lunarsim.export"), "export-rosbag")
+    translator = Translator(Keyspace(recording.world or "default"), layout,
+                            params.perception.gyroscope_noise_std_deg if params else 0.0, args.truth, rejected)
+    counts = write_bag(recording.samples(), translator, args.output)
+    print(f"wrote {args.output}: {sum(counts.values())} messages on {len(counts)} topics"
+          + (f"; skipped {rejected.total} sample(s) it could not convert" if rejected.total else ""), flush=True)
+    return 0
