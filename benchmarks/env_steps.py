@@ -18,7 +18,7 @@ Where the time goes: ``--profile`` prints the top of a cProfile of the idle run.
 
     python benchmarks/env_steps.py [--rovers 5 20 100] [--sim-seconds 60] [--workers 2] [--random-rounds 1000]
                                    [--json FILE]
-    python benchmarks/env_steps.py --quick    # 5 rovers for 5 simulated seconds
+    python benchmarks/env_steps.py --quick    # 5 rovers for 3 simulated seconds, one worker
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ from rover_env.vector import VectorEnv, evaluate
 from schemas.scenario import Scenario, load_scenario
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "crater_observation.yaml"
-QUICK = {"rovers": [5], "sim_seconds": 5.0, "random_rounds": 20}
+QUICK = {"rovers": [5], "sim_seconds": 3.0, "random_rounds": 20, "workers": 1}
 
 
 def scenario(rovers: int) -> Scenario:

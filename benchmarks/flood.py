@@ -8,7 +8,7 @@ rovers' action-to-reply latency (p50/p99), the flood's rate, and the mission's o
 
     python benchmarks/flood.py                # 30 s flood, crater scenario
     python benchmarks/flood.py --seconds 10   # shorter
-    python benchmarks/flood.py --quick        # 2 s flood, 3 rovers, the mission cut at 12 simulated seconds
+    python benchmarks/flood.py --quick        # 2 s flood, 3 rovers, the mission cut at 8 simulated seconds
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from schemas import messages as m
 
 ROOT = Path(__file__).resolve().parents[1]
 REPLY_TOPICS = (ks.NAVIGATION_STATUS, ks.ACTION_REJECTED)
-QUICK = {"seconds": 2.0, "baseline": 1.0, "rovers": 3, "max_sim_time": 12.0}
+QUICK = {"seconds": 2.0, "baseline": 1.0, "rovers": 3, "max_sim_time": 8.0}
 
 
 def flood(endpoint: str, key: str, seconds: float, counter) -> None:

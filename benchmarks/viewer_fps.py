@@ -14,7 +14,7 @@ of the pixels, scaled up by the browser).
 
     python benchmarks/viewer_fps.py [--rovers 0 100] [--scales 1 0.5] [--seconds 10] [--size 1280x720]
                                     [--rate 20] [--json FILE]
-    python benchmarks/viewer_fps.py --quick    # 0 and 10 rovers, 2 s each, at 640x360
+    python benchmarks/viewer_fps.py --quick    # 0 and 10 rovers, 1 s each, at 640x360
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic"
                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
                  "--enable-unsafe-swiftshader", "--use-angle=swiftshader"]
 WORLD = "fps"
-QUICK = {"rovers": [0, 10], "seconds": 2.0, "size": "640x360"}
+QUICK = {"rovers": [0, 10], "seconds": 1.0, "size": "640x360"}
 
 
 def free_port() -> int:
