@@ -35,6 +35,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import quick
 import zenoh
 from control_loop_world import ScriptedWorld
 from latency_summary import Summary, print_table, write_json
@@ -51,8 +52,8 @@ from schemas.params import RoverParams
 WORLD = "bench"
 ROVER_ID = 1
 HOST = "127.0.0.1"
-QUICK = {"loops": 50, "warmup": 10}
-"""``--quick``: the same loops end to end, fewer of them."""
+QUICK = {"loops": 50, "warmup": 10, "timeout": 10.0}
+"""``--quick``: the same loops end to end, fewer of them, and patient with a machine busy with other work."""
 STARTUP_DEADLINE_S = 20.0
 
 
@@ -278,10 +279,8 @@ def measure_in_process(loops: int, warmup: int) -> list[int]:
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true",
-                        help=f"a smoke check in seconds: {QUICK['loops']} loops after {QUICK['warmup']} warm-up ones")
-    parser.add_argument("--loops", type=int, help="timed control loops (default 1000)")
-    parser.add_argument("--warmup", type=int, help="untimed loops first (default 50)")
+    parser.add_argument("--loops", type=int, default=1000, help="timed control loops (default 1000)")
+    parser.add_argument("--warmup", type=int, default=50, help="untimed loops first (default 50)")
     parser.add_argument("--port", type=int, default=0, help="router TCP port on 127.0.0.1 (default: a free one)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE as JSON")
     parser.add_argument("--timeout", type=float, default=2.0, metavar="S",
@@ -293,10 +292,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="pause after answering an action before the next Perception, so the rover is idle "
                              "when it arrives, as between 5 Hz scans (default 20; longer gaps measure the same, "
                              "shorter ones keep Zenoh's threads awake and measure less; 0 sends back to back)")
-    args = parser.parse_args(argv)
-    for key, full in (("loops", 1000), ("warmup", 50)):
-        if getattr(args, key) is None:
-            setattr(args, key, QUICK[key] if args.quick else full)
+    args = quick.parse_args(parser, QUICK, argv)
     if args.loops < 1 or args.warmup < 0:
         parser.error("--loops must be 1 or more and --warmup 0 or more")
     if args.gap_ms < 0 or args.stall_ms <= 0 or args.timeout <= 0:

@@ -70,6 +70,8 @@ def main() -> None:
     parser.add_argument("--sim-cap", type=float, metavar="S", help="stop every mission after S simulated seconds "
                         "(default: from its longest ideal path)")
     args = quick.parse_args(parser, QUICK)
+    if args.sim_cap is not None and args.sim_cap <= 0:
+        parser.error("--sim-cap must be more than 0")
     about = {"host": host.describe(), "code": host.code_version()}
     print(host.line(about["host"]), f"| commit {about['code']['commit']}", flush=True)
     jobs = [(name, rovers, seed, args.sim_cap) for rovers in args.teams for name in REPORT_SCENARIOS
