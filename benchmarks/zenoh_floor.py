@@ -2,9 +2,9 @@
 
 A round trip through the same router with nothing of LunarSim in it: an echo process, a zenoh-python client with
 the session configuration the rover agent uses, puts every ping back from its subscriber's callback, as
-zenoh-python's own ``z_pong`` example does. The benchmark pings it with the Perception bytes it sends the rover,
-through a link built like the one it plays the world on, so the difference between the two round trips is what
-LunarSim adds: the rover's inbox and loop, decoding, deciding, encoding.
+zenoh-python's own ``z_pong`` example does. The benchmark pings it with the Perception bytes it sends the rover
+(behind an 8-byte ping number), through a link built like the one it plays the world on, so the difference
+between the two round trips is what LunarSim adds: the rover's inbox and loop, decoding, deciding, encoding.
 
     python benchmarks/zenoh_floor.py --connect tcp/127.0.0.1:7447   # the echo, as the benchmark starts it
 """
@@ -35,27 +35,31 @@ class FloorLink:
 
     def __init__(self, session: zenoh.Session) -> None:
         self.pongs: queue.SimpleQueue[bytes] = queue.SimpleQueue()
+        self._sent = 0
         self._publisher = session.declare_publisher(PING)
         self._subscriber = session.declare_subscriber(PONG, lambda s: self.pongs.put(s.payload.to_bytes()))
 
     def ping(self, payload: bytes, timeout_s: float) -> int | None:
-        """One round trip's nanoseconds, or None if the pong did not come within ``timeout_s``."""
+        """One round trip's nanoseconds, or None if the pong did not come within ``timeout_s``. Each ping carries
+        its number, so a late pong of an earlier one is passed over, not taken for this one's."""
+        self._sent += 1
+        ping = self._sent.to_bytes(8, "big") + payload
         start = time.perf_counter_ns()
-        self._publisher.put(payload)
-        try:
-            self.pongs.get(timeout=timeout_s)
-        except queue.Empty:
-            return None
-        return time.perf_counter_ns() - start
+        deadline = start + int(timeout_s * 1e9)
+        self._publisher.put(ping)
+        while True:
+            try:
+                pong = self.pongs.get(timeout=max(0.0, (deadline - time.perf_counter_ns()) / 1e9))
+            except queue.Empty:
+                return None
+            if pong == ping:
+                return time.perf_counter_ns() - start
 
     def wait_for_echo(self, deadline_s: float) -> bool:
-        """Ping until the echo answers (it may still be connecting); then drain what came late."""
+        """Ping until the echo answers (it may still be connecting)."""
         deadline = time.monotonic() + deadline_s
         while time.monotonic() < deadline:
             if self.ping(b"hello", 0.2) is not None:
-                time.sleep(0.3)
-                while not self.pongs.empty():
-                    self.pongs.get_nowait()
                 return True
         return False
 
