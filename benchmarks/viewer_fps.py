@@ -107,6 +107,8 @@ def main() -> int:
     parser.add_argument("--chromium", default="/usr/bin/chromium")
     parser.add_argument("--json", type=Path)
     args = quick.parse_args(parser, QUICK)
+    if not Path(args.chromium).is_file():
+        parser.error(f"--chromium {args.chromium}: no such file (Debian's chromium: apt-get install -y chromium)")
     width, height = (int(v) for v in args.size.split("x"))
     from playwright.sync_api import sync_playwright
 
