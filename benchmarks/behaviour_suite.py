@@ -35,6 +35,7 @@ never finishes cannot hang the suite; the world's watchdog counts a rover stuck 
 Two seed sets are fixed: tune on DEVELOPMENT, then report HELD_OUT, which tuning must not look at.
 
     python benchmarks/behaviour_suite.py [--set dev|held-out] [--seeds A-B] [--kind K] [--jobs 2] [--json FILE]
+    python benchmarks/behaviour_suite.py --quick    # two missions cut at 30 simulated seconds: a smoke check
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
+import quick
 
 from harness.loopback import run_mission_agents
 from rover_agent.agent import RoverAgent
@@ -69,21 +71,26 @@ SHOWN_FAILURES = 25
 UNSURE_SIGMAS = 3.0
 """A rover done off its goal "knew it was unsure" when its estimate's error was within this many of its own 1-sigma
 position errors (``Localisation.position_std``)."""
+QUICK = {"seeds": range(6, 8), "sim_cap": 30.0}
+"""Two small teams (a crater mission started in the crater, a maze with a rover out of range), cut short."""
 LOCALISED_AFTER_M = 400.0
 """The localisation figure counts rovers that walked at least this far: dead reckoning's error grows with the
 distance walked, so short walks would flatter it."""
 
 
-def sim_cap(scenario: Scenario) -> float:
+def sim_cap(scenario: Scenario, cap_s: float | None = None) -> float:
+    """The mission's simulated-time cap: ``cap_s`` when given, else from its longest ideal path."""
+    if cap_s is not None:
+        return cap_s
     longest = max(stats.relative_path_length(scenario, (r.x, r.z)) for r in scenario.rovers)
     return min(MAX_CAP_S, BASE_CAP_S + CAP_S_PER_M * longest)
 
 
-def run_one(seed: int, kind: str | None) -> dict:
+def run_one(seed: int, kind: str | None, cap_s: float | None = None) -> dict:
     """One generated mission in lockstep; never raises (an error is a result of its own)."""
     logging.disable(logging.WARNING)  # the world's per-sample warnings would drown the progress lines
     made = generate(seed, kind)
-    result = {"seed": seed, "name": made.scenario.name, "classes": made.classes, "cap_s": sim_cap(made.scenario)}
+    result = {"seed": seed, "name": made.scenario.name, "classes": made.classes, "cap_s": sim_cap(made.scenario, cap_s)}
     started = time.perf_counter()
     try:
         world, agents = run_mission_agents(made.scenario, result["cap_s"])
@@ -277,10 +284,10 @@ def describe_seeds(name: str, seeds: range) -> str:
     return f"set: none ({span} lie outside the {name} set {fixed.start}-{fixed.stop - 1})"
 
 
-def run_all(seeds: range, kind: str | None, jobs: int) -> list[dict]:
+def run_all(seeds: range, kind: str | None, jobs: int, cap_s: float | None = None) -> list[dict]:
     results = []
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(run_one, seed, kind) for seed in seeds]
+        futures = [pool.submit(run_one, seed, kind, cap_s) for seed in seeds]
         for done, future in enumerate(as_completed(futures), 1):
             row = future.result()
             results.append(row)
@@ -308,11 +315,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, metavar="FILE", help="every mission's results and the aggregates")
     parser.add_argument("--show-failures", type=int, default=SHOWN_FAILURES, metavar="N")
     parser.add_argument("--table", type=Path, metavar="FILE", help="print the tables of a --json FILE, run nothing")
-    args = parser.parse_args(argv)
+    parser.add_argument("--sim-cap", type=float, metavar="S", help="stop every mission after S simulated seconds "
+                        "(default: from its longest ideal path; a mission cut short counts its rovers as they stand)")
+    args = quick.parse_args(parser, QUICK, argv)
     if args.table:
         return print_saved(args.table, args.show_failures)
-    if args.jobs < 1:
-        parser.error("--jobs must be at least 1")
+    if args.jobs < 1 or (args.sim_cap is not None and args.sim_cap <= 0):
+        parser.error("--jobs must be at least 1, --sim-cap more than 0")
     try:
         generate(0, args.kind)  # a bad --kind fails here, not in every worker
     except ValueError as exc:
@@ -322,7 +331,7 @@ def main(argv: list[str] | None = None) -> int:
     print(host.line(machine))
     print(describe_seeds(args.set, seeds) + (f", kind {args.kind}" if args.kind else "") + f", {args.jobs} jobs")
     started = time.perf_counter()
-    results = run_all(seeds, args.kind, args.jobs)
+    results = run_all(seeds, args.kind, args.jobs, args.sim_cap)
     wall = time.perf_counter() - started
     agg = aggregate(results)
     print()

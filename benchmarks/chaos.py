@@ -13,6 +13,7 @@
 
     python benchmarks/chaos.py [--scenario FILE] [--losses 0 0.01 0.05 0.2] [--outage 1.5] [--restarts 2]
                                [--record-s 10] [--json FILE]
+    python benchmarks/chaos.py --quick    # 1 rover, one restart, one loss level, missions cut short
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import quick
 import zenoh
 from control_loop_latency import free_port
 from host import describe, line
@@ -40,6 +42,8 @@ from sessions.format import read_samples
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIO = REPO / "scenarios" / "crater_observation.yaml"
+QUICK = {"losses": [0.05], "outage": 0.5, "restarts": 1, "record_s": 2.0, "time_scale": 4.0, "rovers": 1,
+         "max_sim_time": 30.0}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -51,13 +55,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--record-s", type=float, default=10.0, metavar="S",
                         help="seconds the second recorder records before it is killed")
     parser.add_argument("--time-scale", type=float, default=4.0, help="of the real-time missions (default 4)")
+    parser.add_argument("--rovers", type=int, help="respawn the scenario with this many rovers (default: its own)")
+    parser.add_argument("--max-sim-time", type=float, metavar="S", help="stop each mission after S simulated "
+                        "seconds (default: when it ends)")
     parser.add_argument("--json", type=Path)
-    args = parser.parse_args(argv)
+    args = quick.parse_args(parser, QUICK, argv)
     result: dict = {"host": describe()}
     with tempfile.TemporaryDirectory(prefix="chaos-") as tmp:
         folder = Path(tmp)
         result["reconnect"] = reconnect(folder / "reconnect", args)
-        result["loss"] = [loss(folder / f"loss-{p:g}", args.scenario, p) for p in args.losses]
+        result["loss"] = [loss(folder / f"loss-{p:g}", args, p) for p in args.losses]
         result["recovery"] = recovery(folder / "recovery", args)
     show(result)
     if args.json:
@@ -77,11 +84,13 @@ def _router(port: int, log: Path) -> subprocess.Popen:
     return proc
 
 
-def _run(out: Path, scenario: Path, *args: str) -> subprocess.Popen:
+def _run(out: Path, args: argparse.Namespace, *flags: str) -> subprocess.Popen:
     out.parent.mkdir(parents=True, exist_ok=True)
     log = open(out.parent / f"{out.name}.out", "w")  # noqa: SIM115 (the child holds it; closed at exit)
-    return subprocess.Popen([sys.executable, "-m", "deploy.cli", "run", str(scenario), "--quiet", "--out", str(out),
-                             *args], cwd=REPO, stdout=log, stderr=subprocess.STDOUT)
+    sizes = [*(["--rovers", str(args.rovers)] if args.rovers else []),
+             *(["--max-sim-time", str(args.max_sim_time)] if args.max_sim_time else [])]
+    return subprocess.Popen([sys.executable, "-m", "deploy.cli", "run", str(args.scenario), "--quiet", "--out",
+                             str(out), *sizes, *flags], cwd=REPO, stdout=log, stderr=subprocess.STDOUT)
 
 
 def _finish(run: subprocess.Popen, out: Path, timeout: float = 600) -> dict:
@@ -141,7 +150,7 @@ def reconnect(out: Path, args: argparse.Namespace) -> dict:
     keys = Keyspace("chaos")
     out.parent.mkdir(parents=True, exist_ok=True)
     router = _router(port, out.parent / "router.log")
-    run = _run(out, args.scenario, "--connect", endpoint, "--world", keys.world, "--time-scale", str(args.time_scale),
+    run = _run(out, args, "--connect", endpoint, "--world", keys.world, "--time-scale", str(args.time_scale),
                "--no-record")
     states = States(endpoint, keys)
     restarts = []
@@ -165,8 +174,8 @@ def reconnect(out: Path, args: argparse.Namespace) -> dict:
             "total": report["rovers_total"], "complete": report["complete"]}
 
 
-def loss(out: Path, scenario: Path, share: float) -> dict:
-    run = _run(out, scenario, "--lockstep", "--fault-loss", str(share), "--port", str(free_port()), "--no-record")
+def loss(out: Path, args: argparse.Namespace, share: float) -> dict:
+    run = _run(out, args, "--lockstep", "--fault-loss", str(share), "--port", str(free_port()), "--no-record")
     report = _finish(run, out)
     return {"loss": share, "reached": report["rovers_reached_final_goal"], "total": report["rovers_total"],
             "stalled": report["rovers_stalled"], "sim_s": report["mission_duration_s"],
@@ -187,8 +196,7 @@ def recovery(out: Path, args: argparse.Namespace) -> dict:
     try:
         if "recording" not in victim.stdout.readline():
             raise SystemExit("the second recorder did not start")
-        run = _run(out, args.scenario, "--connect", endpoint, "--world", keys.world, "--time-scale",
-                   str(args.time_scale))
+        run = _run(out, args, "--connect", endpoint, "--world", keys.world, "--time-scale", str(args.time_scale))
         states = States(endpoint, keys)
         _wait(lambda: states.state is not None, 120, "the mission to start")
         started = time.monotonic()

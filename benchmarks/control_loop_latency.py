@@ -1,25 +1,30 @@
 """Control-loop latency over Zenoh: a Perception published by the world -> the rover's MoveAction received back.
 
-Starts a real Zenoh router and one real rover agent as separate processes, and plays the world in this
-process: it calibrates the rover, gives it a waypoint 100 m ahead, then runs ``--loops`` control loops
-(after a few uncounted warm-up loops). Each loop publishes a Perception with no hits, times until the
-MoveAction arrives, then answers as the world would (NavigationStatus "completed", a fresh Gyroscope) so
-the rover is idle and ready to decide on the next Perception. The rover walks 9 m per move with the default
-parameters, so the world moves the waypoint on (a new MissionDirection) before the rover can reach it.
+Starts a real Zenoh router, one real rover agent and a bare Zenoh echo (``benchmarks/zenoh_floor.py``) as
+separate processes, and plays the world in this process: it starts the run's clock, calibrates the rover, gives
+it a waypoint 100 m ahead, then runs ``--loops`` control loops (after a few uncounted warm-up loops). Each loop
+publishes a Perception with no hits, times until the MoveAction arrives, then answers as the world would
+(NavigationStatus "completed", a fresh Gyroscope) so the rover is idle and ready to decide on the next Perception.
+The rover walks 9 m per move with the default parameters, so the world moves the waypoint on (a new
+MissionDirection) before the rover can reach it.
 
-A second figure runs the same loop against ``RoverAgent.handle`` in this process with no Zenoh at all
+Before each control loop, one ping of the same bytes goes through the same router to the echo and back: the
+floor that Zenoh alone sets. Interleaved loop by loop, both see the same machine, and the benchmark prints the
+ratio of the control loop's p50 and p99 to the floor's.
+
+A third figure runs the same loop against ``RoverAgent.handle`` in this process with no Zenoh at all
 (decode + decide + encode of the reply), to show how much of the round trip is transport.
 
     python benchmarks/control_loop_latency.py [--loops 1000] [--port P] [--json FILE]
+    python benchmarks/control_loop_latency.py --quick     # 50 loops: a smoke check in seconds
 
-Targets (issue): p50 under 1 ms and p99 under 5 ms on loopback.
+Targets: p50 under 1 ms and p99 under 5 ms on loopback, and both within 1.2 times the floor.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
-import math
 import queue
 import signal
 import socket
@@ -30,77 +35,30 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import quick
 import zenoh
+from control_loop_world import ScriptedWorld
 from latency_summary import Summary, print_table, write_json
+from zenoh_floor import FloorLink, start_echo
 
 from bus.zenoh_config import RouterUnreachable, build_config, open_session, port_in_use
 from deploy.children import Children, wait_for_port
 from rover_agent.agent import RoverAgent
-from rover_agent.dead_reckoning import Pose
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.frames import bearing_deg
 from schemas.params import RoverParams
 
 WORLD = "bench"
 ROVER_ID = 1
 HOST = "127.0.0.1"
-LOOP_DT_S = 0.2
-"""Simulated seconds per loop: Perception at t, action over at t + LOOP_DT_S / 2, next Perception at t + LOOP_DT_S."""
-GOAL_AHEAD_M = 100.0
-RETARGET_BELOW_M = 50.0
-"""When the rover's dead-reckoned distance to the waypoint drops below this, the world moves it GOAL_AHEAD_M on."""
-GOALS_TOTAL = 1_000_000
-"""Large enough that no goal is ever the final one (the agent would stop deciding)."""
+QUICK = {"loops": 50, "warmup": 10, "timeout": 10.0}
+"""``--quick``: the same loops end to end, fewer of them, and patient with a machine busy with other work."""
 STARTUP_DEADLINE_S = 20.0
 
 
 class BenchmarkError(RuntimeError):
     """Something the benchmark cannot measure through; the message says what and where to look."""
-
-
-# ---- the world's side of the conversation, shared by both measurements ----
-
-
-class ScriptedWorld:
-    """Produces what the world (and the lander's radio) would send, and follows the rover's dead reckoning."""
-
-    def __init__(self) -> None:
-        self.t = 0.0
-        self.pose = Pose(0.0, 0.0, 0.0)  # the Calibration below: at the lander, facing +z
-        self.goal_index = 0
-        self.goal = (0.0, GOAL_AHEAD_M)
-
-    def setup(self) -> list[tuple[str, m.Message]]:
-        return [(ks.CALIBRATION, m.Calibration(x=self.pose.x, z=self.pose.z, heading_deg=self.pose.heading)),
-                (ks.MISSION_DIRECTION, self._mission_direction()),
-                (ks.GYROSCOPE, m.Gyroscope(stamp=self.t, pitch_deg=0.0))]
-
-    def perception(self) -> m.Perception:
-        self.t += LOOP_DT_S / 2
-        return m.Perception(stamp=self.t, angles_deg=[], distances_m=[], kinds=[])
-
-    def action_done(self, action: m.MoveAction) -> list[tuple[str, m.Message]]:
-        """The move is over: what the world sends so the agent settles and will decide on the next Perception."""
-        self.pose = self.pose.after_move(action.x, action.z)
-        self.t += LOOP_DT_S / 2
-        out: list[tuple[str, m.Message]] = []
-        if math.hypot(self.goal[0] - self.pose.x, self.goal[1] - self.pose.z) < RETARGET_BELOW_M:
-            h = math.radians(self.pose.heading)
-            self.goal = (self.pose.x + GOAL_AHEAD_M * math.sin(h), self.pose.z + GOAL_AHEAD_M * math.cos(h))
-            self.goal_index += 1
-            out.append((ks.MISSION_DIRECTION, self._mission_direction()))
-        # settled_at becomes this stamp; the agent decides only on a gyroscope and a perception at or after it
-        out.append((ks.NAVIGATION_STATUS, m.NavigationStatus(stamp=self.t, action="move", remaining=0.0,
-                                                             outcome="completed")))
-        out.append((ks.GYROSCOPE, m.Gyroscope(stamp=self.t, pitch_deg=0.0)))
-        return out
-
-    def _mission_direction(self) -> m.MissionDirection:
-        gx, gz = self.goal
-        return m.MissionDirection(goal_index=self.goal_index, goals_total=GOALS_TOTAL, kind="waypoint",
-                                  bearing_deg=bearing_deg(gx, gz), distance_m=math.hypot(gx, gz))
 
 
 # ---- over Zenoh: router and rover as processes ----
@@ -150,6 +108,9 @@ class RoverLink:
     def publish(self, topic: str, message: m.Message) -> None:
         self.put(topic, codec.encode(message))
 
+    def publish_clock(self, clock: m.Clock) -> None:
+        self.session.put(self.keys.clock, codec.encode(clock))
+
     def close(self) -> None:
         for entity in [*reversed(self._declared), *self._publishers.values()]:
             with contextlib.suppress(zenoh.ZError):
@@ -165,7 +126,10 @@ def start_processes(children: Children, port: int) -> str:
     if not wait_for_port(HOST, port, STARTUP_DEADLINE_S, router):
         raise BenchmarkError(f"the Zenoh router did not open {endpoint} within {STARTUP_DEADLINE_S:g} s"
                              + _tail(children, "router"))
-    children.start("rover", "rover_agent", "--id", str(ROVER_ID), "--world", WORLD, "--connect", endpoint)
+    # no saved state: a state left by an earlier run of the benchmark (same run name) would be resumed
+    children.start("rover", "rover_agent", "--id", str(ROVER_ID), "--world", WORLD, "--connect", endpoint,
+                   "--no-state")
+    children.procs["floor"] = start_echo(endpoint, children.log_dir / "floor.log")
     return endpoint
 
 
@@ -195,6 +159,7 @@ def handshake(link: RoverLink, world: ScriptedWorld, children: Children) -> None
     deadline = time.monotonic() + STARTUP_DEADLINE_S
     setup = world.setup()
     while True:
+        link.publish_clock(world.clock())
         for topic, message in setup:
             link.publish(topic, message)
         try:
@@ -212,13 +177,42 @@ def handshake(link: RoverLink, world: ScriptedWorld, children: Children) -> None
 @dataclass
 class ZenohRun:
     samples_ns: list[int]
+    floor_ns: list[int]
+    """The bare Zenoh round trip taken just before each control loop (``benchmarks/zenoh_floor.py``)."""
     missed: int = 0
-    """Perceptions the rover never answered (see ``measure_zenoh``); each was followed by a fresh one."""
+    """Perceptions the rover never answered (see ``control_loop``); each was followed by a fresh one."""
 
 
-def measure_zenoh(link: RoverLink, world: ScriptedWorld, loops: int, warmup: int, timeout_s: float,
-                  stall_s: float, gap_s: float, children: Children) -> ZenohRun:
-    """Time each Perception -> MoveAction round trip; after ``stall_s`` without an answer, send a fresh Perception.
+def measure_zenoh(link: RoverLink, floor: FloorLink, world: ScriptedWorld, args: argparse.Namespace,
+                  children: Children) -> ZenohRun:
+    """Each loop: one ping to the echo, then one control loop, each after ``--gap-ms`` of quiet, so the floor and
+    the loop see the same machine (its load drifts) and the same idle Zenoh threads."""
+    run = ZenohRun([], [])
+    ping = codec.encode(m.Perception(stamp=0.0, angles_deg=[], distances_m=[], kinds=[]))  # the loop's bytes
+    gap_s = args.gap_ms / 1000
+    for i in range(args.warmup + args.loops):
+        floor_ns = floor.ping(ping, args.timeout)
+        if floor_ns is None:
+            raise BenchmarkError(f"loop {i}: the bare Zenoh echo did not answer within {args.timeout:g} s"
+                                 + _tail(children, "floor"))
+        _pause(gap_s)
+        loop_ns = control_loop(i, link, world, args, children, run)
+        if i >= args.warmup:
+            run.floor_ns.append(floor_ns)
+            run.samples_ns.append(loop_ns)
+        _pause(gap_s)  # let the rover take the action's end in before the next Perception, as between 5 Hz scans
+    return run
+
+
+def _pause(seconds: float) -> None:
+    if seconds > 0:
+        time.sleep(seconds)
+
+
+def control_loop(i: int, link: RoverLink, world: ScriptedWorld, args: argparse.Namespace, children: Children,
+                 run: ZenohRun) -> int:
+    """Time one Perception -> MoveAction round trip, then answer the action as the world would; after
+    ``--stall-ms`` without an answer, send a fresh Perception.
 
     The rover's ``Bus`` subscribes to each key separately and zenoh-python runs each subscriber's callback
     on its own thread, so the rover may take a Perception before the world's NavigationStatus or Gyroscope
@@ -227,33 +221,27 @@ def measure_zenoh(link: RoverLink, world: ScriptedWorld, loops: int, warmup: int
     Here the world sends a fresh Perception (the late messages have arrived by then) and counts the miss;
     the loop is timed from the Perception that was answered.
     """
-    run = ZenohRun([])
     perf = time.perf_counter_ns
-    for i in range(warmup + loops):
-        deadline = time.monotonic() + timeout_s
-        while True:
-            payload = codec.encode(world.perception())
-            start = perf()
-            link.put(ks.PERCEPTION, payload)
-            try:
-                topic, reply = link.actions.get(timeout=stall_s)
-                break
-            except queue.Empty:
-                pass
-            if time.monotonic() >= deadline or children.dead():
-                raise BenchmarkError(f"loop {i}: no MoveAction within {timeout_s:g} s of the first Perception"
-                                     + _tail(children, "rover")) from None
-            run.missed += 1
-        elapsed = perf() - start
-        if topic != ks.MOVE_ACTION:
-            raise BenchmarkError(f"loop {i}: the rover sent {topic} ({reply!r}) where a move_action was expected")
-        if i >= warmup:
-            run.samples_ns.append(elapsed)
-        for topic_out, message in world.action_done(codec.decode(m.MoveAction, reply)):
-            link.publish(topic_out, message)
-        if gap_s > 0:
-            time.sleep(gap_s)  # let the rover take those in before the next Perception, as between 5 Hz scans
-    return run
+    deadline = time.monotonic() + args.timeout
+    while True:
+        payload = codec.encode(world.perception())
+        start = perf()
+        link.put(ks.PERCEPTION, payload)
+        try:
+            topic, reply = link.actions.get(timeout=args.stall_ms / 1000)
+            break
+        except queue.Empty:
+            pass
+        if time.monotonic() >= deadline or children.dead():
+            raise BenchmarkError(f"loop {i}: no MoveAction within {args.timeout:g} s of the first Perception"
+                                 + _tail(children, "rover")) from None
+        run.missed += 1
+    elapsed = perf() - start
+    if topic != ks.MOVE_ACTION:
+        raise BenchmarkError(f"loop {i}: the rover sent {topic} ({reply!r}) where a move_action was expected")
+    for topic_out, message in world.action_done(codec.decode(m.MoveAction, reply)):
+        link.publish(topic_out, message)
+    return elapsed
 
 
 # ---- in process: the agent alone ----
@@ -264,6 +252,7 @@ def measure_in_process(loops: int, warmup: int) -> list[int]:
     world = ScriptedWorld()
     agent = RoverAgent(ROVER_ID, ks.Keyspace(WORLD), RoverParams())
     move_key = agent.keys.rover(ROVER_ID, ks.MOVE_ACTION)
+    agent.on_clock(world.clock())
     for topic, message in world.setup():
         agent.handle(topic, codec.encode(message))
     samples: list[int] = []
@@ -303,7 +292,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="pause after answering an action before the next Perception, so the rover is idle "
                              "when it arrives, as between 5 Hz scans (default 20; longer gaps measure the same, "
                              "shorter ones keep Zenoh's threads awake and measure less; 0 sends back to back)")
-    args = parser.parse_args(argv)
+    args = quick.parse_args(parser, QUICK, argv)
     if args.loops < 1 or args.warmup < 0:
         parser.error("--loops must be 1 or more and --warmup 0 or more")
     if args.gap_ms < 0 or args.stall_ms <= 0 or args.timeout <= 0:
@@ -322,29 +311,34 @@ def run(args: argparse.Namespace) -> int:
         children = Children(Path(logs))
         session: zenoh.Session | None = None
         link: RoverLink | None = None
+        floor: FloorLink | None = None
         try:
             endpoint = start_processes(children, port)
             session = open_session(build_config(connect=[endpoint]), endpoint, 10.0, who="benchmark")
-            link = RoverLink(session, keys)
+            link, floor = RoverLink(session, keys), FloorLink(session)
             print(f"router on {endpoint}; waiting for rover {ROVER_ID} ...", file=sys.stderr, flush=True)
             took = wait_until_alive(link, children)
             world = ScriptedWorld()
             handshake(link, world, children)
+            if not floor.wait_for_echo(STARTUP_DEADLINE_S):
+                raise BenchmarkError(f"the bare Zenoh echo did not answer within {STARTUP_DEADLINE_S:g} s"
+                                     + _tail(children, "floor"))
             print(f"rover {ROVER_ID} alive after {took:.2f} s; running {args.warmup} warm-up + {args.loops} loops",
                   file=sys.stderr, flush=True)
-            over_zenoh = measure_zenoh(link, world, args.loops, args.warmup, args.timeout, args.stall_ms / 1000,
-                                       args.gap_ms / 1000, children)
+            over_zenoh = measure_zenoh(link, floor, world, args, children)
         finally:
+            if floor is not None:
+                floor.close()
             if link is not None:
                 link.close()
             elif session is not None:
                 session.close()
             children.stop(grace_s=5.0)  # SIGTERM, then SIGKILL after 5 s
     local = measure_in_process(args.loops, args.warmup)
-    z, loc = Summary.of(over_zenoh.samples_ns), Summary.of(local)
-    print_table(z, loc, endpoint, over_zenoh.missed, args, ROVER_ID)
+    z, bare, loc = Summary.of(over_zenoh.samples_ns), Summary.of(over_zenoh.floor_ns), Summary.of(local)
+    print_table(z, bare, loc, endpoint, over_zenoh.missed, args, ROVER_ID)
     if args.json:
-        write_json(args.json, z, loc, args, endpoint, over_zenoh.missed)
+        write_json(args.json, z, bare, loc, args, endpoint, over_zenoh.missed)
         print(f"figures written to {args.json}")
     return 0
 

@@ -18,6 +18,7 @@ Where the time goes: ``--profile`` prints the top of a cProfile of the idle run.
 
     python benchmarks/env_steps.py [--rovers 5 20 100] [--sim-seconds 60] [--workers 2] [--random-rounds 1000]
                                    [--json FILE]
+    python benchmarks/env_steps.py --quick    # 5 rovers for 3 simulated seconds, one worker
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
+import quick
 
 from harness.loopback import run_mission
 from rover_env import spaces as sp
@@ -44,6 +46,7 @@ from rover_env.vector import VectorEnv, evaluate
 from schemas.scenario import Scenario, load_scenario
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "crater_observation.yaml"
+QUICK = {"rovers": [5], "sim_seconds": 3.0, "random_rounds": 20, "workers": 1}
 
 
 def scenario(rovers: int) -> Scenario:
@@ -140,7 +143,7 @@ def main() -> None:
                         help="rounds of the random policy (its radio chatter grows with the square of the team)")
     parser.add_argument("--profile", action="store_true", help="profile the idle policy of the first team size")
     parser.add_argument("--json", type=Path, help="write the figures here")
-    args = parser.parse_args()
+    args = quick.parse_args(parser, QUICK)
     about = {"host": host.describe(), "code": host.code_version(), "sim_seconds": args.sim_seconds}
     print(host.line(about["host"]), f"| commit {about['code']['commit']}")
     if args.profile:

@@ -11,6 +11,7 @@ would now count it present); memory is the resident set (VmRSS) once it has run 
 (VmHWM). Both are printed, with the agent's share over the bare client, and written as JSON.
 
     python benchmarks/flight_rover.py [--runs 5] [--venv DIR] [--json out.json]
+    python benchmarks/flight_rover.py --quick    # one run of each, memory after 1 s (the build is the same)
 """
 
 from __future__ import annotations
@@ -25,16 +26,20 @@ import threading
 import time
 from pathlib import Path
 
+import quick
 import zenoh
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from bus.zenoh_config import build_config  # noqa: E402
+from deploy.children import wait_for_port  # noqa: E402
 from deploy.flight.build_wheel import build  # noqa: E402
 from schemas.keyspace import Keyspace  # noqa: E402
 
 SETTLE_S = 3.0
+"""Memory is read once a process has run this long (``--settle``)."""
+QUICK = {"runs": 1, "settle": 1.0}
 BARE_CLIENT = """
 import sys, time, zenoh
 conf = zenoh.Config()
@@ -66,7 +71,7 @@ def memory_kib(pid: int) -> tuple[int, int]:
     return fields["VmRSS"], fields["VmHWM"]
 
 
-def measure(argv: list[str], session: zenoh.Session, token_key: str) -> dict:
+def measure(argv: list[str], session: zenoh.Session, token_key: str, settle_s: float) -> dict:
     seen = threading.Event()
     sub = session.liveliness().declare_subscriber(token_key, lambda s: s.kind == zenoh.SampleKind.PUT and seen.set())
     start = time.monotonic()
@@ -75,7 +80,7 @@ def measure(argv: list[str], session: zenoh.Session, token_key: str) -> dict:
         if not seen.wait(30):
             raise RuntimeError(f"{argv[0]} announced no liveliness token within 30 s")
         startup = time.monotonic() - start
-        time.sleep(SETTLE_S)
+        time.sleep(settle_s)
         rss, hwm = memory_kib(proc.pid)
     finally:
         proc.terminate()
@@ -92,23 +97,27 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--venv", type=Path, help="an existing flight environment (default: build one)")
+    parser.add_argument("--port", type=int, default=7547, help="the router's port on 127.0.0.1 (default 7547)")
+    parser.add_argument("--settle", type=float, default=SETTLE_S, metavar="S",
+                        help=f"seconds each process runs before its memory is read (default {SETTLE_S:g})")
     parser.add_argument("--json", type=Path, help="write the figures here")
-    args = parser.parse_args()
+    args = quick.parse_args(parser, QUICK)
     with tempfile.TemporaryDirectory(prefix="flight-bench-") as tmp:
         venv = args.venv or flight_venv(Path(tmp))
         rover_bin = venv / "bin" / "lunarsim-rover"
-        port = 7547
+        port = args.port
         endpoint = f"tcp/127.0.0.1:{port}"
         router = subprocess.Popen([sys.executable, "-m", "deploy.router", "--listen", endpoint], cwd=REPO,
                                   stderr=subprocess.DEVNULL)
         keys = Keyspace("bench")
         try:
-            time.sleep(1.0)
+            if not wait_for_port("127.0.0.1", port, 30, router):
+                raise SystemExit(f"the router did not open {endpoint}")
             with zenoh.open(build_config(connect=[endpoint])) as session:
                 bare = [measure([sys.executable, "-c", BARE_CLIENT, endpoint, keys.alive_rover(1)], session,
-                                keys.alive_rover(1)) for _ in range(args.runs)]
+                                keys.alive_rover(1), args.settle) for _ in range(args.runs)]
                 rover = [measure([str(rover_bin), "--id", "1", "--world", "bench", "--connect", endpoint],
-                                 session, keys.alive_rover(1)) for _ in range(args.runs)]
+                                 session, keys.alive_rover(1), args.settle) for _ in range(args.runs)]
         finally:
             router.terminate()
             router.wait(timeout=10)

@@ -8,6 +8,7 @@ rovers' action-to-reply latency (p50/p99), the flood's rate, and the mission's o
 
     python benchmarks/flood.py                # 30 s flood, crater scenario
     python benchmarks/flood.py --seconds 10   # shorter
+    python benchmarks/flood.py --quick        # 2 s flood, 3 rovers, the mission cut at 8 simulated seconds
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import zenoh
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
+import quick
 
 from bus.zenoh_config import build_config, open_session
 from schemas import codec
@@ -36,6 +38,7 @@ from schemas import messages as m
 
 ROOT = Path(__file__).resolve().parents[1]
 REPLY_TOPICS = (ks.NAVIGATION_STATUS, ks.ACTION_REJECTED)
+QUICK = {"seconds": 2.0, "baseline": 1.0, "rovers": 3, "max_sim_time": 8.0}
 
 
 def flood(endpoint: str, key: str, seconds: float, counter) -> None:
@@ -123,15 +126,25 @@ def main() -> int:
     parser.add_argument("--seconds", type=float, default=30.0, help="how long the flood lasts")
     parser.add_argument("--scenario", type=Path, default=ROOT / "scenarios" / "crater_observation.yaml")
     parser.add_argument("--port", type=int, default=7461)
+    parser.add_argument("--baseline", type=float, default=3.0, metavar="S",
+                        help="seconds of running clock before the flood (default 3)")
+    parser.add_argument("--rovers", type=int, help="respawn the scenario with this many rovers, 2 or more "
+                        "(default: its own)")
+    parser.add_argument("--max-sim-time", type=float, metavar="S",
+                        help="stop the mission after S simulated seconds (default: when it ends)")
     parser.add_argument("--json", type=Path, help="also write the figures here")
-    args = parser.parse_args()
+    args = quick.parse_args(parser, QUICK)
+    if args.rovers is not None and args.rovers < 2:
+        parser.error("--rovers: the flood goes to rover 2, so 2 or more")
     print(host.line(host.describe()))
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True)
     print(f"commit {commit.stdout.strip()}")
     endpoint, keys = f"tcp/127.0.0.1:{args.port}", ks.Keyspace("default")
     out = Path(tempfile.mkdtemp(prefix="flood-"))
+    sizes = [*(["--rovers", str(args.rovers)] if args.rovers else []),
+             *(["--max-sim-time", str(args.max_sim_time)] if args.max_sim_time else [])]
     run = subprocess.Popen([sys.executable, "-m", "deploy.cli", "run", str(args.scenario), "--quiet", "--out",
-                            str(out / "run"), "--port", str(args.port), "--no-record"], cwd=ROOT,
+                            str(out / "run"), "--port", str(args.port), "--no-record", *sizes], cwd=ROOT,
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     observer = Observer(keys, flooded=2)
     try:
@@ -146,7 +159,7 @@ def main() -> int:
             if world is None or not observer.clock:
                 print("the run did not start", file=sys.stderr)
                 return 1
-            time.sleep(3.0)  # a baseline stretch before the flood
+            time.sleep(args.baseline)  # a baseline stretch before the flood
             rss_before = rss_mib(world)
             spawn = multiprocessing.get_context("spawn")  # a forked child would inherit this Zenoh session's
             counter = spawn.Value("q", 0)                 # runtime without its threads, and hang in zenoh.open

@@ -7,6 +7,7 @@ and bytes per second, samples published vs written per topic, the recorder's dro
 peak memory, and the file size.
 
     python benchmarks/recorder_throughput.py [--rovers 100] [--seconds 20] [--json FILE]
+    python benchmarks/recorder_throughput.py --quick    # 10 rovers for 3 s
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
+import quick
 from world_scale import MOVE, SCENARIO, drive
 
 from bus.bus import Bus
@@ -33,6 +35,8 @@ from schemas.scenario import load_scenario
 from sessions.format import DROPS_METADATA, read_metadata, read_samples
 from world_service.sim import World
 
+QUICK = {"rovers": 10, "seconds": 3.0}
+
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -40,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--port", type=int, default=17990)
     parser.add_argument("--json", type=Path)
-    args = parser.parse_args(argv)
+    args = quick.parse_args(parser, QUICK, argv)
     endpoint = f"tcp/127.0.0.1:{args.port}"
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "bench.mcap"

@@ -8,6 +8,7 @@ report of ``lunarsim run --lockstep``: tests/test_loopback_equals_processes.py),
 behaviour suite caps its missions.
 
     python benchmarks/report_scenarios.py [--seeds 1-10] [--teams 5 20] [--jobs 2] [--json FILE]
+    python benchmarks/report_scenarios.py --quick    # one seed of 5 rovers, cut at 30 simulated seconds
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
+import quick
 from behaviour_suite import parse_seeds, sim_cap
 
 from harness.loopback import run_mission
@@ -29,13 +31,14 @@ from schemas.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 REPORT_SCENARIOS = ("crater_observation", "crater_and_return", "maze", "maze_crater_return")
+QUICK = {"seeds": range(1, 2), "teams": [5], "sim_cap": 30.0}
 
 
-def run_one(name: str, rovers: int, seed: int) -> dict:
+def run_one(name: str, rovers: int, seed: int, cap_s: float | None = None) -> dict:
     logging.disable(logging.WARNING)
     scenario = load_scenario(SCENARIOS / f"{name}.yaml").with_overrides(seed=seed, rovers=rovers)
     started = time.perf_counter()
-    report = run_mission(scenario, sim_cap(scenario)).report()
+    report = run_mission(scenario, sim_cap(scenario, cap_s)).report()
     return {"scenario": name, "rovers": rovers, "seed": seed, "wall_s": round(time.perf_counter() - started, 2),
             "reached": report.rovers_reached_final_goal, "relays": report.rovers_holding_relay_spots,
             "collisions": report.rover_collisions + report.obstacle_collisions, "stuck": report.rovers_stuck,
@@ -64,10 +67,15 @@ def main() -> None:
     parser.add_argument("--teams", type=int, nargs="+", default=[5, 20], help="rovers in a mission")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--json", type=Path, metavar="FILE")
-    args = parser.parse_args()
+    parser.add_argument("--sim-cap", type=float, metavar="S", help="stop every mission after S simulated seconds "
+                        "(default: from its longest ideal path)")
+    args = quick.parse_args(parser, QUICK)
+    if args.sim_cap is not None and args.sim_cap <= 0:
+        parser.error("--sim-cap must be more than 0")
     about = {"host": host.describe(), "code": host.code_version()}
     print(host.line(about["host"]), f"| commit {about['code']['commit']}", flush=True)
-    jobs = [(name, rovers, seed) for rovers in args.teams for name in REPORT_SCENARIOS for seed in args.seeds]
+    jobs = [(name, rovers, seed, args.sim_cap) for rovers in args.teams for name in REPORT_SCENARIOS
+            for seed in args.seeds]
     started = time.perf_counter()
     rows = []
     with ProcessPoolExecutor(args.jobs) as pool:

@@ -25,7 +25,7 @@ runs at the agents', so its delivery figures are those a rover agent's Zenoh thr
 
 Then it fits cost against rover count (the slope) and checks the scale targets.
 
-    python benchmarks/scale.py --quick                      # a smoke check, under a minute
+    python benchmarks/scale.py --quick                      # a smoke check in seconds
     python benchmarks/scale.py [--counts 10 50 100] [--seconds 30] [--shared-counts 1000 750 500]
                                [--per-process 250] [--lockstep-counts 5 20 100] [--json FILE]
 """

@@ -9,8 +9,8 @@ from world_scale import SCENARIO
 
 from bus import priority
 
-QUICK = {"counts": [5, 10], "seconds": 5.0, "warmup": 2.0, "shared_counts": [20], "per_process": 10,
-         "lockstep_counts": [5], "lockstep_sim_time": 10.0, "lockstep_repeats": 1}
+QUICK = {"counts": [3, 5], "seconds": 2.0, "warmup": 0.5, "shared_counts": [10], "per_process": 5,
+         "lockstep_counts": [5], "lockstep_sim_time": 3.0, "lockstep_repeats": 1}
 FULL = {"counts": [10, 50, 100], "seconds": 30.0, "warmup": 5.0, "shared_counts": [1000, 750, 500],
         "per_process": 250, "lockstep_counts": [5, 20, 100], "lockstep_sim_time": 60.0, "lockstep_repeats": 3}
 

@@ -10,6 +10,7 @@ grid would take (computed, never allocated: 2.4 GB as float32 heights + gradient
 the untiled generator held them).
 
     python benchmarks/terrain_memory.py [--rounds 600] [--radius-m 1000] [--json FILE]
+    python benchmarks/terrain_memory.py --quick    # a 2.25 km² terrain, 10 rovers, 30 rounds of 25 m
 
 Target (issue): the 50 km² terrain runs in under 2 GB.
 """
@@ -27,12 +28,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import quick
 
 from schemas.scenario import Crater, TerrainSpec
 from world_service.terrain import Heightmap
 
 TARGET_BYTES = 2 * 1024**3
 MIB = 1024**2
+QUICK = {"size_m": 1500.0, "craters": 40, "rovers": 10, "teams": 2, "radius_m": 200.0, "rounds": 30, "step_m": 25.0,
+         "max_tiles": 20}
+"""Small enough for seconds, with tiles evicted as in the full run."""
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -53,7 +58,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--tracemalloc", action="store_true",
                    help="also trace the Python/NumPy heap peak (slows sampling rounds several times)")
     p.add_argument("--json", type=Path, default=None, help="also write the figures here")
-    return p.parse_args(argv)
+    return quick.parse_args(p, QUICK, argv)
 
 
 def scenario_terrain(args: argparse.Namespace) -> tuple[TerrainSpec, list[Crater], np.random.Generator]:

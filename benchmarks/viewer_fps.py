@@ -14,6 +14,7 @@ of the pixels, scaled up by the browser).
 
     python benchmarks/viewer_fps.py [--rovers 0 100] [--scales 1 0.5] [--seconds 10] [--size 1280x720]
                                     [--rate 20] [--json FILE]
+    python benchmarks/viewer_fps.py --quick    # 0 and 10 rovers, 1 s each, at 640x360
 """
 
 from __future__ import annotations
@@ -28,12 +29,15 @@ import threading
 import time
 from pathlib import Path
 
+import quick
+
 REPO = Path(__file__).resolve().parents[1]
 SCENARIO = REPO / "scenarios" / "crater_observation.yaml"
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
                  "--enable-unsafe-swiftshader", "--use-angle=swiftshader"]
 WORLD = "fps"
+QUICK = {"rovers": [0, 10], "seconds": 1.0, "size": "640x360"}
 
 
 def free_port() -> int:
@@ -102,7 +106,9 @@ def main() -> int:
     parser.add_argument("--rate", type=float, default=20.0, help="world states published per second")
     parser.add_argument("--chromium", default="/usr/bin/chromium")
     parser.add_argument("--json", type=Path)
-    args = parser.parse_args()
+    args = quick.parse_args(parser, QUICK)
+    if not Path(args.chromium).is_file():
+        parser.error(f"--chromium {args.chromium}: no such file (Debian's chromium: apt-get install -y chromium)")
     width, height = (int(v) for v in args.size.split("x"))
     from playwright.sync_api import sync_playwright
 

@@ -4,11 +4,11 @@ Serves the web view (no Zenoh: a viewer with nothing to show) from a child proce
 ``/api/info`` alone, then again while each upload is read, validated and drawn: the largest YAML text a scenario
 file may be (``MAX_SCENARIO_BYTES``), and the largest JSON body the page may send (``MAX_REQUEST_BYTES``), each
 filled with rocks (listed, then a rock field up to the model's bound) and the rest with wall corners, asked for
-the preview as the page asks.
+the preview as the page asks. ``--quick`` scales the sizes and the rock bound down alike.
 Prints, per case, the upload's size, answer and time, and the latency of ``/api/info`` meanwhile (p50, p95, max).
 
     python benchmarks/web_upload.py            # the largest accepted sizes
-    python benchmarks/web_upload.py --quick    # an eighth of the sizes: a smoke check
+    python benchmarks/web_upload.py --quick    # an eighth of the sizes and rocks: a smoke check
 """
 
 from __future__ import annotations
@@ -62,9 +62,9 @@ def _walls(x: float, z: float, points: int, per_wall: int) -> list[dict]:
     return walls
 
 
-def _fill(scenario: dict, limit: int, size_of) -> dict:
-    """``scenario`` with rocks listed, a rock field for the rest of the model's rock bound, then wall corners, to
-    just under ``limit`` bytes."""
+def _fill(scenario: dict, limit: int, size_of, max_rocks: int) -> dict:
+    """``scenario`` with rocks listed, a rock field for the rest of ``max_rocks`` (the model's rock bound, or a share
+    of it), then wall corners, to just under ``limit`` bytes."""
     from schemas import scenario_limits as limits
 
     x, z = scenario["lander"]["x"], scenario["lander"]["z"]
@@ -78,10 +78,10 @@ def _fill(scenario: dict, limit: int, size_of) -> dict:
         return size
 
     rock, point = per_item("rocks", _rocks(x, z, 1000)), per_item("walls", _walls(x, z, 1000, 1000))
-    obstacles["rocks"] = _rocks(x, z, min(limits.MAX_ROCKS, int((limit - size_of(scenario)) * 0.97 / rock)))
-    if len(obstacles["rocks"]) < limits.MAX_ROCKS:  # the rest of the rock bound scattered: the costliest preview
+    obstacles["rocks"] = _rocks(x, z, min(max_rocks, int((limit - size_of(scenario)) * 0.97 / rock)))
+    if len(obstacles["rocks"]) < max_rocks:  # the rest of the rock bound scattered: the costliest preview
         obstacles["rock_fields"] = [{"x": x - 60, "z": z, "radius_m": 50,
-                                     "count": limits.MAX_ROCKS - len(obstacles["rocks"])}]
+                                     "count": max_rocks - len(obstacles["rocks"])}]
     points = int((limit - size_of(scenario)) * 0.97 / point)
     while True:  # corners far along a wall take more digits than the sample's
         obstacles["walls"] = _walls(x, z, points, limits.MAX_WALL_POINTS)
@@ -91,9 +91,10 @@ def _fill(scenario: dict, limit: int, size_of) -> dict:
 
 
 def cases(scale: float) -> list[tuple[str, bytes]]:
-    """(name, request body): the largest YAML file as text, the largest page JSON, each at ``scale``."""
+    """(name, request body): the largest YAML file as text, the largest page JSON, each at ``scale`` (of the sizes
+    and of the rock bound)."""
     from schemas.scenario import load_scenario
-    from schemas.scenario_limits import MAX_SCENARIO_BYTES
+    from schemas.scenario_limits import MAX_ROCKS, MAX_SCENARIO_BYTES
     from web.uploads import MAX_REQUEST_BYTES
 
     dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
@@ -105,9 +106,10 @@ def cases(scale: float) -> list[tuple[str, bytes]]:
         return len(json.dumps({"scenario": data, "scene": True}, separators=(",", ":")).encode())
 
     base = load_scenario(SCENARIO).model_dump(mode="json")
-    text = yaml.dump(_fill(json.loads(json.dumps(base)), int(MAX_SCENARIO_BYTES * scale), as_yaml), Dumper=dumper,
-                     default_flow_style=None, sort_keys=False)
-    page = _fill(json.loads(json.dumps(base)), int(MAX_REQUEST_BYTES * scale), as_json)
+    rocks = int(MAX_ROCKS * scale)
+    text = yaml.dump(_fill(json.loads(json.dumps(base)), int(MAX_SCENARIO_BYTES * scale), as_yaml, rocks),
+                     Dumper=dumper, default_flow_style=None, sort_keys=False)
+    page = _fill(json.loads(json.dumps(base)), int(MAX_REQUEST_BYTES * scale), as_json, rocks)
     return [("yaml file", json.dumps({"scenario": text, "scene": True}).encode()),
             ("page json", json.dumps({"scenario": page, "scene": True}, separators=(",", ":")).encode())]
 
@@ -163,7 +165,7 @@ async def measure(port: int, scale: float, baseline: int) -> dict:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="an eighth of the sizes, fewer idle samples")
+    parser.add_argument("--quick", action="store_true", help="an eighth of the sizes and rocks, fewer idle samples")
     parser.add_argument("--json", type=Path, help="also write the figures here")
     parser.add_argument("--serve", type=int, help=argparse.SUPPRESS)  # the child's own mode
     args = parser.parse_args()

@@ -7,6 +7,7 @@ Every message the world produces is encoded as the service would publish it; the
 second, the real-time factor one core could sustain, messages per simulated second, and peak memory.
 
     python benchmarks/world_scale.py [--rovers 10 100 1000] [--sim-seconds 10] [--json FILE]
+    python benchmarks/world_scale.py --quick    # 10 and 100 rovers for 1 simulated second
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import time
 from pathlib import Path
 
 import host
+import quick
 
 from schemas import codec
 from schemas import keyspace as ks
@@ -28,6 +30,7 @@ from world_service.sim import World
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "crater_observation.yaml"
 MOVE = codec.encode(m.MoveAction(x=0.0, z=5.0))
 TURN = codec.encode(m.RotateAction(degrees=90.0))
+QUICK = {"rovers": [10, 100], "sim_seconds": 1.0}
 
 
 def drive(world: World, out: list[tuple[str, m.Message]], keys: ks.Keyspace) -> None:
@@ -75,7 +78,7 @@ def main() -> None:
     parser.add_argument("--rovers", type=int, nargs="+", default=[10, 100, 1000])
     parser.add_argument("--sim-seconds", type=float, default=10.0)
     parser.add_argument("--json", type=Path, metavar="FILE")
-    args = parser.parse_args()
+    args = quick.parse_args(parser, QUICK)
     machine = host.describe()
     rows = [measure(n, args.sim_seconds) for n in args.rovers]
     print(host.line(machine))

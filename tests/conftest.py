@@ -40,6 +40,25 @@ def shim(tmp_path_factory) -> Path:
     return folder
 
 
+@pytest.fixture(scope="session")
+def flight_env(tmp_path_factory) -> Path:
+    """The ``lunarsim-rover`` wheel built and installed into a fresh virtual environment, as on a flight computer;
+    built once for the tests of the flight wheel and the flight benchmark's quick run."""
+    import subprocess
+    import sys
+
+    from procs import REPO
+
+    from deploy.flight import build_wheel as flight
+
+    where = tmp_path_factory.mktemp("flight")
+    wheel = flight.build(where / "dist", REPO)
+    venv = where / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    subprocess.run([str(venv / "bin" / "pip"), "install", "--quiet", str(wheel)], check=True, timeout=600)
+    return venv
+
+
 @pytest.fixture
 def browser():
     """A headless Chromium context of its own (``test_web_browser.browser_context``), closed after the test."""

@@ -64,17 +64,6 @@ def test_the_flight_wheel_carries_the_agent_and_the_bridge_but_no_ground_code():
     assert not any(m.startswith(("sessions", "deploy.launcher", "deploy.batch")) for m in modules)
 
 
-@pytest.fixture(scope="module")
-def flight_env(tmp_path_factory):
-    """The wheel built and installed into a fresh virtual environment, as on a flight computer."""
-    where = tmp_path_factory.mktemp("flight")
-    wheel = flight.build(where / "dist", REPO)
-    venv = where / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
-    subprocess.run([str(venv / "bin" / "pip"), "install", "--quiet", str(wheel)], check=True, timeout=600)
-    return venv
-
-
 @pytest.mark.e2e
 def test_the_flight_environment_has_none_of_the_ground_dependencies(flight_env):
     python = flight_env / "bin" / "python"

@@ -1,0 +1,165 @@
+"""Every benchmark runs end to end in its quick mode and prints its figures, so none rots between the runs that
+measure. Each script runs as a reader runs it (``python benchmarks/NAME.py --quick``), in a process of its own;
+the test checks that it exits 0, that each figure line is there in its format, and that its ``--json`` file holds
+the figures. How fast anything was is for the benchmarks to print, never for a test to judge."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+from procs import REPO, free_port
+from test_web_browser import CHROMIUM
+
+pytestmark = pytest.mark.bench_smoke
+
+BENCHMARKS = REPO / "benchmarks"
+SUPPORT = {"control_loop_world", "host", "latency_summary", "proc_meter", "quick", "scale_args", "scale_cluster",
+           "scale_observe", "scale_report", "scale_witness", "zenoh_floor"}
+"""Modules the benchmarks import or start, not benchmarks themselves."""
+MS = r"\d+\.\d{3}"
+
+
+@dataclass(frozen=True)
+class Smoke:
+    """A benchmark's quick run: extra arguments (``{port}``: a free loopback port; ``{flight_env}``: the flight
+    environment the flight wheel's tests build, which the benchmark would otherwise build the same way), the figure
+    lines it must print (regular expressions, each matching a whole line of its output) and what its ``--json``
+    file must hold."""
+
+    args: tuple[str, ...] = ()
+    lines: tuple[str, ...] = ()
+    json_check: Callable[[object], bool] = field(default=lambda doc: bool(doc))
+    timeout_s: float = 600.0
+
+
+SMOKES: dict[str, Smoke] = {
+    "behaviour_suite": Smoke(lines=(
+        r"\[2/2\] seed \d+ \w+ team=\w+ start=\w+ noise=\w+: \d+/\d+ reached, \d+ collisions, \d+ stuck, \d+ s "
+        r"simulated( \(cap\))?, [\d.]+ s wall",
+        r"all\s+2\s+\d+\s+\d+\.\d%\s+\d+\.\d%\s+\d+\.\d\d\s+\d+\s+\S+\s+\d+\.\d\s+\d+\.\d.*\d+/2\s*",
+        r"failure taxonomy \(\d+ rovers did not reach their final goal\):",
+        r"2 missions in \d+ s of wall \(2 jobs\); one mission took [\d.]+ s on average \(max [\d.]+ s\); 0 failed "
+        r"with an error"),
+        json_check=lambda doc: len(doc["missions"]) == 2 and "overall" in doc["aggregate"]),
+    "chaos": Smoke(lines=(
+        r"router killed and restarted on its port, 0\.5 s down \(mission: \d+/1 reached, (NOT )?complete\)",
+        r"\s+1\s+\d+\.\d\d\s+\d+\.\d\d",
+        r"\s+5%\s+\d+/1\s+\d+\s+\d+\.\d\s+\d+\.\d",
+        r"recorder SIGKILLed after 2 s: 'lunarsim recover' kept \d+ of the \d+ samples recorded until the kill "
+        r"\(\d+\.\d%\); last recovered sample -?[\d.]+ s before the kill"),
+        json_check=lambda doc: {"reconnect", "loss", "recovery"} <= doc.keys()),
+    "control_loop_latency": Smoke(lines=(
+        rf"over Zenoh \(world -> router -> rover -> router -> world\)\s+50(\s+{MS}){{5}}",
+        rf"bare Zenoh floor \(ping -> router -> echo -> router -> pong\)\s+50(\s+{MS}){{5}}",
+        rf"agent only, in process \(decode \+ decide \+ encode\)\s+50(\s+{MS}){{5}}",
+        rf"Target p50 < 1 ms: {MS} ms  (PASS|FAIL)",
+        r"Target p50 within 1\.2x the floor: \d+\.\d\dx  (PASS|FAIL)",
+        r"Target p99 within 1\.2x the floor: \d+\.\d\dx  (PASS|FAIL)"),
+        json_check=lambda doc: {"p50", "p99"} == doc["ratio_to_floor"].keys() and doc["floor"]["loops"] == 50),
+    "env_steps": Smoke(lines=(
+        r"\s+5 rovers \| idle\s+[\d,]+ \| random\s+[\d,]+ \| agent\s+[\d,]+ \| 1 workers: idle\s+[\d,]+, agent "
+        r"episodes\s+[\d,]+ agent-steps/s \| sim s per wall s: agent policy [\d.]+, plain run [\d.]+ \([\d.]+x\)",),
+        json_check=lambda doc: "5" in doc["results"]),
+    "flight_rover": Smoke(args=("--port", "{port}", "--venv", "{flight_env}"), lines=(
+        r"bare Zenoh client\s+\d+\.\d\d\s+\d+\.\d\s+\d+\.\d",
+        r"rover agent \(flight\)\s+\d+\.\d\d\s+\d+\.\d\s+\d+\.\d",
+        r"rover agent over the bare client: \+-?\d+\.\d MiB resident, x\d+\.\d\d start-up"),
+        json_check=lambda doc: doc["runs"] == 1 and doc["rover_agent"]["rss_mib"] > 0),
+    "flood": Smoke(args=("--port", "{port}"), lines=(
+        r"flood_puts_per_s\s+\d+",
+        r"clock_pace_during_flood\s+\d+\.\d{3}",
+        r"world_rss_peak_growth_mib\s+-?\d+\.\d{3}",
+        r"other_rovers_reply_p99_ms\s+(\d+\.\d{3}|nan)",
+        r"reached\s+\d+/3"),
+        json_check=lambda doc: doc["flood_puts_per_s"] > 0),
+    "recorder_throughput": Smoke(args=("--port", "{port}"), lines=(
+        r"10 rovers, 3 s simulated in [\d.]+ s \(real-time factor [\d.]+\): \d+ messages/s, [\d.]+ MB/s",
+        r"perception\s+\d+\s+\d+",
+        r"recorder drops: \d+; missing: \d+.*",
+        r"router \+ recorder CPU: [\d.]+ s \(\d+% of one core\); peak RSS of the larger: [\d.]+ MB; file [\d.]+ MB"),
+        json_check=lambda doc: doc["published"]["perception"] > 0),
+    "report_scenarios": Smoke(lines=(
+        r"\[4/4\] \w+ x5 seed 1: \d/5 reached, \d+ stuck, \d+ collisions \(\d+ s\)",
+        r"maze_crater_return\s+5\s+\d+\.\d%\s+\d+\s+\d+\s+\d/1\s*",
+        r"all\s+\d+\.\d%\s+\d+\s+\d+\s+\d/4\s*",
+        r"4 missions in \d+ s"),
+        json_check=lambda doc: len(doc["missions"]) == 4),
+    "scale": Smoke(lines=(
+        r"realtime\s+3\s+3\s+\d\.\d{3}\s.*",
+        r"realtime\s+10\s+2\s+\d\.\d{3}\s.*",
+        r"lockstep\s+5\s+5\s+\d+\.\d{3}\s.*",
+        r"highest shared-process rover count holding real time: (\d+|none measured)",
+        r"target: 5-rover lockstep at least 20 x real time: [\d.]+ x  (PASS|FAIL)"),
+        json_check=lambda doc: len(doc["rows"]) == 5),
+    "scenario_load": Smoke(lines=(
+        rf"1,000,000 rovers \(24\.0 MB\): {MS} s \([\d.]+ s with Python's start\), peak \d+ MB: .*cannot read "
+        r"scenario: .*",
+        r"a FIFO \(0\.0 MB\): .*not a regular file.*",
+        r"target \(24 MB refused in < 2 s, < 200 MB\): met; every hostile file refused"),
+        json_check=lambda doc: "aliases 10 deep" in doc),
+    "terrain_memory": Smoke(lines=(
+        r"tiles    loaded max \d+ \(\d+ MiB\), at end \d+; generated \d+ \(in \d+ rounds, ~\d+ ms each\), evicted "
+        r"[1-9]\d*",
+        rf"round    total\s+mean {MS} ms  p50 {MS}  p99 {MS}  max {MS}",
+        r"memory   peak RSS \d+ MiB \(baseline after imports \d+ MiB\), tracemalloc peak not traced",
+        r"target   peak RSS under 2048 MiB: PASS"),
+        json_check=lambda doc: doc["run"]["rounds"] == 30),
+    "viewer_fps": Smoke(args=("--chromium", CHROMIUM), lines=(
+        r"scale    1:    0 rovers:\s+\d+\.\d frames/s at \d\.\d{3} resolution,\s+\d+\.\d states/s reached the page "
+        r"\(viewport 640x360, states published at 20 Hz\)",
+        r"scale    1:   10 rovers:\s+\d+\.\d frames/s at .*"),
+        json_check=lambda doc: [r["rovers"] for r in doc["results"]] == [0, 10]),
+    "web_upload": Smoke(lines=(
+        r"idle\s+\{\"n\": 50, \"p50_ms\": [\d.]+, \"p95_ms\": [\d.]+, \"max_ms\": [\d.]+\}",
+        r"yaml file\s+\{\"request_mib\": [\d.]+, \"status\": 200, .*\"info_during\": \{\"n\": \d+, .*",
+        r"page json\s+\{\"request_mib\": [\d.]+, \"status\": 200, .*"),
+        json_check=lambda doc: doc["yaml file"]["status"] == doc["page json"]["status"] == 200),
+    "world_scale": Smoke(lines=(
+        r"\s+10\s+\d+\.\d{4}\s+\d+\.\d\d\s+\d+\s+\d+\.\d",
+        r"\s+100\s+\d+\.\d{4}\s+\d+\.\d\d\s+\d+\s+\d+\.\d"),
+        json_check=lambda doc: [r["rovers"] for r in doc["rows"]] == [10, 100]),
+}
+
+
+def run_quick(name: str, smoke: Smoke, folder: Path, request: pytest.FixtureRequest) -> tuple[str, Path]:
+    """The benchmark's quick run; its output (stdout and stderr) and its JSON file."""
+    figures = folder / f"{name}.json"
+    args = [a.replace("{port}", str(free_port())) for a in smoke.args]
+    args = [str(request.getfixturevalue("flight_env")) if a == "{flight_env}" else a for a in args]
+    proc = subprocess.run([sys.executable, str(BENCHMARKS / f"{name}.py"), "--quick", "--json", str(figures), *args],
+                          cwd=REPO, capture_output=True, text=True, timeout=smoke.timeout_s)
+    output = proc.stdout + proc.stderr
+    assert proc.returncode == 0, f"{name} --quick exited {proc.returncode}:\n{output[-4000:]}"
+    return output, figures
+
+
+def test_every_benchmark_has_a_quick_run_here():
+    scripts = {path.stem for path in BENCHMARKS.glob("*.py")}
+    assert scripts - SUPPORT == SMOKES.keys(), "a benchmark without a smoke run here, or a smoke run of nothing"
+
+
+@pytest.mark.parametrize("name", sorted(SMOKES))
+def test_the_quick_run_prints_its_figures(name, tmp_path, request):
+    if name == "viewer_fps" and not Path(CHROMIUM).is_file():
+        pytest.skip("Debian's chromium is not installed (apt-get install -y chromium; .ci/run does it)")
+    smoke = SMOKES[name]
+    output, figures = run_quick(name, smoke, tmp_path, request)
+    lines = [line.rstrip() for line in output.splitlines()]
+    missing = [p for p in smoke.lines if not any(re.fullmatch(p, line) for line in lines)]
+    assert not missing, f"{name} --quick printed no line like {missing}:\n{output[-4000:]}"
+    assert smoke.json_check(json.loads(figures.read_text())), f"{name}: unexpected --json {figures.read_text()[:2000]}"
+    if name == "scale":  # a saved run prints again
+        again = subprocess.run([sys.executable, str(BENCHMARKS / "scale_report.py"), str(figures)], cwd=REPO,
+                               capture_output=True, text=True, timeout=60)
+        assert again.returncode == 0 and "target: 5-rover lockstep at least 20 x real time" in again.stdout, again
+    if name == "behaviour_suite":
+        again = subprocess.run([sys.executable, str(BENCHMARKS / "behaviour_suite.py"), "--table", str(figures)],
+                               cwd=REPO, capture_output=True, text=True, timeout=60)
+        assert again.returncode == 0 and re.search(r"^all\s+2\s", again.stdout, re.M), again
