@@ -41,6 +41,8 @@ class ArrayActions:
         self.direction: m.MissionDirection | None = None  # the last heard: the goal a goal report is about
         self.heard_action = 0  # the last action whose end (or refusal) the rover heard
         self._told = 0  # the heard_action its last status carried
+        self.moving = 0  # the move or rotate sent whose end it has not heard (0: none)
+        self.photo = 0  # the photo asked for and not yet back (0: none)
 
     def hear(self, topic: str, message: m.Message) -> None:
         if topic == ks.MISSION_DIRECTION:
@@ -49,6 +51,22 @@ class ArrayActions:
                  or isinstance(message, m.CancelResult | m.ActionRejected))
         if ended:
             self.heard_action = max(self.heard_action, message.action_id)
+            if message.action_id == self.moving:
+                self.moving = 0
+            if message.action_id == self.photo:  # refused: no photo comes
+                self.photo = 0
+        if isinstance(message, m.Photo):
+            self.photo = 0
+
+    def mask(self) -> dict[str, np.ndarray]:
+        """Which values of ``command`` and ``goal`` the rover can act on now (1) and which it cannot (0): no second
+        move or rotate while one runs, a cancel only then, one photo at a time, no goal report before a goal."""
+        command = {"none": True, "move": not self.moving, "rotate": not self.moving, "cancel": bool(self.moving),
+                   "photo": not self.photo}
+        has_goal = self.direction is not None
+        goal = {"none": True, "reached": has_goal, "stuck": has_goal}
+        return {"command": np.array([command[c] for c in COMMANDS], np.int8),
+                "goal": np.array([goal[g] for g in GOAL_REPORTS], np.int8)}
 
     def messages(self, action: Mapping[str, np.ndarray], now: float) -> list[Out]:
         self._check(action)
@@ -91,6 +109,10 @@ class ArrayActions:
 
     def _command(self, command: str, action: Mapping[str, np.ndarray]) -> Out:
         action_id, self.next_id = self.next_id, self.next_id + 1
+        if command in ("move", "rotate"):
+            self.moving = action_id
+        elif command == "photo":
+            self.photo = action_id
         if command == "move":
             x, z = (float(v) for v in action["move"])
             return self.keys.rover(self.id, ks.MOVE_ACTION), m.MoveAction(x=x, z=z, action_id=action_id)

@@ -9,8 +9,13 @@ tick here, a tick later over Zenoh: ``docs/guides/research.md``.)
 
 A policy that never acks a clock (the array actions do not) is asked for an answer every tick, so it steps once
 a tick at least; the shipped agent acks with its next timer, and its ticks with nothing to hear are skipped.
-Every agent stays until the mission ends (complete: terminated; out of time or ``max_cycles``: truncated), since
-a finished rover still answers its lander (photos, map reports) in the processes too.
+By default every agent stays until the mission ends (complete: terminated; out of time or ``max_cycles``:
+truncated), since a finished rover still answers its lander (photos, map reports) in the processes too. With
+``leave_when_done`` a rover whose status says it is done or stuck is terminated at once and leaves the agent list
+while the others go on, as multi-agent research environments do.
+
+Each agent's ``infos`` carry ``action_mask``: which ``command`` and ``goal`` values its rover can act on now
+(``ArrayActions.mask``); an action outside it is still published, and the world refuses it as it would.
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ from schemas import messages as m
 from schemas.scenario import Scenario
 
 CLOCK_MODEL = {ks.CLOCK: m.Clock}
+LEFT_STATES = frozenset({"done", "stuck"})
 
 
 def agent_name(rover_id: int) -> str:
@@ -47,8 +53,9 @@ class LunarSimEnv(ParallelEnv):
     metadata: ClassVar[dict] = {"name": "lunarsim_v0", "render_modes": []}
 
     def __init__(self, scenario: Scenario, max_sim_time: float = 600.0, max_cycles: int | None = None,
-                 rewards: RewardWeights | None = None) -> None:
+                 rewards: RewardWeights | None = None, leave_when_done: bool = False) -> None:
         self.scenario = scenario
+        self.leave_when_done = leave_when_done
         self.max_sim_time = max_sim_time
         self.max_cycles = max_cycles
         self.weights = rewards or RewardWeights()
@@ -96,11 +103,17 @@ class LunarSimEnv(ParallelEnv):
         observations, rewards, infos = self._observe(heard)
         over = self.rounds.over or (self.max_cycles is not None and self.cycles >= self.max_cycles)
         done = over and self.rounds.world.complete
-        terminations = dict.fromkeys(self.agents, done)
-        truncations = dict.fromkeys(self.agents, over and not done)
-        if over:
-            self.agents = []
+        terminations = {agent: done or self._left(agent) for agent in self.agents}
+        truncations = {agent: over and not terminations[agent] for agent in self.agents}
+        self.agents = [] if over else [agent for agent in self.agents if not terminations[agent]]
         return observations, rewards, terminations, truncations, infos
+
+    def _left(self, agent: str) -> bool:
+        """With ``leave_when_done``: its rover says it is done or stuck (an array action's goal report, or the status
+        a message policy sent, once the world has it), so nothing it does changes the mission."""
+        rid = self._ids[agent]
+        said = {self._arrays[rid].state, self.rounds.world.status[rid].state}
+        return self.leave_when_done and bool(said & LEFT_STATES)
 
     def report(self) -> m.MissionReport:
         """The mission's statistics (``report.json``) as of now; the final ones once the episode is over."""
@@ -130,7 +143,8 @@ class LunarSimEnv(ParallelEnv):
                 self._arrays[rid].hear(topic, msg)
             observations[agent] = sp.observe(decoded, self._empty)
             rewards[agent] = self.rewards.round(rid, decoded)
-            infos[agent] = {"samples": samples, "tick": world.tick, "sim_time": world.sim_time}
+            infos[agent] = {"samples": samples, "tick": world.tick, "sim_time": world.sim_time,
+                            "action_mask": self._arrays[rid].mask()}
         return observations, rewards, infos
 
 
