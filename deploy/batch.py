@@ -126,7 +126,7 @@ def _run_all(runs: list[Run], args: argparse.Namespace, console) -> tuple[list[d
 
 
 def _start(run: Run, args: argparse.Namespace) -> subprocess.Popen:
-    command = [sys.executable, "-m", "deploy.cli", "run", str(args.scenario), "--seed", str(run.seed),
+    command = [sys.executable, "-P", "-m", "deploy.cli", "run", str(args.scenario), "--seed", str(run.seed),
                "--out", str(run.out), "--port", str(_free_port()), "--world", f"batch{run.index}", "--quiet",
                "--max-sim-time", str(args.max_sim_time), "--time-scale", str(args.time_scale)]
     if args.lockstep:

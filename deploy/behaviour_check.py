@@ -55,7 +55,7 @@ def behaviour_problem(name: str) -> str | None:
     A built-in is known good; anything else is loaded as ``rover_agent.registry.load_behaviour`` loads it, in a
     child process given ``PROBE_TIMEOUT_S``. The current folder joins this process's module path too, so the
     agents this process starts (forked from it, ``deploy.warm_start``) find what the check found."""
-    from rover_agent.registry import BUILT_IN
+    from rover_agent.registry import BUILT_IN, with_current_folder
     from schemas.scenario_errors import LINE_CHARS
     from schemas.scenario_limits import behaviour_spec, clip
 
@@ -65,10 +65,10 @@ def behaviour_problem(name: str) -> str | None:
         return str(exc)
     if name in BUILT_IN:
         return None
-    if os.getcwd() not in sys.path:
-        sys.path.insert(0, os.getcwd())
-    probe = subprocess.Popen([sys.executable, "-c", _PROBE, name], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                             stderr=subprocess.DEVNULL, text=True, errors="replace", start_new_session=True)
+    with_current_folder()
+    probe = subprocess.Popen([sys.executable, "-P", "-c", _PROBE, name], stdin=subprocess.DEVNULL,
+                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, errors="replace",
+                             start_new_session=True)
     try:
         out, _ = probe.communicate(timeout=PROBE_TIMEOUT_S)
     except subprocess.TimeoutExpired:

@@ -7,6 +7,8 @@ own behaviour is selected by name without touching LunarSim.
 from __future__ import annotations
 
 import importlib
+import os
+import sys
 from importlib.metadata import entry_points
 
 from rover_agent.decisions import BaseBehaviour
@@ -38,10 +40,18 @@ def load_behaviour(name: str) -> type[BaseBehaviour]:
     if not attr:
         raise UnknownBehaviour(f"unknown behaviour {name!r}: use one of {', '.join(known_names())} "
                                "or 'package.module:Class'")
+    with_current_folder()
     try:
         return _check(name, getattr(importlib.import_module(module_name), attr))
     except (ImportError, AttributeError) as exc:
         raise UnknownBehaviour(f"behaviour {name!r} cannot be loaded: {exc}") from None
+
+
+def with_current_folder() -> None:
+    """A team's behaviour module is found in the folder the command runs in, as ``python -m`` finds it; last on the
+    path, so no folder there can hide an installed package (LunarSim's processes start with ``python -P``)."""
+    if os.getcwd() not in sys.path:
+        sys.path.append(os.getcwd())
 
 
 def _check(name: str, cls: object) -> type[BaseBehaviour]:

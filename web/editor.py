@@ -105,7 +105,7 @@ class Launcher:
         self.out.mkdir(parents=True, exist_ok=True)
         log = (self.out / "launch.log").open("w")
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "deploy.cli", "run", str(scenario_file), *self.router_args(), "--world",
+            [sys.executable, "-P", "-m", "deploy.cli", "run", str(scenario_file), *self.router_args(), "--world",
              self.world, "--time-scale", str(time_scale), "--out", str(self.out), "--quiet"],
             stdout=log, stderr=subprocess.STDOUT)
         log.close()
