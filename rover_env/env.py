@@ -117,7 +117,7 @@ class LunarSimEnv(ParallelEnv):
         rid = self._ids[agent]
         if isinstance(action, list):
             return checked_messages(self.rounds.keys, rid, action)
-        return self._arrays[rid].messages(action, self.rounds.world.sim_time)
+        return self._arrays[rid].messages(action, self.rounds.world.clock.sim_time)
 
     def _observe(self, heard: Heard):
         observations, rewards, infos = {}, {}, {}
@@ -130,7 +130,7 @@ class LunarSimEnv(ParallelEnv):
                 self._arrays[rid].hear(topic, msg)
             observations[agent] = sp.observe(decoded, self._empty)
             rewards[agent] = self.rewards.round(rid, decoded)
-            infos[agent] = {"samples": samples, "tick": world.tick, "sim_time": world.sim_time}
+            infos[agent] = {"samples": samples, "tick": world.clock.tick, "sim_time": world.clock.sim_time}
         return observations, rewards, infos
 
 

@@ -3,9 +3,9 @@
 The world is the only process that knows ground truth. Started again without it, it would begin a new run with every
 rover at its start while the agents, still running, go on from where they were, and the report would count them done
 at places the world does not hold. So the service saves the whole world (``bus.snapshot``: bodies, action ledger,
-random generators, statistics, run id) every ``sim.SAVE_PERIOD_S`` simulated seconds, and a world started with the
+random generators, statistics, run id) every ``service.SAVE_PERIOD_S`` simulated seconds, and a world started with the
 same scenario and state file carries on the same run from there: the same run id, so agents go on as they were, and
-rovers at most ``sim.SAVE_PERIOD_S`` of motion back (their agents' estimates absorb that like slip). ``report.json``
+rovers at most ``service.SAVE_PERIOD_S`` of motion back (their agents' estimates absorb that like slip). ``report.json``
 counts the resumes.
 
 Only a world that did not end in order (killed, or its machine lost) leaves a state: one that ends its mission, or is
@@ -22,6 +22,7 @@ from schemas.scenario import Scenario
 from world_service.sim import World
 
 log = logging.getLogger("lunarsim.world")
+
 
 def load(path: Path, scenario: Scenario) -> World | None:
     """The world saved in ``path`` if it is this scenario's and its mission is not over; None, said why, if not."""

@@ -15,10 +15,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from schemas import messages as m
+from schemas.messages import Out
 from schemas.wire_limits import highest_action_id
 
-Out = tuple[str, m.Message]
 STALE = "stale"
 FUTURE = "out_of_sequence"
 REFUSED_KINDS = (STALE, FUTURE)
