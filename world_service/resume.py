@@ -9,12 +9,16 @@ rovers at most ``service.SAVE_PERIOD_S`` of motion back (their agents' estimates
 counts the resumes.
 
 Only a world that did not end in order (killed, or its machine lost) leaves a state: one that ends its mission, or is
-stopped with Ctrl-C or SIGTERM, removes it, and is started again as a new run.
+stopped with Ctrl-C or SIGTERM, removes it, and is started again as a new run. A state that this code cannot carry on
+(saved by a version whose parts held other attributes) is refused, said why, and the run begins anew.
 """
 
 from __future__ import annotations
 
+import contextlib
+import copy
 import logging
+from collections.abc import Iterator
 from pathlib import Path
 
 from bus import snapshot
@@ -25,12 +29,17 @@ log = logging.getLogger("lunarsim.world")
 
 
 def load(path: Path, scenario: Scenario) -> World | None:
-    """The world saved in ``path`` if it is this scenario's and its mission is not over; None, said why, if not."""
+    """The world saved in ``path`` if it is this scenario's, works with this code and its mission is not over; None,
+    said why, if not."""
     world = snapshot.load(path, log)
     if world is None:
         return None
     if not isinstance(world, World):
         log.warning("not resuming from %s: it holds no world", path)
+        return None
+    if (problem := unworkable(world)) is not None:
+        log.warning("not resuming from %s: the world saved there does not work with this version of the code (%s)",
+                    path, problem)
         return None
     if world.scenario != scenario:
         log.warning("not resuming from %s: it is a run of another scenario or seed (%s, seed %d)", path,
@@ -41,3 +50,28 @@ def load(path: Path, scenario: Scenario) -> World | None:
         return None
     world.resumed()
     return world
+
+
+def unworkable(world: World) -> str | None:
+    """Why ``world`` cannot go on with this code, or None: a copy of it steps once and states its truth and report,
+    which touches every part. A world pickled by another version unpickles whole however its parts have changed;
+    this finds out before the run depends on it."""
+    trial = copy.deepcopy(world)
+    try:
+        with _quiet():
+            trial.step()
+            trial.observed_state()
+            trial.report()
+    except Exception as exc:  # whatever an old state breaks, it must not end the service
+        return f"{type(exc).__name__}: {exc}"
+    return None
+
+
+@contextlib.contextmanager
+def _quiet() -> Iterator[None]:
+    """The trial's own story (a rover shut down, counted stuck) is not the run's: nothing of it is logged."""
+    was, log.disabled = log.disabled, True
+    try:
+        yield
+    finally:
+        log.disabled = was
