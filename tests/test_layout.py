@@ -27,6 +27,36 @@ MAY_IMPORT: dict[str, set[str]] = {
                "sessions", "hardware", "web"},
 }
 """Each package's allowed imports among LunarSim's own: downwards only (the table in docs/concepts/processes.md)."""
+WORLD_SERVICE: dict[str, set[str]] = {
+    # what the parts share
+    "geometry": set(),
+    "clock": set(),
+    "scene": {"geometry"},
+    "terrain": set(),
+    # the parts the simulated world holds, each owning its state
+    "camera": {"scene", "terrain"},
+    "actuation": {"clock", "scene", "terrain", "camera"},
+    "power": {"scene", "terrain", "actuation"},
+    "radio": {"geometry", "scene", "terrain"},
+    "sensors": {"geometry", "clock", "scene", "terrain", "actuation"},
+    "outcome": {"geometry", "scene"},
+    # the pure cores over them
+    "sim": {"clock", "scene", "terrain", "camera", "actuation", "power", "radio", "sensors", "outcome"},
+    "twin": {"clock", "camera", "radio", "outcome"},
+    # the process: what its loop needs of a world, the loop and the command
+    "served": {"clock", "camera"},
+    "lockstep": {"served"},
+    "rover_ids": set(),
+    "presence": {"served", "lockstep", "rover_ids"},
+    "resume": {"sim"},
+    "service": {"served", "lockstep", "presence", "rover_ids", "camera"},
+    "app": {"served", "service", "resume", "sim", "twin"},
+    "__main__": set(),
+    "__init__": set(),
+}
+"""Inside ``world_service``, what each subpackage or top-level module may import of the others: the parts import
+only what they share and the parts below them, never the world that holds them, and the service's loop sees a world
+only through ``served``."""
 MAX_LINES = 400
 
 
@@ -95,3 +125,34 @@ def test_no_modules_import_each_other_round_a_circle():
 def test_no_module_is_over_400_lines():
     long = {name: n for name, path in MODULES.items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
     assert not long, long
+
+
+def _member(name: str) -> str:
+    """The subpackage or top-level module of ``world_service`` that module ``name`` belongs to."""
+    parts = name.split(".")
+    return parts[1] if len(parts) > 1 else "__init__"
+
+
+def test_every_member_of_the_world_service_has_its_place():
+    members = {_member(name) for name in MODULES if name.split(".")[0] == "world_service"}
+    assert members == set(WORLD_SERVICE), "add new members to WORLD_SERVICE, drop gone ones"
+
+
+def test_the_world_service_s_members_import_only_what_they_may():
+    # ``from world_service import geometry`` also names the package's root, which imports nothing
+    inside = {name: {t for t in targets if t.split(".")[0] == "world_service" and t != "world_service"}
+              for name, targets in GRAPH.items() if name.split(".")[0] == "world_service"}
+    wrong = sorted(f"{name} imports {target}" for name, targets in inside.items() for target in targets
+                   if _member(target) != _member(name) and _member(target) not in WORLD_SERVICE[_member(name)])
+    assert not wrong, "\n".join(wrong)
+
+
+def test_the_world_service_s_members_stack_without_a_circle():
+    placed: list[str] = []
+    left = dict(WORLD_SERVICE)
+    while left:
+        ready = sorted(member for member, below in left.items() if below <= set(placed))
+        assert ready, f"members importing each other round a circle: {sorted(left)}"
+        placed += ready
+        for member in ready:
+            del left[member]
