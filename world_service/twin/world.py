@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Collection
-from typing import TYPE_CHECKING, ClassVar
+from collections.abc import Callable, Collection
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -77,6 +77,8 @@ class TwinWorld:
         self.rejected = Rejections(log)
         self.dropped_messages = 0  # counted by the service's inbox; the twin does not report it
         self.completion = Completion(relay_wait_s(scenario.rover_params))
+        self.handlers: dict[str, Callable[[int, Any], None]] = {
+            ks.TELEMETRY: self._on_telemetry, ks.STATUS: self._on_status, ks.COMM_PARTNERS: self._on_partners}
 
     @classmethod
     def input_keys(cls, keys: ks.Keyspace) -> list[str]:
@@ -123,15 +125,16 @@ class TwinWorld:
             rid, topic = self.keys.parse_rover_key(key)
             if rid not in self.bodies:
                 raise ValueError(f"no rover {rid} in scenario {self.scenario.name!r} (ids 1..{len(self.bodies)})")
-            if topic not in self.INPUT_TOPICS:
+            handler = self.handlers.get(topic)
+            if handler is None:
                 raise ValueError(f"topic {topic!r} is not an input of the twin")
-            message = codec.decode(m.TOPIC_MODELS[topic], payload)
-            if topic == ks.TELEMETRY:
-                self.bodies[rid].follow(message, self.clock.sim_time)
-            elif topic == ks.STATUS:
-                self.status[rid] = message
-            else:
-                self._on_partners(rid, message)
+            handler(rid, codec.decode(m.TOPIC_MODELS[topic], payload))
+
+    def _on_telemetry(self, rid: int, msg: m.Telemetry) -> None:
+        self.bodies[rid].follow(msg, self.clock.sim_time)
+
+    def _on_status(self, rid: int, msg: m.RoverStatus) -> None:
+        self.status[rid] = msg
 
     def _on_partners(self, node: int, msg: m.CommPartners) -> None:
         unknown = sorted(set(msg.ids) - {ks.LANDER_ID, *self.bodies})
