@@ -25,6 +25,8 @@ from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
 from sessions.format import read_samples
+from world_service.served import ServedWorld
+from world_service.sim import World
 from world_service.twin.rovers import STALE_AFTER_S, Pose, TwinRover, compose
 from world_service.twin.world import TwinWorld
 
@@ -55,6 +57,13 @@ def twin(tmp_path) -> TwinWorld:
 
 def steps(world: TwinWorld, seconds: float) -> list:
     return [o for _ in range(round(seconds / world.clock.dt)) for o in world.step()]
+
+
+def test_the_twin_and_the_simulation_both_offer_what_the_service_loop_drives(twin):
+    world = World(twin.scenario, twin.keys)
+    assert isinstance(twin, ServedWorld) and isinstance(world, ServedWorld)
+    assert twin.clock.message().run != world.clock.message().run  # each run names itself
+    assert twin.take_photo_jobs() == [] and list(twin.rover_ids) == list(world.rover_ids) == [1, 2]
 
 
 # ---- pose composition and distance ----

@@ -9,7 +9,7 @@ what it returns, and at the end publishes its final state and report.
 from __future__ import annotations
 
 from collections.abc import Collection
-from typing import TYPE_CHECKING, ClassVar, Protocol
+from typing import TYPE_CHECKING, ClassVar, Protocol, runtime_checkable
 
 from bus.rejections import Rejections
 from schemas import keyspace as ks
@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from world_service.camera.photos import PhotoJob
 
 
+@runtime_checkable
 class ServedWorld(Protocol):
     RENDERS_PHOTOS: ClassVar[bool]
     """The service starts a camera process to render the world's photo jobs."""

@@ -152,7 +152,7 @@ class World:
         return self.shutter.take_jobs()
 
     def render(self, job: PhotoJob) -> m.Photo:
-        """The photo rendered here (tests, the loopback); the service renders in a ``photos.CameraProcess``."""
+        """The photo rendered here (tests, the loopback); the service renders in a ``camera.photos.CameraProcess``."""
         return self.shutter.render(job)
 
     # ---- time ----

@@ -1,5 +1,5 @@
 """Sunlight, power and heat for every rover, stepped with the world: the glue of ``sun``,
-``shadows``, ``power`` and ``thermal``, and the three sensors it publishes.
+``shadows``, ``battery`` and ``thermal``, and the three sensors it publishes.
 
 The world holds one ``Energy`` only when the scenario has a ``sun`` block; without it nothing here runs and
 nothing is published. Each tick: which panels are lit (re-traced every ``light_period`` ticks: a rover

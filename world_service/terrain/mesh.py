@@ -74,7 +74,7 @@ class _Triangles:
 
 
 class MeshSurface:
-    """A triangle surface answering height blocks for terrain tiles (``terrain.HeightSource``)."""
+    """A triangle surface answering height blocks for terrain tiles (``landforms.HeightSource``)."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, bin_size_m: float = 256.0) -> None:
         self.triangles = _Triangles.of(np.asarray(vertices, float), np.asarray(faces, np.int64))
