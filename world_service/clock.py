@@ -19,7 +19,7 @@ log = logging.getLogger("lunarsim.world")
 CLOCK_HZ = 5.0
 """How often the clock is published in real time. Agents learn the time from every sample's stamp; the clock
 drives their own timers, the shortest of which is a second, and tells them the world is there. At the tick rate
-(20 Hz) it was 40% of what every agent received. In lockstep it goes out on every tick that waits for an ack."""
+(20 Hz) it would be 40% of what every agent receives. In lockstep it goes out on every tick that waits for an ack."""
 
 
 def tick_length(params: RoverParams) -> float:

@@ -193,9 +193,9 @@ class World:
 
     def _observer_tick(self, period: int) -> bool:
         """Ground truth and statistics, which only observers read, go out half a period after the ticks that
-        rebuild the radio graph and send every rover its partners. Together, at 100 rovers, those made one tick a
-        second cost 15 ms of the world's CPU against 4 for the others, and in real time the ticks after it
-        started late."""
+        rebuild the radio graph and send every rover its partners. Together, at 100 rovers, they would make one tick
+        a second cost 15 ms of the world's CPU against 4 for the others, and in real time the ticks after it would
+        start late."""
         return self.clock.tick % period == period // 2
 
     # ---- ground truth and statistics ----

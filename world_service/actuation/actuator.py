@@ -216,7 +216,7 @@ class Actuator:
         for body in touching.hit:
             body.x, body.z, body.distance_covered = before[body.id]
             # a move may have ended on this very step: its start is then in its end, and the agent needs the
-            # CancelResult built from it (a "collided" status without one left the agent waiting for ever)
+            # CancelResult built from it (a "collided" status without one would leave the agent waiting for ever)
             done = ended[body.id]
             start = body.action.start if body.action is not None else done.start if done else None
             body.action, body.velocity = None, 0.0
