@@ -122,6 +122,15 @@ def test_no_modules_import_each_other_round_a_circle():
     assert not circles, "\n".join(circles)
 
 
+def test_every_package_and_subpackage_ships_in_the_wheel():
+    """``pip install .`` installs the packages pyproject.toml names, not their subpackages: each must be named."""
+    import tomllib
+
+    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {name for name, path in MODULES.items() if path.name == "__init__.py"}
+    assert found <= listed, sorted(found - listed)
+
+
 def test_no_module_is_over_400_lines():
     long = {name: n for name, path in MODULES.items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
     assert not long, long
