@@ -12,7 +12,8 @@ return) and for each rover's role (formation, in_crater, out_of_range):
   distance they covered (the report's mission figure mixes in rovers that never moved); above 1 where a rover
   skipped a leg: a relay of a chain to a goal before the last is sent on to the next goal, not to that one;
 - end-of-mission pose error: from each rover's final true position to its final goal where it is reached (the
-  crest for a crater goal, the waypoint otherwise: ``world_service.statistics.distance_to_goal``), median and p90;
+  crest for a crater goal, the waypoint otherwise: ``world_service.outcome.statistics.distance_to_goal``), median
+  and p90;
 - localisation error: from each rover's own estimate of where it stands (``RoverAgent.pose``) to where it truly
   stands at the end, median and p90 over the rovers that walked at least ``LOCALISED_AFTER_M``;
 - a failure taxonomy: for each rover that did not reach, its classes, role, final state, distance to its final
@@ -59,7 +60,7 @@ from harness.loopback import run_mission_agents
 from rover_agent.agent import RoverAgent
 from scenarios.generator import CLASS_VALUES, GeneratedScenario, generate
 from schemas.scenario import Scenario
-from world_service import statistics as stats
+from world_service.outcome import statistics as stats
 from world_service.sim import World
 
 DEVELOPMENT = range(0, 200)
@@ -116,9 +117,10 @@ def _estimate_std(agent: RoverAgent) -> float | None:
 
 def _rovers(world: World, made: GeneratedScenario, agents: dict[int, RoverAgent]) -> list[dict]:
     """Per-rover figures from the world's last published state (the one its report was computed from)."""
-    scenario, state, missions = made.scenario, world.mission_stats.last, world.missions
-    links = world.mission_stats.links
-    reached_ids = set(world.mission_stats.reached(state))  # the report's own judgement, rover by rover
+    referee = world.referee
+    scenario, state, missions = made.scenario, referee.stats.last, referee.missions
+    links = referee.stats.links
+    reached_ids = set(referee.stats.reached(state))  # the report's own judgement, rover by rover
     out = []
     for r in state.rovers:
         final = missions.final_index(r.id)
@@ -136,7 +138,7 @@ def _rovers(world: World, made: GeneratedScenario, agents: dict[int, RoverAgent]
                     "estimate_std_m": _estimate_std(agents[r.id]),
                     "distance_covered_m": r.distance_covered_m, "ideal_path_m": round(ideal, 3),
                     "efficiency": round(ideal / r.distance_covered_m, 4) if r.distance_covered_m > 0 else None,
-                    "detail": world.status[r.id].detail})
+                    "detail": referee.status[r.id].detail})
     return out
 
 

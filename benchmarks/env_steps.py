@@ -81,7 +81,7 @@ def single(env: LunarSimEnv, policy: str, max_rounds: int) -> dict:
         steps += len(env.agents)
         observations, _, _, _, infos = env.step(actions)
     wall = time.perf_counter() - start
-    sim = env.rounds.world.sim_time
+    sim = env.rounds.world.clock.sim_time
     return {"agent_steps_per_s": round(steps / wall), "rounds": env.cycles, "sim_s": round(sim, 1),
             "wall_s": round(wall, 2), "sim_s_per_wall_s": round(sim / wall, 1)}
 
@@ -111,8 +111,8 @@ def plain(rovers: int, sim_seconds: float) -> dict:
     start = time.perf_counter()
     world = run_mission(scenario(rovers).with_overrides(seed=1), sim_seconds)
     wall = time.perf_counter() - start
-    return {"sim_s": round(world.sim_time, 1), "wall_s": round(wall, 2),
-            "sim_s_per_wall_s": round(world.sim_time / wall, 1)}
+    return {"sim_s": round(world.clock.sim_time, 1), "wall_s": round(wall, 2),
+            "sim_s_per_wall_s": round(world.clock.sim_time / wall, 1)}
 
 
 def measure(rovers: int, sim_seconds: float, workers: int, max_rounds: int) -> dict:

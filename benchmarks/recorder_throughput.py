@@ -76,14 +76,14 @@ def publish(endpoint: str, rovers: int, seconds: float) -> tuple[Counter[str], i
     scenario = load_scenario(SCENARIO).with_overrides(rovers=rovers)
     keys = ks.Keyspace("bench")
     world = World(scenario, keys)
-    for rid in world.bodies:  # every rover on the move, as in world_scale.py
+    for rid in world.rover_ids:  # every rover on the move, as in world_scale.py
         world.receive(keys.rover(rid, ks.MOVE_ACTION), MOVE)
     published: Counter[str] = Counter()
     nbytes = 0
     session = open_session(build_config(connect=[endpoint]), endpoint, 10.0, who="benchmark")
     with Bus(session) as bus:
         start = time.monotonic()
-        while world.sim_time < seconds:
+        while world.clock.sim_time < seconds:
             out = world.step()
             drive(world, out, keys)
             for key, message in out:
@@ -91,7 +91,7 @@ def publish(endpoint: str, rovers: int, seconds: float) -> tuple[Counter[str], i
                 bus.put(key, payload)
                 published[_topic(key)] += 1
                 nbytes += len(payload)
-            delay = start + world.sim_time - time.monotonic()
+            delay = start + world.clock.sim_time - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
         wall = time.monotonic() - start

@@ -72,7 +72,7 @@ from bus import priority
 from bus.zenoh_config import RouterUnreachable, build_config, open_session
 from schemas import keyspace as ks
 from schemas.scenario import Scenario, dump_scenario, load_scenario
-from world_service.sim import CLOCK_HZ, ticks_per_period
+from world_service.clock import CLOCK_HZ, ticks_per_period
 
 MIN_SHARED = 50
 """The shared series halves its last count until one holds real time, down to this."""

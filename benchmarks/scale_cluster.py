@@ -18,7 +18,7 @@ from deploy.children import Children, wait_for_port
 from rover_agent.app import PRELOAD
 from schemas import keyspace as ks
 from schemas.scenario import Scenario
-from world_service.sim import tick_length, ticks_per_period
+from world_service.clock import tick_length, ticks_per_period
 
 WORLD = "bench"
 WITNESS = Path(__file__).resolve().parent / "scale_witness.py"

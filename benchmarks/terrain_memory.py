@@ -31,7 +31,7 @@ import numpy as np
 import quick
 
 from schemas.scenario import Crater, TerrainSpec
-from world_service.terrain import Heightmap
+from world_service.terrain.heightmap import Heightmap
 
 TARGET_BYTES = 2 * 1024**3
 MIB = 1024**2

@@ -48,9 +48,9 @@ def measure(rovers: int, sim_seconds: float) -> dict:
     keys = ks.Keyspace("bench")
     scenario = load_scenario(SCENARIO).with_overrides(rovers=rovers)
     world = World(scenario, keys)
-    for rid in world.bodies:
+    for rid in world.rover_ids:
         world.receive(keys.rover(rid, ks.MOVE_ACTION), MOVE)
-    ticks = round(sim_seconds / world.dt)
+    ticks = round(sim_seconds / world.clock.dt)
     messages = 0
     start = time.perf_counter()
     for _ in range(ticks):
@@ -60,7 +60,7 @@ def measure(rovers: int, sim_seconds: float) -> dict:
         messages += len(out)
         drive(world, out, keys)
     wall = time.perf_counter() - start
-    simulated = ticks * world.dt
+    simulated = ticks * world.clock.dt
     return {
         "rovers": rovers,
         "sim_seconds": round(simulated, 3),
@@ -68,7 +68,7 @@ def measure(rovers: int, sim_seconds: float) -> dict:
         "wall_per_sim_second": round(wall / simulated, 4),
         "real_time_factor": round(simulated / wall, 2),
         "messages_per_sim_second": round(messages / simulated),
-        "distance_covered_m": round(sum(b.distance_covered for b in world.bodies.values()), 1),
+        "distance_covered_m": round(sum(b.distance_covered for b in world.actuator.bodies.values()), 1),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
     }
 

@@ -138,9 +138,9 @@ def _base_scenario(args: argparse.Namespace):
 
 
 def with_map_figures(report, scenario, folder: Path):
-    """The report scoring the lander's traverse map (``world_service.map_truth``), when the lander wrote one."""
+    """The report scoring the lander's traverse map (``world_service.outcome.map_truth``), when the lander wrote one."""
     from lander_agent import mapping
-    from world_service.map_truth import map_figures
+    from world_service.outcome.map_truth import map_figures
 
     path = folder / mapping.NPZ_FILE
     if not path.is_file():

@@ -78,7 +78,7 @@ def _check_files(path: Path, scenario) -> None:
 
     mesh = scenario.terrain.mesh if scenario.terrain is not None else None
     if mesh is not None:
-        from world_service.terrain_mesh import load_vertices_faces
+        from world_service.terrain.mesh import load_vertices_faces
 
         try:
             load_vertices_faces(mesh, scenario.terrain.mesh_scale, scenario.terrain.mesh_offset)

@@ -31,10 +31,10 @@ from hardware.driver import ActionRefused, ActionStatus, Driver, DriverError, Tr
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
 
 log = logging.getLogger("lunarsim.bridge")
 
-Out = tuple[str, m.Message]
 T = TypeVar("T")
 
 GYROSCOPE_PERIOD_S = 1 / 20

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from harness.rounds import Drop, Out, Rounds
+from harness.rounds import Drop, Rounds
 from lander_agent.archive import PhotoArchive
 from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import BaseBehaviour
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
 from schemas.mission import calibration
 from schemas.scenario import Scenario
 from world_service.sim import World

@@ -25,11 +25,12 @@ from lander_agent.runtime import Lander
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
 from schemas.scenario import Scenario
+from world_service.camera.photos import PhotoJob
 from world_service.lockstep import LockstepTick
-from world_service.sim import PhotoJob, World
+from world_service.sim import World
 
-Out = tuple[str, m.Message]
 Heard = dict[int, list[tuple[str, bytes]]]
 """Rover id -> the samples that reached its keys this round, in order: (topic, encoded payload); the topic of
 the world's clock is ``keyspace.CLOCK``."""
@@ -51,11 +52,11 @@ class Rounds:
 
     def __post_init__(self) -> None:
         self.world = World(self.scenario, self.keys)
-        self.world.lockstep = True
-        self.world.run_id = f"rounds-{self.scenario.seed}"  # the clock names the run: the same seed, the same bytes
+        self.world.clock.lockstep = True
+        self.world.clock.run_id = f"rounds-{self.scenario.seed}"  # the clock names the run: same seed, same bytes
         self.lander = Lander(MissionPlan(self.scenario), self.keys, self.archive, self.map_folder)
         self.tick = LockstepTick(self.world, self.max_sim_time)
-        self.rover_ids = sorted(self.world.bodies)
+        self.rover_ids = sorted(self.world.rover_ids)
         self._present = {ks.LANDER_ID, *self.rover_ids}
         self._photos: list[PhotoJob] = []
         self._phase = "step"  # next: "samples", "clock", "take", then "step" again
@@ -113,7 +114,7 @@ class Rounds:
                     said.append((key, message))
             if said and self.strict and self._clock_round and rid not in (self._clock.acks or ()):
                 raise AssertionError(f"rover {rid} published {[k.rsplit('/', 1)[-1] for k, _ in said]} on tick "
-                                     f"{self.world.tick}, which the world does not wait for (asked: "
+                                     f"{self.world.clock.tick}, which the world does not wait for (asked: "
                                      f"{self._clock.acks}): the agent's next_wake() misses a timer")
             self._said(said)
 
@@ -168,10 +169,10 @@ class Rounds:
 
     def _step_world(self) -> None:
         world = self.world
-        self._photos += world.photo_jobs
-        world.photo_jobs = []
+        self._photos += world.take_photo_jobs()
+        tick = world.clock.tick + 1
         due = [(self.keys.rover(job.rover_id, ks.PHOTO), world.render(job)) for job in self._photos
-               if job.due_tick <= world.tick + 1]
-        self._photos = [job for job in self._photos if job.due_tick > world.tick + 1]
+               if job.due_tick <= tick]
+        self._photos = [job for job in self._photos if job.due_tick > tick]
         self._queue, self._clock = self.tick.step(due, self._present)
         self._phase = "samples"

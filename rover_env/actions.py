@@ -17,8 +17,8 @@ from rover_env.spaces import COMMANDS, GOAL_REPORTS, pack_numbers
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas import radio
+from schemas.messages import Out
 
-Out = tuple[str, m.Message]
 PUBLISHED_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.SPEED_ACTION, ks.PHOTO_ACTION,
                               ks.COMM_OUT, ks.STATUS, ks.ACK})
 """What a rover agent publishes (the world's inputs, its status and its lockstep ack)."""
@@ -32,7 +32,7 @@ class ActionError(ValueError):
 class ArrayActions:
     """Turns one rover's array actions into messages, as an agent would publish them: actions numbered, goal
     reports radioed to the lander, and a status naming the last action whose end the rover heard, so the world
-    stops re-sending that end (``world_service.actions``) and a collision is told once."""
+    stops re-sending that end (``world_service.actuation.ledger``) and a collision is told once."""
 
     def __init__(self, keys: ks.Keyspace, rover_id: int, others: list[int], space: spaces.Dict) -> None:
         self.keys, self.id, self.others, self.space = keys, rover_id, others, space

@@ -112,7 +112,7 @@ class LunarSimEnv(ParallelEnv):
         """With ``leave_when_done``: its rover says it is done or stuck (an array action's goal report, or the status
         a message policy sent, once the world has it), so nothing it does changes the mission."""
         rid = self._ids[agent]
-        said = {self._arrays[rid].state, self.rounds.world.status[rid].state}
+        said = {self._arrays[rid].state, self.rounds.world.referee.status[rid].state}
         return self.leave_when_done and bool(said & LEFT_STATES)
 
     def report(self) -> m.MissionReport:
@@ -130,7 +130,7 @@ class LunarSimEnv(ParallelEnv):
         rid = self._ids[agent]
         if isinstance(action, list):
             return checked_messages(self.rounds.keys, rid, action)
-        return self._arrays[rid].messages(action, self.rounds.world.sim_time)
+        return self._arrays[rid].messages(action, self.rounds.world.clock.sim_time)
 
     def _observe(self, heard: Heard):
         observations, rewards, infos = {}, {}, {}
@@ -143,7 +143,7 @@ class LunarSimEnv(ParallelEnv):
                 self._arrays[rid].hear(topic, msg)
             observations[agent] = sp.observe(decoded, self._empty)
             rewards[agent] = self.rewards.round(rid, decoded)
-            infos[agent] = {"samples": samples, "tick": world.tick, "sim_time": world.sim_time,
+            infos[agent] = {"samples": samples, "tick": world.clock.tick, "sim_time": world.clock.sim_time,
                             "action_mask": self._arrays[rid].mask()}
         return observations, rewards, infos
 

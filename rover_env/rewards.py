@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from schemas import keyspace as ks
 from schemas import messages as m
-from world_service import statistics as stats
+from world_service.outcome import statistics as stats
 from world_service.sim import World
 
 
@@ -34,20 +34,20 @@ class RewardWeights:
 class Rewards:
     def __init__(self, world: World, weights: RewardWeights) -> None:
         self.world, self.weights = world, weights
-        missions = world.mission_stats.missions
+        missions = world.referee.missions
         scenario = world.scenario
         self.ideal = {}
-        for rid in world.bodies:
+        for rid in world.rover_ids:
             spawn = scenario.rovers[rid - 1]
             goals = [missions.goal(rid, i) for i in range(missions.final_index(rid) + 1)]
             self.ideal[rid] = max(stats.remaining_path(scenario, goals, spawn.x, spawn.z), 1.0)
-        self.covered = dict.fromkeys(world.bodies, 0.0)
+        self.covered = dict.fromkeys(world.rover_ids, 0.0)
         self.reached: set[int] = set()
-        self.collided: dict[int, set[int]] = {rid: set() for rid in world.bodies}
+        self.collided: dict[int, set[int]] = {rid: set() for rid in world.rover_ids}
 
     def round(self, rid: int, heard: list[tuple[str, m.Message | None]]) -> float:
         """The reward of rover ``rid`` for the round in which it heard ``heard`` (topic, decoded message)."""
-        body, w = self.world.bodies[rid], self.weights
+        body, w = self.world.actuator.bodies[rid], self.weights
         reward = w.distance * (body.distance_covered - self.covered[rid]) / self.ideal[rid]
         self.covered[rid] = body.distance_covered
         collided = {msg.action_id for topic, msg in heard if topic == ks.NAVIGATION_STATUS
@@ -60,8 +60,8 @@ class Rewards:
         return reward
 
     def _at_final_goal(self, rid: int) -> bool:
-        status, missions = self.world.status[rid], self.world.mission_stats.missions
+        status, missions = self.world.referee.status[rid], self.world.referee.missions
         final = missions.final_index(rid)
-        body = self.world.bodies[rid]
+        body = self.world.actuator.bodies[rid]
         return (status.state == "done" and status.goal_index == final
                 and stats.at_goal(self.world.scenario, missions.goal(rid, final), body.x, body.z))

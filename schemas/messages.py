@@ -52,6 +52,10 @@ __all__ = ["HIT_KINDS", "MISSION_COMMANDS", "PLAYBACK_COMMANDS", "RECORDER_COMMA
            "RoverState", "RoverTruth", "WorldCounters", "WorldState", "WorldStats"]
 """Re-exported: every payload is ``schemas.messages.X`` to its users, wherever it is defined."""
 
+Out = tuple[str, Message]
+"""One sample a process publishes: its key and its message. What every pure core (world, lander, rover agent)
+returns for its loop to publish."""
+
 # ---- perception, navigation, gyroscope (report 10.1-10.3) ----
 
 

@@ -221,8 +221,8 @@ class WatchdogParams(Params):
     """LunarSim's: when the world stops waiting for a rover that has stopped making progress."""
 
     stall_after_s: float = Field(300.0, gt=0, le=1e6, description="simulated seconds a rover may come no closer to "
-                                 "its goal before the world counts it stuck (world_service.progress); a rover off "
-                                 "for want of power or finished is not counted")
+                                 "its goal before the world counts it stuck (world_service.outcome.progress); a rover "
+                                 "off for want of power or finished is not counted")
 
 
 class RoverParams(Params):

@@ -47,7 +47,7 @@ MAX_MESH_BYTES = 256 * 1024**2
 a triangle, 600 MB) fit within ``MEMORY_LIMIT_BYTES``. A device (``/dev/zero``) or a wrong file named by mistake
 is refused instead of read without end."""
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".glb")
-"""The mesh formats ``world_service.terrain_mesh`` loads (with trimesh): self-contained files, so a mesh is
+"""The mesh formats ``world_service.terrain.mesh`` loads (with trimesh): self-contained files, so a mesh is
 read as one file and names no other."""
 
 MAX_BEHAVIOUR_CHARS = 200
@@ -79,7 +79,7 @@ MEMORY_LIMIT_BYTES = 2 * 1024**3
 (``benchmarks/terrain_memory.py``), and more than a small machine running the whole mission can spare."""
 
 HELD_BYTES_PER_NODE = 12
-"""A loaded terrain node: float32 height and two float32 gradients (``world_service.terrain.Tile``)."""
+"""A loaded terrain node: float32 height and two float32 gradients (``world_service.terrain.heightmap.Tile``)."""
 BUILD_BYTES_PER_NODE = 24
 """While one tile is generated: float64 heights and both float64 gradients of that tile."""
 MAP_MARGIN_M = 30.0
@@ -130,7 +130,7 @@ BehaviourSpec = Annotated[str, AfterValidator(behaviour_spec)]
 
 
 def mesh_suffix(path: str) -> str:
-    """A terrain mesh's format, from its name: one ``world_service.terrain_mesh`` loads."""
+    """A terrain mesh's format, from its name: one ``world_service.terrain.mesh`` loads."""
     suffix = path[path.rfind("."):].lower() if "." in path.rsplit("/", 1)[-1] else ""
     if suffix not in MESH_SUFFIXES:
         raise ValueError(f"{clip(repr(path))} is not a mesh file: its name must end in "
@@ -139,7 +139,7 @@ def mesh_suffix(path: str) -> str:
 
 
 def nodes_along(side_m: float, resolution_m: float) -> int:
-    """Grid nodes along one side, as ``world_service.terrain.Heightmap`` lays them out."""
+    """Grid nodes along one side, as ``world_service.terrain.heightmap.Heightmap`` lays them out."""
     return math.ceil(side_m / resolution_m) + 1
 
 

@@ -33,7 +33,7 @@ class RoverTruth(Message):
     energy_used_wh: float | None = Field(None, description="drawn from the battery since the start")
     powered: bool | None = Field(None, description="False while off: battery empty or too cold")
     stalled: bool = Field(False, description="no closer to its goal for the stall time: counted stuck, whatever its "
-                          "agent says (world_service.progress)")
+                          "agent says (world_service.outcome.progress)")
 
 
 class WorldCounters(Message):
@@ -58,7 +58,7 @@ class WorldCounters(Message):
 
 class WorldState(Message):
     """Ground truth at the perception rate; the mission statistics are computed from this stream alone
-    (``world_service.statistics.MissionStats``), live and from a recording alike."""
+    (``world_service.outcome.statistics.MissionStats``), live and from a recording alike."""
 
     stamp: Seconds
     rovers: list[RoverTruth] = Field(max_length=MAX_ROVERS)
@@ -112,7 +112,7 @@ class MissionReport(Message):
     radio_dropped: int = Field(0, description="transmissions whose target was out of reach")
     radio_lost: int = Field(0, description="transmissions lost to the configured loss probability")
     map_corridor_mapped: float | None = Field(None, description="share of the A-B corridor's cells the lander's "
-                                              "map knows (world_service.map_truth); None: no map")
+                                              "map knows (world_service.outcome.map_truth); None: no map")
     map_obstacles_found: float | None = Field(None, description="share of the corridor's obstacle cells the map "
                                               "marks as obstacle (within the match tolerance)")
     map_obstacle_precision: float | None = Field(None, description="share of the map's obstacle cells that are "

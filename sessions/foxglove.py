@@ -108,7 +108,7 @@ class TerrainGrid:
 
 def build_heightmap(scenario: Scenario):
     """The world service's terrain for a scenario: same seed stream, so the same undulation and craters."""
-    from world_service.terrain import Heightmap
+    from world_service.terrain.heightmap import Heightmap
 
     return Heightmap.from_scenario(scenario, np.random.default_rng(scenario.seed))
 

@@ -13,7 +13,7 @@ from schemas import messages as m
 from schemas.mission import RoverMissions
 from schemas.scenario import Scenario
 from sessions.format import Sample
-from world_service.statistics import MissionStats
+from world_service.outcome.statistics import MissionStats
 
 
 class NothingToReport(ValueError):
@@ -47,7 +47,7 @@ def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: st
 def _with_map_figures(report: m.MissionReport, scenario: Scenario, payload: bytes) -> m.MissionReport:
     """The last recorded ``lander/map`` scored as the launcher scores ``map.npz`` (a bad sample is skipped)."""
     from lander_agent import mapping
-    from world_service.map_truth import map_figures
+    from world_service.outcome.map_truth import map_figures
 
     try:
         spec, classes = mapping.from_message(codec.decode(m.LanderMap, payload))

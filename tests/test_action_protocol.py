@@ -42,7 +42,7 @@ def _until_idle(world: World, limit: int = 400) -> list:
     out = []
     for _ in range(limit):
         out += world.step()
-        if not world.bodies[1].busy:
+        if not world.actuator.bodies[1].busy:
             return out
     raise AssertionError("the action did not end")
 
@@ -55,16 +55,16 @@ def test_an_action_sent_again_is_answered_not_started_twice():
     first = _of(_send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=90, action_id=7)), ks.NAVIGATION_STATUS)
     assert first[0].action_id == 7 and first[0].outcome == "running"
     world.step()
-    heading = world.bodies[1].heading
+    heading = world.actuator.bodies[1].heading
     again = _of(_send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=90, action_id=7)), ks.NAVIGATION_STATUS)
     assert again[0].action_id == 7 and again[0].outcome == "running"
     assert again[0].remaining < first[0].remaining  # the same rotation, further on: not a second one
     ended = _of(_until_idle(world), ks.NAVIGATION_STATUS)
     assert ended[-1].outcome == "completed" and ended[-1].action_id == 7
-    turned = (world.bodies[1].heading - heading) % 360.0
+    turned = (world.actuator.bodies[1].heading - heading) % 360.0
     late = _of(_send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=90, action_id=7)), ks.NAVIGATION_STATUS)
     assert late == [ended[-1]]  # its end again
-    assert not world.bodies[1].busy and (world.bodies[1].heading - heading) % 360.0 == turned
+    assert not world.actuator.bodies[1].busy and (world.actuator.bodies[1].heading - heading) % 360.0 == turned
 
 
 def test_a_late_duplicate_of_an_older_action_is_refused_and_never_moves_the_rover():
@@ -73,10 +73,10 @@ def test_a_late_duplicate_of_an_older_action_is_refused_and_never_moves_the_rove
     _until_idle(world)
     _send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=10, action_id=6))
     _until_idle(world)
-    heading = world.bodies[1].heading
+    heading = world.actuator.bodies[1].heading
     refused = _of(_send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=10, action_id=4)), ks.ACTION_REJECTED)
     assert refused[0].reason == "stale" and refused[0].action_id == 4
-    assert not world.bodies[1].busy and world.bodies[1].heading == heading
+    assert not world.actuator.bodies[1].busy and world.actuator.bodies[1].heading == heading
 
 
 def test_a_refused_action_sent_again_gets_the_same_refusal():
@@ -91,11 +91,11 @@ def test_the_end_is_resent_until_the_agents_status_says_it_was_heard():
     world = _world()
     _send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=30, action_id=9))
     _until_idle(world)
-    later = [o for _ in range(int(3.5 / world.dt)) for o in world.step()]
+    later = [o for _ in range(int(3.5 / world.clock.dt)) for o in world.step()]
     ends = [s for s in _of(later, ks.NAVIGATION_STATUS) if s.outcome == "completed"]
     assert len(ends) >= 3 and {s.action_id for s in ends} == {9}
-    _send(world, ks.STATUS, m.RoverStatus(stamp=world.sim_time, state="migration", action_id=9))
-    quiet = [o for _ in range(int(3.0 / world.dt)) for o in world.step()]
+    _send(world, ks.STATUS, m.RoverStatus(stamp=world.clock.sim_time, state="migration", action_id=9))
+    quiet = [o for _ in range(int(3.0 / world.clock.dt)) for o in world.step()]
     assert not _of(quiet, ks.NAVIGATION_STATUS)
 
 
@@ -104,10 +104,10 @@ def test_an_agent_away_is_told_how_its_action_ended_once_it_is_back():
     _send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=90, action_id=11))
     world.step()
     world.set_alive(1, False)  # the router went away: the watchdog stops the rover
-    away = [o for _ in range(int(3.0 / world.dt)) for o in world.step()]
+    away = [o for _ in range(int(3.0 / world.clock.dt)) for o in world.step()]
     assert len(_of(away, ks.CANCEL_RESULT)) == 1  # published as it ended, but nothing re-sent to nobody
     world.set_alive(1, True)
-    back = [o for _ in range(int(2.5 / world.dt)) for o in world.step()]
+    back = [o for _ in range(int(2.5 / world.clock.dt)) for o in world.step()]
     resent = _of(back, ks.CANCEL_RESULT)
     assert len(resent) >= 2 and all(r.reason == "cancelled" and r.action_id == 11 for r in resent)
 
@@ -128,9 +128,9 @@ def test_an_action_that_comes_after_its_own_cancel_never_starts():
     (refusal,) = _of(_send(world, ks.CANCEL_ACTION, m.CancelAction(action_id=7)), ks.ACTION_REJECTED)
     assert refusal.reason == "no_action"
     late = _send(world, ks.MOVE_ACTION, m.MoveAction(x=0.0, z=1.0, action_id=7))
-    assert not world.bodies[1].busy and _of(late, ks.ACTION_REJECTED)[0].reason == "stale"
+    assert not world.actuator.bodies[1].busy and _of(late, ks.ACTION_REJECTED)[0].reason == "stale"
     _send(world, ks.MOVE_ACTION, m.MoveAction(x=0.0, z=1.0, action_id=8))
-    assert world.bodies[1].busy  # the agent's next action starts
+    assert world.actuator.bodies[1].busy  # the agent's next action starts
 
 
 def test_a_photo_action_while_the_rover_turns_leaves_the_turn_named_in_its_status_and_end():
@@ -144,7 +144,7 @@ def test_a_photo_action_while_the_rover_turns_leaves_the_turn_named_in_its_statu
     assert asked.action_id == 7 and asked.outcome == "running"
     statuses = _of(_until_idle(world), ks.NAVIGATION_STATUS)
     assert statuses[-1].outcome == "completed" and {s.action_id for s in statuses} == {7}
-    assert [job.label for job in world.photo_jobs] == ["../../x"]
+    assert [job.label for job in world.shutter.jobs] == ["../../x"]
 
 
 # ---- the agent's side ----
@@ -271,7 +271,7 @@ def test_an_action_refused_as_older_than_the_rovers_latest_renews_the_agents_ids
     """The world has a later action of this rover than the agent knows of (an earlier life's): the agent's next
     ids must outrank it, or every action it sends is refused as stale."""
     world = _world()
-    while world.sim_time < 12.5:  # the earlier life ran past 10 s, and the agent's clock (12 s) lags the world's
+    while world.clock.sim_time < 12.5:  # the earlier life ran past 10 s, and the agent's clock (12 s) lags the world's
         world.step()
     earlier = ActionIds().take(10.0)
     _send(world, ks.MOVE_ACTION, m.MoveAction(x=0.0, z=1.0, action_id=earlier))
@@ -336,11 +336,11 @@ def test_one_camera_takes_one_photo_at_a_time_so_a_flood_of_photo_actions_queues
     assert _send(world, ks.PHOTO_ACTION, m.PhotoAction(label="a", action_id=1)) == []
     refused = _of(_send(world, ks.PHOTO_ACTION, m.PhotoAction(label="b", action_id=2)), ks.ACTION_REJECTED)
     assert [(r.reason, r.action_id) for r in refused] == [("action_in_progress", 2)]
-    assert len(world.photo_jobs) == 1
-    while world.sim_time < world.params.camera.capture_time_s:
+    assert len(world.shutter.jobs) == 1
+    while world.clock.sim_time < world.scenario.rover_params.camera.capture_time_s:
         world.step()
     assert _send(world, ks.PHOTO_ACTION, m.PhotoAction(label="c", action_id=3)) == []
-    assert len(world.photo_jobs) == 2
+    assert len(world.shutter.jobs) == 2
     _send(world, ks.ROTATE_ACTION, m.RotateAction(degrees=0.5, action_id=4))  # another action between photos
     refused = _of(_send(world, ks.PHOTO_ACTION, m.PhotoAction(label="d", action_id=5)), ks.ACTION_REJECTED)
-    assert [r.reason for r in refused] == ["action_in_progress"] and len(world.photo_jobs) == 2
+    assert [r.reason for r in refused] == ["action_in_progress"] and len(world.shutter.jobs) == 2

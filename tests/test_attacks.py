@@ -333,7 +333,7 @@ def _children(pid: int, mentioning: str) -> set[int]:
 
 
 HELPERS = ("multiprocessing.spawn", "multiprocessing.resource_tracker")
-"""The world's children: its camera process (``world_service.photos.CameraProcess``) and the resource tracker
+"""The world's children: its camera process (``world_service.camera.photos.CameraProcess``) and the resource tracker
 that ``multiprocessing`` starts beside it."""
 
 

@@ -8,11 +8,12 @@ import zlib
 import numpy as np
 import pytest
 
+from schemas import png
 from schemas.params import CameraParams
 from schemas.scenario import Crater, TerrainSpec, parse_scenario
-from world_service import camera
+from world_service.camera import rendering
 from world_service.scene import Scene
-from world_service.terrain import Heightmap
+from world_service.terrain.heightmap import Heightmap
 
 # Small images keep the file fast; 80 x 60 still puts the horizon between rows 29 and 30 and a column at 39/40.
 PARAMS = CameraParams(width=80, height=60, max_range_m=150.0)
@@ -20,6 +21,14 @@ HORIZON_ROW = PARAMS.height // 2  # first row below the horizon of a level camer
 MID_COLS = slice(PARAMS.width // 2 - 2, PARAMS.width // 2 + 2)
 SPEC = TerrainSpec(origin=(-100.0, -100.0), size_m=(200.0, 200.0), resolution_m=1.0)
 NO_ROVERS = np.zeros(0)
+
+
+def decode_png(data: bytes) -> np.ndarray:
+    """Read back an RGB8 PNG that ``rendering.encode_png`` writes; anything else is a ValueError."""
+    width, height, channels, pixels = png.decode(data)
+    if channels != 3:
+        raise ValueError(f"expected an RGB PNG, got {channels} channel(s)")
+    return np.frombuffer(pixels, np.uint8).reshape(height, width, 3).copy()
 
 
 def _flat() -> Heightmap:
@@ -44,7 +53,7 @@ def _shot(terrain=None, scene=None, rovers=((0.0, 0.0),), x=0.0, z=0.0, heading=
     rz = np.array([r[1] for r in rovers], float)
     terrain = terrain if terrain is not None else _flat()
     scene = scene if scene is not None else _scene()
-    return camera.render(terrain, scene, rx, rz, rover_radius, x, z, heading, PARAMS, **kwargs)
+    return rendering.render(terrain, scene, rx, rz, rover_radius, x, z, heading, PARAMS, **kwargs)
 
 
 def _warm(pixels: np.ndarray) -> np.ndarray:
@@ -86,7 +95,7 @@ def test_a_rock_straight_ahead_shows_and_one_behind_does_not():
 def test_the_rock_moves_with_the_heading():
     rock = _scene(rocks=[(8.0, 0.0, 1.0)])  # 8 m along +x: straight ahead only when facing 90
     band = (slice(HORIZON_ROW, HORIZON_ROW + 3), MID_COLS)
-    sun = camera.sun_direction(270.0, 20.0)  # behind a camera facing +x, so the rock's face towards it is lit
+    sun = rendering.sun_direction(270.0, 20.0)  # behind a camera facing +x, so the rock's face towards it is lit
     assert (_warm(_shot(scene=rock, heading=90.0, sun_dir=sun)[band]) > 5).all()
     assert (_shot(scene=rock, heading=270.0) == _shot(heading=270.0)).all()
 
@@ -119,7 +128,7 @@ def test_a_wall_across_the_view_hides_the_horizon():
 def test_crater_seen_from_its_rim_shows_the_bowl():
     crater = Crater(x=0.0, z=30.0, radius_m=20.0)  # crest 10 m ahead of the centre's near side, at z = 10
     bowl = Heightmap.build(SPEC, [crater], np.random.default_rng(0))
-    sun = camera.sun_direction(180.0, 15.0)  # low sun behind the camera: the far wall faces it
+    sun = rendering.sun_direction(180.0, 15.0)  # low sun behind the camera: the far wall faces it
     inside = _shot(terrain=bowl, z=10.0, sun_dir=sun)
     plain = _shot(z=10.0, sun_dir=sun)
     ground = plain.any(axis=2)
@@ -132,10 +141,10 @@ def test_crater_seen_from_its_rim_shows_the_bowl():
 
 
 def test_sun_direction_is_a_unit_vector_in_heading_convention():
-    x, y, z = camera.sun_direction(90.0, 0.0)
+    x, y, z = rendering.sun_direction(90.0, 0.0)
     assert np.allclose((x, y, z), (1.0, 0.0, 0.0))
-    assert np.isclose(np.linalg.norm(camera.DEFAULT_SUN_DIR), 1.0)
-    assert 0 < camera.DEFAULT_SUN_DIR[1] < 0.5  # a low, polar sun
+    assert np.isclose(np.linalg.norm(rendering.DEFAULT_SUN_DIR), 1.0)
+    assert 0 < rendering.DEFAULT_SUN_DIR[1] < 0.5  # a low, polar sun
 
 
 # ---- PNG ----
@@ -143,17 +152,17 @@ def test_sun_direction_is_a_unit_vector_in_heading_convention():
 
 def test_png_round_trip_is_exact():
     image = np.random.default_rng(1).integers(0, 256, size=(7, 11, 3), dtype=np.uint8)
-    data = camera.encode_png(image)
+    data = rendering.encode_png(image)
     assert data.startswith(b"\x89PNG\r\n\x1a\n")
     assert data[12:16] == b"IHDR" and struct.unpack(">II", data[16:24]) == (11, 7)
-    decoded = camera.decode_png(data)
+    decoded = decode_png(data)
     assert decoded.dtype == np.uint8 and decoded.shape == image.shape
     assert (decoded == image).all()
 
 
 def test_png_of_a_render_round_trips():
     image = _shot(scene=_scene(rocks=[(0.0, 8.0, 1.0)]))
-    assert (camera.decode_png(camera.encode_png(image)) == image).all()
+    assert (decode_png(rendering.encode_png(image)) == image).all()
 
 
 def _corrupt_crc(data: bytes) -> bytes:
@@ -163,7 +172,7 @@ def _corrupt_crc(data: bytes) -> bytes:
 def _png_with(header: bytes, rows: bytes) -> bytes:
     def chunk(kind: bytes, body: bytes) -> bytes:
         return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
-    return camera.PNG_SIGNATURE + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b"")
+    return png.SIGNATURE + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b"")
 
 
 @pytest.mark.parametrize(("make", "message"), [
@@ -176,13 +185,13 @@ def _png_with(header: bytes, rows: bytes) -> bytes:
     (lambda good: _png_with(struct.pack(">IIBBBBB", 2, 2, 8, 2, 0, 0, 0), b"\x00" + bytes(6)), "expected 14"),
 ])
 def test_decode_png_rejects_anything_else(make, message):
-    good = camera.encode_png(np.zeros((2, 2, 3), np.uint8))
+    good = rendering.encode_png(np.zeros((2, 2, 3), np.uint8))
     with pytest.raises(ValueError, match=message):
-        camera.decode_png(make(good))
+        decode_png(make(good))
 
 
 def test_encode_png_wants_rgb8():
     with pytest.raises(ValueError, match="uint8"):
-        camera.encode_png(np.zeros((2, 2, 3), float))
+        rendering.encode_png(np.zeros((2, 2, 3), float))
     with pytest.raises(ValueError, match="uint8"):
-        camera.encode_png(np.zeros((2, 2), np.uint8))
+        rendering.encode_png(np.zeros((2, 2), np.uint8))

@@ -119,10 +119,10 @@ def test_what_the_world_builds_encodes_as_model_dump_would():
     from world_service.sim import World
 
     world = World(load_scenario(SCENARIO), ks.Keyspace("codec"))
-    for rid in world.bodies:
+    for rid in world.actuator.bodies:
         world.receive(world.keys.rover(rid, ks.MOVE_ACTION), codec.encode(m.MoveAction(x=0.5, z=4.0)))
     out = [item for _ in range(25) for item in world.step()] + [("state", world.observed_state())]
-    out.append(("clock", world.clock().model_copy(update={"acks": [1, 2]})))
+    out.append(("clock", world.clock.message().model_copy(update={"acks": [1, 2]})))
     assert {type(message) for _, message in out} >= {m.Gyroscope, m.Perception, m.WorldState, m.Clock}
     for _, message in out:
         assert codec.encode(message) == _model_dump_encoding(message), message

@@ -111,7 +111,7 @@ def test_rovers_out_of_every_radio_reach_at_the_start_reach_their_goals():
     assert cases
     for made in cases:
         world = run_mission(made.scenario, 1200.0)
-        final = {r.id: r for r in world.mission_stats.last.rovers}
+        final = {r.id: r for r in world.referee.stats.last.rovers}
         for rid in made.out_of_range:
             assert final[rid].state in ("done", "relay"), (made.scenario.name, rid, final[rid])
             assert not final[rid].stalled

@@ -52,7 +52,7 @@ def _with_command_at(time_s: float, command: m.GroundCommand):
 
     def step(self):
         out = original(self)
-        if abs(self.sim_time - time_s) < self.dt / 2:
+        if abs(self.clock.sim_time - time_s) < self.clock.dt / 2:
             out.append((self.keys.ground_command, command))
         return out
 
@@ -65,9 +65,9 @@ def test_a_rover_sent_back_goes_to_the_lander_and_the_mission_judges_it_there(mo
     monkeypatch.setattr(World, "step", _with_command_at(10.0, m.GroundCommand(command="return", rover_id=1)))
     world = run_mission(SCENARIO, 300)
     lander = SCENARIO.lander
-    body = world.bodies[1]
+    body = world.actuator.bodies[1]
     assert math.hypot(body.x - lander.x, body.z - lander.z) <= SCENARIO.rover_params.perception.perception_radius
-    assert world.status[1].state == "done" and world.report().rovers_reached_final_goal == 5
+    assert world.referee.status[1].state == "done" and world.report().rovers_reached_final_goal == 5
 
 
 def test_a_stopped_rover_stays_put(monkeypatch):
@@ -75,8 +75,8 @@ def test_a_stopped_rover_stays_put(monkeypatch):
 
     monkeypatch.setattr(World, "step", _with_command_at(10.0, m.GroundCommand(command="stop", rover_id=3)))
     world = run_mission(SCENARIO, 300)
-    assert world.status[3].state == "stopped"
-    assert world.bodies[3].distance_covered < 40  # it stopped early on its way (about 3.5 m/s for 10 s)
+    assert world.referee.status[3].state == "stopped"
+    assert world.actuator.bodies[3].distance_covered < 40  # it stopped early on its way (about 3.5 m/s for 10 s)
     assert world.complete and world.report().rovers_reached_final_goal == 4
 
 

@@ -29,6 +29,7 @@ MAY_IMPORT: dict[str, set[str]] = {
 }
 """Each package's allowed imports among LunarSim's own: downwards only (the table in docs/concepts/processes.md)."""
 UNITS: dict[str, set[str]] = {
+    # the rover agent: three modules every part speaks in, then its parts, each importing only those below it
     "rover_agent.dead_reckoning": set(),
     "rover_agent.decisions": {"rover_agent.dead_reckoning"},
     "rover_agent.outgoing": set(),
@@ -38,12 +39,43 @@ UNITS: dict[str, set[str]] = {
     "rover_agent.estimation": {"rover_agent.dead_reckoning", "rover_agent.decisions", "rover_agent.actions"},
     "rover_agent.mission": {"rover_agent.dead_reckoning", "rover_agent.decisions", "rover_agent.estimation"},
     "rover_agent.rules": {"rover_agent.dead_reckoning", "rover_agent.decisions", "rover_agent.estimation"},
+    # the world service: what its parts share, the parts (never the world that holds them), the pure cores over
+    # them, and the process (what its loop needs of a world, the loop, the command)
+    "world_service.geometry": set(),
+    "world_service.clock": set(),
+    "world_service.scene": {"world_service.geometry"},
+    "world_service.terrain": set(),
+    "world_service.camera": {"world_service.scene", "world_service.terrain"},
+    "world_service.actuation": {"world_service.clock", "world_service.scene", "world_service.terrain",
+                                "world_service.camera"},
+    "world_service.power": {"world_service.scene", "world_service.terrain", "world_service.actuation"},
+    "world_service.radio": {"world_service.geometry", "world_service.scene", "world_service.terrain"},
+    "world_service.sensors": {"world_service.geometry", "world_service.clock", "world_service.scene",
+                              "world_service.terrain", "world_service.actuation"},
+    "world_service.outcome": {"world_service.geometry", "world_service.scene"},
+    "world_service.sim": {"world_service.clock", "world_service.scene", "world_service.terrain",
+                          "world_service.camera", "world_service.actuation", "world_service.power",
+                          "world_service.radio", "world_service.sensors", "world_service.outcome"},
+    "world_service.twin": {"world_service.clock", "world_service.camera", "world_service.radio",
+                           "world_service.outcome"},
+    "world_service.served": {"world_service.clock", "world_service.camera"},
+    "world_service.lockstep": {"world_service.served"},
+    "world_service.rover_ids": set(),
+    "world_service.presence": {"world_service.served", "world_service.lockstep", "world_service.rover_ids"},
+    "world_service.resume": {"world_service.sim"},
+    "world_service.service": {"world_service.served", "world_service.lockstep", "world_service.presence",
+                              "world_service.rover_ids", "world_service.camera"},
+    "world_service.app": {"world_service.served", "world_service.service", "world_service.resume", "world_service.sim",
+                          "world_service.twin"},
+    "world_service.__main__": set(),
 }
-"""Inside a package: each subpackage's allowed imports among the package's own subpackages and modules, and those
-of the modules all its parts speak in (the rover agent's behaviour interface, its pose, what it publishes). A
-package's other top-level modules (its coordinator, its command) stand above every unit and may import them all."""
-LAYERED = ("rover_agent",)
+"""Inside a package: each member's allowed imports among the package's own members. A rover agent's other
+top-level modules (its coordinator, its command) stand above every unit and may import them all; every member of
+the world service has its place here, and its loop sees a world only through ``served``."""
+LAYERED = ("rover_agent", "world_service")
 """Packages whose every subpackage is a unit of ``UNITS``."""
+EVERY_MEMBER = ("world_service",)
+"""Packages whose every top-level module is a unit too."""
 MAX_LINES = 400
 
 
@@ -115,6 +147,15 @@ def test_no_modules_import_each_other_round_a_circle():
     assert not circles, "\n".join(circles)
 
 
+def test_every_package_and_subpackage_ships_in_the_wheel():
+    """``pip install .`` installs the packages pyproject.toml names, not their subpackages: each must be named."""
+    import tomllib
+
+    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {name for name, path in MODULES.items() if path.name == "__init__.py"}
+    assert found <= listed, sorted(found - listed)
+
+
 def test_no_module_is_over_400_lines():
     long = {name: n for name, path in MODULES.items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
     assert not long, long
@@ -125,7 +166,8 @@ def test_each_subpackage_imports_only_the_units_below_it(unit):
     package = unit.split(".")[0]
     wrong = sorted(f"{name} imports {target}" for name, targets in GRAPH.items() if _unit(name) == unit
                    for target in targets
-                   if target.split(".")[0] == package and _unit(target) != unit and _unit(target) not in UNITS[unit])
+                   if target.split(".")[0] == package and target != package and _unit(target) != unit
+                   and _unit(target) not in UNITS[unit])
     assert not wrong, "\n".join(wrong)
 
 
@@ -148,3 +190,9 @@ def test_every_subpackage_says_what_it_may_import(package):
     subpackages = {name for name, path in MODULES.items() if path.name == "__init__.py" and "." in name
                    and name.split(".")[0] == package}
     assert subpackages <= set(UNITS), sorted(subpackages - set(UNITS))
+
+
+@pytest.mark.parametrize("package", EVERY_MEMBER)
+def test_every_member_has_its_place(package):
+    members = {".".join(name.split(".")[:2]) for name in MODULES if name.startswith(package + ".")}
+    assert members == {unit for unit in UNITS if unit.startswith(package + ".")}, "add new members, drop gone ones"

@@ -24,7 +24,7 @@ from rover_agent.estimation.sightings import (
 from schemas import radio
 from schemas.frames import bearing_deg, to_relative, to_world
 from schemas.params import NavigationParams, RoverParams
-from world_service import navigation as nav
+from world_service.actuation import navigation as nav
 
 PARAMS = RoverParams()
 FOV, RAYS, RANGE = (PARAMS.perception.field_of_view_degrees, PARAMS.perception.perception_granularity,
@@ -37,7 +37,7 @@ NOISY = NoiseModel(slip_std=0.05, heading_std_rad=math.radians(1.0))  # the gene
 
 
 def true_move(pose: Pose, rel_x: float, rel_z: float, rng: np.random.Generator, noise: NoiseModel) -> Pose:
-    """Where a move really ends, drawn as ``world_service.world_actions`` draws it: a slip on each rover-relative
+    """Where a move really ends, drawn as ``world_service.actuation.actuator`` draws it: a slip on each rover-relative
     axis in proportion to the move's length, and a turn of the heading on arrival."""
     sigma = noise.slip_std * math.hypot(rel_x, rel_z)
     slip = rng.normal(0.0, sigma, 2) if sigma > 0 else (0.0, 0.0)
@@ -98,7 +98,7 @@ def drive(loc: Localisation, truth: Pose, rng: np.random.Generator, noise: Noise
 
 
 def test_the_test_model_of_a_move_is_the_worlds():
-    """The closed form above ends where ``world_service.navigation`` walks a slipped, turned move to."""
+    """The closed form above ends where ``world_service.actuation.navigation`` walks a slipped, turned move to."""
     rng = np.random.default_rng(3)
     body = nav.RoverBody(1, 2.0, -3.0, 40.0)
     slip, turn = tuple(rng.normal(0.0, 0.4, 2)), float(rng.normal(0.0, 1.0))

@@ -25,13 +25,13 @@ from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.lockstep import lockstep_answer
 from schemas.scenario import load_scenario
-from world_service import camera
+from world_service.camera import rendering
+from world_service.camera.photographer import Photographer
+from world_service.camera.photos import CameraProcess, build_ground
 from world_service.lockstep import AckPlan, LockstepTick
-from world_service.photographer import Photographer
-from world_service.photos import CameraProcess, build_ground
-from world_service.service import Agents, _note_ack
+from world_service.presence import Agents, note_ack
 from world_service.sim import World
-from world_service.terrain_views import DenseView, UncachedView
+from world_service.terrain.views import DenseView, UncachedView
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 KEYS = ks.Keyspace("test")
@@ -80,17 +80,15 @@ def test_the_agent_of_a_key_is_the_lander_or_the_rover_it_names():
 
 def test_an_ack_counts_only_from_the_lander_s_key_or_a_rover_the_scenario_has():
     """``rover/0/ack`` is no lander: a forged ack there must not let a tick go on without it; it is counted."""
-    from bus.bus import Received
-
     world = World(load_scenario(SCENARIOS / "crater_observation.yaml"), KEYS)
     agents = Agents(KEYS, tick=LockstepTick(world))
     agents.tick.waiting = {ks.LANDER_ID, 1}
-    ack = codec.encode(m.Ack(tick=world.tick))
+    ack = codec.encode(m.Ack(tick=world.clock.tick))
     for key in (KEYS.rover(0, ks.ACK), KEYS.rover(99, ks.ACK)):
-        _note_ack(world, agents, Received(key, ack))
+        note_ack(world, agents, key, ack)
     assert agents.tick.waiting == {ks.LANDER_ID, 1} and world.rejected.by_topic[ks.ACK] == 2
-    _note_ack(world, agents, Received(KEYS.lander(ks.ACK), ack))
-    _note_ack(world, agents, Received(KEYS.rover(1, ks.ACK), ack))
+    note_ack(world, agents, KEYS.lander(ks.ACK), ack)
+    note_ack(world, agents, KEYS.rover(1, ks.ACK), ack)
     assert agents.tick.waiting == set()
 
 
@@ -153,7 +151,7 @@ def test_a_loopback_mission_keeps_to_the_plan_and_waits_for_few_agents(monkeypat
 
     monkeypatch.setattr(AckPlan, "ask", counting)
     world = run_mission(load_scenario(SCENARIOS / "crater_observation.yaml"), max_sim_time=20.0)
-    assert world.tick == len(asked) and world.tick >= 400
+    assert world.clock.tick == len(asked) and world.clock.tick >= 400
     mean = sum(map(len, asked)) / len(asked)
     assert mean < 2.0, f"a tick waited for {mean:.2f} of the 6 agents on average"
 
@@ -171,7 +169,7 @@ def test_an_answer_to_a_radio_delivery_reaches_the_world_after_its_next_step_as_
         for rid, samples in heard.items():
             for topic, payload in samples:
                 if topic == ks.COMM_IN:
-                    seen.append((rid, codec.decode(m.InboundComm, payload).payload, rounds.world.tick))
+                    seen.append((rid, codec.decode(m.InboundComm, payload).payload, rounds.world.clock.tick))
                     answers[rid] = [pong] if rid == 2 else []
         if not said and 1 in heard and any(topic == ks.PERCEPTION for topic, _ in heard[1]):
             said, answers[1] = True, [ping]
@@ -191,16 +189,15 @@ def crater_world():
 
 
 def _photo_jobs(world: World) -> list:
-    for rid in world.bodies:
+    for rid in world.actuator.bodies:
         world.receive(KEYS.rover(rid, ks.PHOTO_ACTION), codec.encode(m.PhotoAction(label=f"rover{rid}")))
-    jobs, world.photo_jobs = world.photo_jobs, []
-    return jobs
+    return world.take_photo_jobs()
 
 
 def test_a_photo_is_due_the_cameras_capture_time_after_its_action(crater_world):
     scenario, world = crater_world
     capture = scenario.rover_params.camera.capture_time_s
-    assert all(job.due_tick == world.tick + round(capture / world.dt) for job in _photo_jobs(world))
+    assert all(job.due_tick == world.clock.tick + round(capture / world.clock.dt) for job in _photo_jobs(world))
 
 
 def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world):
@@ -275,8 +272,8 @@ class _NoBound:
 
 def test_dropping_rays_above_the_highest_ground_does_not_change_the_photo(crater_world):
     scenario, world = crater_world
-    for body in world.bodies.values():
+    for body in world.actuator.bodies.values():
         args = (world.scene, np.zeros(0), np.zeros(0), 0.3, body.x, body.z, body.heading,
                 scenario.rover_params.camera)
-        fast = camera.render(UncachedView(world.terrain), *args, tilt_deg=-5.0)  # looking up: much sky
-        assert np.array_equal(fast, camera.render(_NoBound(world.terrain), *args, tilt_deg=-5.0))
+        fast = rendering.render(UncachedView(world.terrain), *args, tilt_deg=-5.0)  # looking up: much sky
+        assert np.array_equal(fast, rendering.render(_NoBound(world.terrain), *args, tilt_deg=-5.0))

@@ -39,14 +39,14 @@ def test_crater_observation_completes_with_every_rover_on_the_rim(five_rover_run
     assert report.rejected_messages == 0, report
     assert 0 < report.mission_duration_s < MAX_SIM_TIME
     assert report.average_path_efficiency > 0.5
-    assert all(status.state == "done" for status in five_rover_run.status.values())
+    assert all(status.state == "done" for status in five_rover_run.referee.status.values())
 
 
 def test_same_scenario_gives_identical_runs(crater_observation, five_rover_run):
     again = run_mission(crater_observation, MAX_SIM_TIME)
     assert again.report() == five_rover_run.report()
     assert again.world_state() == five_rover_run.world_state()
-    assert again.tick == five_rover_run.tick
+    assert again.clock.tick == five_rover_run.clock.tick
 
 
 def test_ten_rovers_complete_without_collisions(ten_rover_run):
@@ -80,8 +80,9 @@ def test_a_team_too_large_for_the_near_side_of_a_small_crater_meets_its_crest_sp
 def test_crater_photos_reach_the_lander_archive(tmp_path):
     import json
 
+    from test_camera import decode_png
+
     from lander_agent.archive import PhotoArchive
-    from world_service.camera import decode_png
 
     archive = PhotoArchive(tmp_path)
     world = run_mission(load_scenario(SCENARIOS / "crater_observation.yaml"), 300, archive)
@@ -90,4 +91,4 @@ def test_crater_photos_reach_the_lander_archive(tmp_path):
     assert len(index) == 5 * 12 == len(archive.received)
     assert {e["rover"] for e in index} == {1, 2, 3, 4, 5}
     first = decode_png((tmp_path / index[0]["file"]).read_bytes())
-    assert first.shape == (world.params.camera.height, world.params.camera.width, 3)
+    assert first.shape == (world.scenario.rover_params.camera.height, world.scenario.rover_params.camera.width, 3)

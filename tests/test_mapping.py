@@ -21,7 +21,7 @@ from rover_agent.registry import load_behaviour
 from schemas import codec, radio
 from schemas.params import MappingParams, PerceptionParams, RoverParams
 from schemas.scenario import load_scenario, parse_scenario
-from world_service import map_truth
+from world_service.outcome import map_truth
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 PARAMS = RoverParams(perception=PerceptionParams(field_of_view_degrees=180.0, perception_radius=5.0,

@@ -65,7 +65,7 @@ def test_a_move_command_drives_the_rover_and_its_end_comes_back_as_an_observatio
     completed = (sp.NAV_ACTIONS.index("move") + 1, sp.NAV_OUTCOMES.index("completed") + 1)
     while tuple(observations["rover1"]["navigation"]) != completed:
         observations, *_ = env.step(still)
-    assert env.rounds.world.bodies[1].distance_covered == pytest.approx(2.0, abs=0.3)
+    assert env.rounds.world.actuator.bodies[1].distance_covered == pytest.approx(2.0, abs=0.3)
 
 
 def test_a_broadcast_of_numbers_arrives_as_numbers_at_the_rovers_in_range():
@@ -89,10 +89,10 @@ def test_rovers_answering_each_other_without_end_do_not_stop_the_clock():
     chatter = {**_still(), "radio": 1}
     while env.agents:
         env.step(dict.fromkeys(env.agents, chatter))
-    assert env.rounds.world.sim_time >= 3.0
+    assert env.rounds.world.clock.sim_time >= 3.0
     # Each answer to a radio delivery reaches the world after its next step, as over Zenoh: the chatter goes on
     # a hop a tick, in at most three rounds a tick (the step's samples, the clock, the late samples).
-    ticks = 3.0 / env.rounds.world.dt
+    ticks = 3.0 / env.rounds.world.clock.dt
     assert ticks * 2 <= env.cycles <= ticks * 3 + 3
 
 
@@ -102,7 +102,7 @@ def test_an_actions_end_is_observed_once_because_the_array_rover_says_it_heard_i
     still = dict.fromkeys(env.agents, _still())
     observations, *_ = env.step({**still, "rover1": {**_still(), "command": 1, "move": np.array([0, 2], np.float32)}})
     ends = 0
-    while env.rounds.world.sim_time < 8.0:  # the world re-sends an unheard end every second
+    while env.rounds.world.clock.sim_time < 8.0:  # the world re-sends an unheard end every second
         ends += observations["rover1"]["navigation"][1] == sp.NAV_OUTCOMES.index("completed") + 1
         observations, *_ = env.step(still)
     assert ends == 1

@@ -37,7 +37,7 @@ def test_the_mask_forbids_a_second_move_while_one_runs_and_allows_its_cancel():
         if "move" in _allowed(infos, "rover1", "command"):
             break
         _, _, _, _, infos = env.step(still)
-    assert not env.rounds.world.bodies[1].busy and {"move", "rotate"} <= _allowed(infos, "rover1", "command")
+    assert not env.rounds.world.actuator.bodies[1].busy and {"move", "rotate"} <= _allowed(infos, "rover1", "command")
     assert "cancel" not in _allowed(infos, "rover1", "command")
 
 
@@ -68,9 +68,9 @@ def test_a_rover_that_says_it_is_done_leaves_while_the_others_go_on():
     for _ in range(100):  # the world takes the rover's status with its tick's answers
         _, _, terminations, _, _ = env.step(others)
         assert "rover3" not in terminations
-        if env.rounds.world.status[3].state == "stuck":
+        if env.rounds.world.referee.status[3].state == "stuck":
             break
-    assert env.rounds.world.status[3].state == "stuck" and len(env.agents) == len(CRATER.rovers) - 1
+    assert env.rounds.world.referee.status[3].state == "stuck" and len(env.agents) == len(CRATER.rovers) - 1
 
 
 def test_leaving_agents_keep_to_the_pettingzoo_api():

@@ -134,7 +134,7 @@ def test_a_mesh_is_made_absolute_from_the_scenario_folder_and_not_looked_for_wit
 
 
 def test_the_world_reads_a_mesh_as_the_scenario_check_does(tmp_path):
-    from world_service.terrain_mesh import load_vertices_faces
+    from world_service.terrain.mesh import load_vertices_faces
 
     (tmp_path / "zero.stl").symlink_to("/dev/zero")
     with pytest.raises(ScenarioError, match=r"zero\.stl: cannot read terrain mesh: not a regular file"):

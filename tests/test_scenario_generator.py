@@ -11,8 +11,8 @@ from procs import lunarsim
 
 from scenarios.generator import CLASS_VALUES, FAMILIES, MAX_PATH_M, NOISE, TEAMS, GeneratedScenario, generate
 from schemas.scenario import dump_scenario, load_scenario
+from world_service.outcome.statistics import relative_path_length
 from world_service.scene import scatter_rock_fields
-from world_service.statistics import relative_path_length
 
 SEEDS = range(300)
 

@@ -396,7 +396,7 @@ def subscribers(control: dict, key: str) -> set[str]:
 
 
 def test_a_bridge_alone_publishes_its_own_rovers_sensors_and_telemetry(bridged):
-    from world_service.twin import TwinWorld
+    from world_service.twin.world import TwinWorld
 
     for topic in (*SUBSCRIBED_TOPICS, ks.TELEMETRY):
         assert publishers(bridged, KEYS.rover(1, topic)) == {"bridge-1"}, topic
@@ -430,7 +430,7 @@ def test_a_bridge_reads_only_its_own_agents_commands_the_clock_and_its_agents_to
 
 
 class Declared:
-    """The keys a service's ``declare_io(bus, keys)`` declares on its bus, to check them against the rules."""
+    """The keys ``service.declare_io(bus, keys, world)`` declares on its bus, to check them against the rules."""
 
     def __init__(self) -> None:
         self.subscribed: list[str] = []
@@ -444,12 +444,13 @@ class Declared:
 
 
 def test_the_world_follows_real_rovers_as_a_twin_and_cannot_speak_for_them(bridged, control):
-    from world_service import service, twin_service
+    from world_service import service
+    from world_service.twin.world import TwinWorld
 
     all_real = acl.access_control(acl.roles(KEYS, [1, 2], bridged=[1, 2]), KEYS)
     twin, simulated = Declared(), Declared()
-    twin_service.declare_io(twin, KEYS)
-    service.declare_io(simulated, KEYS)
+    service.declare_io(twin, KEYS, TwinWorld)
+    service.declare_io(simulated, KEYS, World)
     for rules, declared in ((bridged, twin), (all_real, twin), (bridged, simulated), (control, simulated)):
         for key in declared.subscribed:  # as declared: wildcards over every rover
             assert allowed(rules, "world", "declare_subscriber", "ingress", key), key

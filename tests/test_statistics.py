@@ -7,8 +7,8 @@ import pytest
 from schemas import messages as m
 from schemas.mission import RoverMissions
 from schemas.scenario import parse_scenario
-from world_service.completion import Completion, all_finished
-from world_service.statistics import MissionStats
+from world_service.outcome.completion import Completion, all_finished
+from world_service.outcome.statistics import MissionStats
 
 SCENARIO = parse_scenario({
     "name": "two", "lander": {"x": 0.0, "z": 0.0},

@@ -15,19 +15,25 @@ from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.params import PowerParams, ThermalParams
 from schemas.scenario import Obstacles, Rock, ScenarioError, SunSpec, TerrainSpec, Wall, load_scenario, parse_scenario
-from world_service import power, shadows
-from world_service.scene import Scene
-from world_service.shadows import Occluders, ShadowCache, lit
+from world_service.power import battery, shadows
+from world_service.power.shadows import Occluders, ShadowCache, lit
+from world_service.power.sun import SYNODIC_DAY_S, Sun, SunPosition, from_site
+from world_service.power.thermal import Thermal, relax
+from world_service.scene import CircleGrid, Scene
 from world_service.sim import World
-from world_service.sun import SYNODIC_DAY_S, Sun, SunPosition, from_site
-from world_service.terrain import Heightmap
-from world_service.thermal import Thermal, relax
+from world_service.terrain.heightmap import Heightmap
 
 FLAT = TerrainSpec(origin=(-100.0, -100.0), size_m=(200.0, 200.0), resolution_m=1.0)
 
 
 def _flat() -> Heightmap:
     return Heightmap(FLAT)
+
+
+def no_occluders() -> Occluders:
+    """Nothing on the ground to cast a shadow: only the terrain does."""
+    empty = np.zeros(0)
+    return Occluders(empty, empty, empty, empty, CircleGrid(empty, empty, empty, 10.0), np.zeros((0, 4)), empty)
 
 
 def _scene(**obstacles) -> Scene:
@@ -114,9 +120,9 @@ def test_terrain_shadows_are_ray_marched_over_the_heightmap():
     sun = SunPosition(0.0, 8.0)
     zs = -np.arange(2.5, 60.0, 0.25)
     expected = 1.0 + 4.0 / math.tan(math.radians(8.0))  # from the ridge's south foot
-    assert _shadow_end(terrain, Occluders.none(), sun, np.zeros_like(zs), zs) == pytest.approx(expected, abs=1.0)
-    assert not lit(terrain, Occluders.none(), SunPosition(0.0, -1.0), [0.0], [10.0], 0.2, 200.0)[0]  # night
-    assert lit(terrain, Occluders.none(), SunPosition(0.0, 80.0), [0.0], [-3.0], 0.2, 200.0)[0]  # high sun
+    assert _shadow_end(terrain, no_occluders(), sun, np.zeros_like(zs), zs) == pytest.approx(expected, abs=1.0)
+    assert not lit(terrain, no_occluders(), SunPosition(0.0, -1.0), [0.0], [10.0], 0.2, 200.0)[0]  # night
+    assert lit(terrain, no_occluders(), SunPosition(0.0, 80.0), [0.0], [-3.0], 0.2, 200.0)[0]  # high sun
 
 
 def test_rays_stop_once_above_any_ground_without_changing_the_answer():
@@ -133,14 +139,14 @@ def test_rays_stop_once_above_any_ground_without_changing_the_answer():
 
 def test_the_shadow_cache_answers_as_a_fresh_trace_of_the_cell_centre():
     terrain = Heightmap(FLAT, base=Ridge())
-    cache = ShadowCache(terrain, Occluders.none(), 0.2, 200.0)
+    cache = ShadowCache(terrain, no_occluders(), 0.2, 200.0)
     sun = SunPosition(0.0, 8.0)
     xs, zs = np.linspace(-5, 5, 41), np.linspace(-40, -1, 41)
     first = cache.lit(sun, xs, zs)
     traced = cache.traced
     assert np.array_equal(cache.lit(sun, xs, zs), first) and cache.traced == traced  # all from the cache
     centres = np.floor(xs / 0.25 + 0.5) * 0.25, np.floor(zs / 0.25 + 0.5) * 0.25
-    assert np.array_equal(first, lit(terrain, Occluders.none(), sun, *centres, 0.2, 200.0))
+    assert np.array_equal(first, lit(terrain, no_occluders(), sun, *centres, 0.2, 200.0))
     cache.lit(SunPosition(0.0, 9.0), xs, zs)
     assert cache.traced > traced  # a new sun step traces again
 
@@ -150,7 +156,8 @@ def test_the_shadow_cache_answers_as_a_fresh_trace_of_the_cell_centre():
 
 def test_draw_follows_the_action_and_the_speed_level():
     p = PowerParams()
-    draw = power.draw_w(p, np.array([power.IDLE, power.MOVING, power.MOVING, power.TURNING]), np.array([3, 1, 3, 2]))
+    activity = np.array([battery.IDLE, battery.MOVING, battery.MOVING, battery.TURNING])
+    draw = battery.draw_w(p, activity, np.array([3, 1, 3, 2]))
     base = p.idle_w + p.perception_w
     assert draw.tolist() == pytest.approx([base, base + p.move_w[0], base + p.move_w[2], base + p.rotate_w])
 
@@ -158,20 +165,20 @@ def test_draw_follows_the_action_and_the_speed_level():
 def test_solar_input_follows_the_incidence_and_only_in_light():
     p = PowerParams(panel_area_m2=0.1, panel_efficiency=0.3)
     sun = SunPosition(45.0, 30.0)
-    flat = power.incidence_cos(p, sun, np.zeros(1), np.zeros(1))
+    flat = battery.incidence_cos(p, sun, np.zeros(1), np.zeros(1))
     assert flat[0] == pytest.approx(math.sin(math.radians(30)))
-    tilted = power.incidence_cos(PowerParams(panel_tilt_deg=60.0), sun, np.zeros(1), np.zeros(1))
+    tilted = battery.incidence_cos(PowerParams(panel_tilt_deg=60.0), sun, np.zeros(1), np.zeros(1))
     assert tilted[0] == pytest.approx(1.0)  # the panel's normal points at the sun
-    facing = power.incidence_cos(p, sun, np.array([-0.5 * math.sin(math.radians(45))]),
+    facing = battery.incidence_cos(p, sun, np.array([-0.5 * math.sin(math.radians(45))]),
                                  np.array([-0.5 * math.cos(math.radians(45))]))  # ground falling away from the sun
     assert facing[0] > flat[0]
-    out = power.solar_w(p, np.array([True, False]), np.array([0.5, 0.5]))
+    out = battery.solar_w(p, np.array([True, False]), np.array([0.5, 0.5]))
     assert out.tolist() == pytest.approx([1361.0 * 0.1 * 0.3 * 0.5, 0.0])
 
 
 def test_battery_charge_is_linear_in_time_until_empty_then_resumes_above_its_threshold():
     p = PowerParams(capacity_wh=1.0, initial_charge_fraction=0.5, resume_fraction=0.2)
-    bank = power.Batteries(p, 1)
+    bank = battery.Batteries(p, 1)
     dt, draw = 0.05, np.array([9.0])
     for _ in range(200):  # 10 s at 9 W in shadow
         bank.step(draw, np.zeros(1), np.ones(1, bool), dt)
@@ -189,7 +196,7 @@ def test_battery_charge_is_linear_in_time_until_empty_then_resumes_above_its_thr
 
 
 def test_battery_never_exceeds_its_capacity():
-    bank = power.Batteries(PowerParams(capacity_wh=1.0, initial_charge_fraction=0.99), 1)
+    bank = battery.Batteries(PowerParams(capacity_wh=1.0, initial_charge_fraction=0.99), 1)
     for _ in range(100):
         bank.step(np.array([1.0]), np.array([100.0]), np.ones(1, bool), 0.05)
     assert bank.charge_wh[0] == 1.0 and bank.harvested_wh[0] == pytest.approx(100.0 * 5.0 / 3600.0)
@@ -228,7 +235,7 @@ def test_a_rover_too_cold_shuts_down_and_starts_again_when_warm():
 def test_without_a_sun_the_world_publishes_no_power_sensors_and_reports_none():
     world = World(load_scenario(SCENARIOS / "crater_observation.yaml"), Keyspace("t"))
     keys = {key for _ in range(40) for key, _ in world.step()}
-    assert world.energy is None
+    assert world.power is None
     assert not any(key.endswith(("/battery", "/temperature", "/sun")) for key in keys)
     state = world.world_state()
     assert state.rovers[0].battery_wh is None and state.counters.power_shutdowns == 0
@@ -259,7 +266,7 @@ def test_an_empty_rover_stops_refuses_actions_and_says_so():
     world = World(scenario, keys)
     world.receive(keys.rover(1, ks.MOVE_ACTION), codec.encode(m.MoveAction(x=0.0, z=8.0)))
     out = [(key, msg) for _ in range(20) for key, msg in world.step()]
-    assert world.bodies[1].distance_covered < 8.0
+    assert world.actuator.bodies[1].distance_covered < 8.0
     ended = [msg for key, msg in out if key == keys.rover(1, ks.NAVIGATION_STATUS) and msg.remaining == 0.0]
     assert ended and ended[-1].outcome == "cancelled"
     assert any(key == keys.rover(1, ks.BATTERY) and msg.empty for key, msg in out)

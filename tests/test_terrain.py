@@ -11,14 +11,29 @@ import pytest
 import trimesh
 
 from schemas.scenario import Crater, TerrainSpec
-from world_service import terrain as terrain_module
-from world_service.landforms import crater_profile
-from world_service.terrain import Heightmap
-from world_service.terrain_export import export_glb
-from world_service.terrain_mesh import MeshSurface, fit_spec
+from world_service.terrain import heightmap as terrain_module
+from world_service.terrain.export import export_glb
+from world_service.terrain.heightmap import Heightmap
+from world_service.terrain.landforms import crater_profile
+from world_service.terrain.mesh import MeshSurface, load_vertices_faces
 
 CRATERS = [Crater(x=30.0, z=40.0, radius_m=20.0), Crater(x=70.0, z=64.0, radius_m=10.0, rim_width=0.5)]
 SMALL = TerrainSpec(origin=(0.0, 0.0), size_m=(130.0, 110.0), resolution_m=0.5, roughness_m=0.4)
+
+
+def slope_deg(terrain: Heightmap, x, z) -> np.ndarray:
+    """Steepest slope angle at the points, whatever the heading (what ``max_slope_deg`` is judged on)."""
+    gx, gz = terrain.gradient(x, z)
+    return np.degrees(np.arctan(np.hypot(gx, gz)))
+
+
+def fit_spec(path, resolution_m: float = 1.0, **fields: object) -> TerrainSpec:
+    """A TerrainSpec covering the mesh's ground footprint (a whole number of cells, so every node is on it)."""
+    vertices, _ = load_vertices_faces(path)
+    lo, hi = vertices[:, [0, 2]].min(axis=0), vertices[:, [0, 2]].max(axis=0)
+    cells = np.maximum(np.floor((hi - lo) / resolution_m + 1e-9), 1)
+    return TerrainSpec(origin=(float(lo[0]), float(lo[1])), size_m=tuple(float(c * resolution_m) for c in cells),
+                       resolution_m=resolution_m, mesh=str(path), **fields)
 
 
 def _build(spec: TerrainSpec, craters=CRATERS, seed: int = 3, **update) -> Heightmap:
@@ -135,7 +150,7 @@ def test_crater_profile_and_pitch_signs_on_a_tiled_crater():
         inside = float(terrain.pitch_deg(19.0 * math.sin(angle), 19.0 * math.cos(angle), toward))
         assert outside == pytest.approx(math.degrees(math.atan(0.4 * math.pi / 6)), abs=0.5)
         assert inside == pytest.approx(-math.degrees(math.atan(0.38)), abs=0.5)
-    assert float(terrain.slope_deg(0.0, -23.0)) == pytest.approx(math.degrees(math.atan(0.4 * math.pi / 6)), abs=0.5)
+    assert float(slope_deg(terrain, 0.0, -23.0)) == pytest.approx(math.degrees(math.atan(0.4 * math.pi / 6)), abs=0.5)
 
 
 def test_sampling_keeps_the_shape_and_a_scalar_stays_a_scalar():
@@ -233,7 +248,7 @@ def test_gradient_and_slope_on_an_imported_tilted_plane(tmp_path, angle):
     x, z = np.clip(x, 0, 100), np.clip(z, 0, 100)
     gx, gz = terrain.gradient(x, z)
     assert np.allclose(gx, 0.0, atol=1e-5) and np.allclose(gz, math.tan(math.radians(angle)), rtol=1e-5)
-    assert np.allclose(terrain.slope_deg(x, z), angle, atol=1e-3)
+    assert np.allclose(slope_deg(terrain, x, z), angle, atol=1e-3)
     assert np.allclose(terrain.pitch_deg(x, z, 0.0), angle, atol=1e-3)  # facing uphill (+z)
     assert np.allclose(terrain.pitch_deg(x, z, 90.0), 0.0, atol=1e-3)  # across the slope
     assert np.allclose(terrain.height(x, z), z * math.tan(math.radians(angle)), atol=1e-4)

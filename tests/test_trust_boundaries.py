@@ -95,7 +95,7 @@ def test_an_action_id_from_the_future_cannot_lock_the_rovers_own_ids_out():
                                       codec.encode(m.RotateAction(degrees=1.0, action_id=2**63 - 1)))
         assert refusal.reason == "out_of_sequence"
     assert world.rejected.by_topic[ks.ROTATE_ACTION] == 5
-    own = int(world.sim_time * 1000) * ACTION_ID_STRIDE + 1  # as the agent takes its first id
+    own = int(world.clock.sim_time * 1000) * ACTION_ID_STRIDE + 1  # as the agent takes its first id
     out = world.receive(KEYS.rover(3, ks.ROTATE_ACTION), codec.encode(m.RotateAction(degrees=1.0, action_id=own)))
     assert [type(msg) for _, msg in out] == [m.NavigationStatus]
 
@@ -205,8 +205,8 @@ def test_the_worlds_copy_of_a_photo_is_named_by_the_world(tmp_path):
 
     import numpy as np
 
-    from world_service.photographer import save_photo
-    from world_service.photos import PhotoJob
+    from world_service.camera.photographer import save_photo
+    from world_service.camera.photos import PhotoJob
 
     for stamp, label in [(1.0, "../../escape/x"), (2.0, "/tmp/escape/x"), (3.0, "")]:
         job = PhotoJob(4, stamp, label, 0, 0.0, 0.0, 0.0, np.array([]), np.array([]))

@@ -25,7 +25,10 @@ from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
 from sessions.format import read_samples
-from world_service.twin import STALE_AFTER_S, Pose, TwinRover, TwinWorld, compose
+from world_service.served import ServedWorld
+from world_service.sim import World
+from world_service.twin.rovers import STALE_AFTER_S, Pose, TwinRover, compose
+from world_service.twin.world import TwinWorld
 
 STARTS = [{"x": -510.0, "z": 100.0, "heading_deg": 180.0}, {"x": -500.0, "z": 100.0, "heading_deg": 90.0}]
 """Two rovers: one facing -z (odometry (x, z) lands at start - (x, z)), one facing +x (at start + (z, -x))."""
@@ -53,7 +56,14 @@ def twin(tmp_path) -> TwinWorld:
 
 
 def steps(world: TwinWorld, seconds: float) -> list:
-    return [o for _ in range(round(seconds / world.dt)) for o in world.step()]
+    return [o for _ in range(round(seconds / world.clock.dt)) for o in world.step()]
+
+
+def test_the_twin_and_the_simulation_both_offer_what_the_service_loop_drives(twin):
+    world = World(twin.scenario, twin.keys)
+    assert isinstance(twin, ServedWorld) and isinstance(world, ServedWorld)
+    assert twin.clock.message().run != world.clock.message().run  # each run names itself
+    assert twin.take_photo_jobs() == [] and list(twin.rover_ids) == list(world.rover_ids) == [1, 2]
 
 
 # ---- pose composition and distance ----
@@ -100,7 +110,7 @@ def test_world_state_follows_telemetry_status_and_liveliness(twin):
     out = steps(twin, 1.0)
     states = [msg for key, msg in out if key == keys.state]
     clocks = [msg for key, msg in out if key == keys.clock]
-    assert len(states) == 5 and len(clocks) == round(1.0 / twin.dt)  # state at the simulated world's 5 Hz
+    assert len(states) == 5 and len(clocks) == round(1.0 / twin.clock.dt)  # state at the simulated world's 5 Hz
     assert all(c.running and not c.lockstep for c in clocks)
     one, two = states[-1].rovers
     assert (one.x, one.z, one.heading_deg) == pytest.approx((-514.0, 97.0, 270.0))

@@ -51,7 +51,7 @@ def scenario_scene(scenario: Scenario, cells: int = TERRAIN_CELLS) -> dict:
 def sun_and_power(scenario: Scenario) -> dict:
     """The sun where it stands at the start (it moves 0.5 degrees an hour, so the page does not follow it) and
     the battery capacity the page divides by; both None without a ``sun`` block (no power model)."""
-    from world_service.sun import Sun
+    from world_service.power.sun import Sun
 
     if scenario.sun is None:
         return {"sun": None, "power": None}

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,7 +15,7 @@ from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_end
 if TYPE_CHECKING:
     from schemas.keyspace import Keyspace
     from schemas.scenario import Scenario
-    from world_service.sim import World
+    from world_service.served import ServedWorld
 
 log = logging.getLogger("lunarsim.world")
 
@@ -63,15 +62,10 @@ def run_from_args(args: argparse.Namespace) -> int:
     from schemas.scenario import load_scenario
     from world_service import service
 
-    if args.time_scale < 0:
-        raise process.UsageError(f"--time-scale must be 0 or more, got {args.time_scale}")
-    if not 0.0 <= args.fault_loss < 1.0:
-        raise process.UsageError(f"--fault-loss must be at least 0 and below 1, got {args.fault_loss}")
+    _check(args)
     scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, rovers=args.rovers)
     if args.twin:
-        from world_service import twin_service
-
-        twin_service.check_settings(args.lockstep, args.time_scale, args.photos)
+        _check_twin(args)
     state_file = None if args.no_state or args.twin else args.state or process.state_folder(args.world) / "world.state"
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
                                      lockstep=args.lockstep, photo_dir=args.photos, state_file=state_file)
@@ -79,30 +73,42 @@ def run_from_args(args: argparse.Namespace) -> int:
     bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen,  # a router puts undeclared
               loss=args.fault_loss, loss_seed=scenario.seed)
     with bus, process.stop_on_signals() as stop:
-        if args.twin:
-            from world_service.twin import TwinWorld
-
-            world, declare_io = TwinWorld(scenario, Keyspace(args.world)), twin_service.declare_io
-        else:
-            world, declare_io = _world(scenario, Keyspace(args.world), state_file, args.fresh), service.declare_io
-        declare_io(bus, world.keys)
-        report = service.run(world, bus, settings, stop)
-        if args.report:
-            args.report.write_text(json.dumps(report.model_dump(), indent=2) + "\n")
-        if not args.exit_when_done:
-            service.linger(world, bus, report, stop)
+        world = _world(args, scenario, Keyspace(args.world), state_file)
+        service.serve(world, bus, settings, stop, args.report, lingering=not args.exit_when_done)
     return 0
 
 
-def _world(scenario: Scenario, keys: Keyspace, state_file: Path | None, fresh: bool) -> World:
-    """This run resumed from the state a killed world saved, or a new run."""
+def _check(args: argparse.Namespace) -> None:
+    if args.time_scale < 0:
+        raise process.UsageError(f"--time-scale must be 0 or more, got {args.time_scale}")
+    if not 0.0 <= args.fault_loss < 1.0:
+        raise process.UsageError(f"--fault-loss must be at least 0 and below 1, got {args.fault_loss}")
+
+
+def _check_twin(args: argparse.Namespace) -> None:
+    """Real rovers move in real time and take their own photos: refuse what only a simulation can do."""
+    if args.lockstep:
+        raise process.UsageError("--twin follows real rovers in real time: it cannot run --lockstep")
+    if args.time_scale != 1.0:
+        raise process.UsageError(f"--twin follows real rovers in real time: --time-scale must be 1, got "
+                                 f"{args.time_scale:g}")
+    if args.photos is not None:
+        raise process.UsageError("--twin has no simulated camera: the rovers' drivers take the photos (drop --photos)")
+
+
+def _world(args: argparse.Namespace, scenario: Scenario, keys: Keyspace, state_file: Path | None) -> ServedWorld:
+    """The twin of real rovers; or this run resumed from the state a killed world saved; or a new run."""
+    if args.twin:
+        from world_service.twin.world import TwinWorld
+
+        return TwinWorld(scenario, keys)
     from world_service import resume
     from world_service.sim import World
 
-    world = resume.load(state_file, scenario) if state_file is not None and not fresh else None
+    world = resume.load(state_file, scenario) if state_file is not None and not args.fresh else None
     if world is not None and world.keys == keys:
-        log.warning("resumed run %s at %.1f s from %s (--fresh begins a new run)", world.run_id, world.sim_time,
-                    state_file)
+        log.warning("resumed run %s at %.1f s from %s (--fresh begins a new run)", world.clock.run_id,
+                    world.clock.sim_time, state_file)
         return world
     return World(scenario, keys)
 

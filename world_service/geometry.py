@@ -18,14 +18,9 @@ def direction(heading_deg: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
     return np.sin(h), np.cos(h)
 
 
-def ray_circles(ox, oz, dx, dz, cx, cz, r) -> np.ndarray:
-    """Distance along unit rays to where each enters each circle; inf if it misses or starts inside."""
-    ox, oz, dx, dz = (np.asarray(a, float)[..., None] for a in (ox, oz, dx, dz))
-    return ray_circle(ox, oz, dx, dz, cx, cz, r)
-
-
 def ray_circle(ox, oz, dx, dz, cx, cz, r) -> np.ndarray:
-    """Elementwise ``ray_circles``: ray i against circle i, with ordinary NumPy broadcasting."""
+    """Distance along unit rays to where each enters its circle, with ordinary NumPy broadcasting (ray i against
+    circle i); inf if it misses or starts inside."""
     fx, fz = ox - cx, oz - cz
     b = fx * dx + fz * dz
     c = fx * fx + fz * fz - np.asarray(r, float) ** 2

@@ -23,11 +23,11 @@ from typing import TYPE_CHECKING
 
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
 
 if TYPE_CHECKING:
-    from world_service.sim import World
+    from world_service.served import ServedWorld
 
-Out = tuple[str, m.Message]
 
 
 class AckPlan:
@@ -81,10 +81,10 @@ class LockstepTick:
     ``max_sim_time``: the run ends once simulated time reaches it, as it ends when the mission is complete.
     """
 
-    def __init__(self, world: World, max_sim_time: float | None = None) -> None:
+    def __init__(self, world: ServedWorld, max_sim_time: float | None = None) -> None:
         self.world = world
         self.max_sim_time = max_sim_time
-        self.plan = AckPlan(world.keys, world.dt)
+        self.plan = AckPlan(world.keys, world.clock.dt)
         self.waiting: set[int] = set()  # the agents whose ack of this tick is still due
         self.clock: m.Clock | None = None  # this tick's clock, to send again while acks are overdue
         self._said: list[tuple[str, bytes]] = []  # answers, taken by the world with this tick's
@@ -96,7 +96,7 @@ class LockstepTick:
         clock_key = self.world.keys.clock
         samples = [*photos, *((key, message) for key, message in out if key != clock_key)]
         self.note(samples)
-        self.waiting = set(self.plan.ask(self.world.tick, present))
+        self.waiting = set(self.plan.ask(self.world.clock.tick, present))
         clock = next(message for key, message in out if key == clock_key)
         self.clock = clock.model_copy(update={"acks": sorted(self.waiting)}) if self.waiting else None
         return samples, self.clock
@@ -105,7 +105,7 @@ class LockstepTick:
     def over(self) -> bool:
         """The mission is complete, or its time is up: the tick just stepped ends it."""
         world = self.world
-        return world.complete or (self.max_sim_time is not None and world.sim_time >= self.max_sim_time)
+        return world.complete or (self.max_sim_time is not None and world.clock.sim_time >= self.max_sim_time)
 
     def note(self, published: list[Out]) -> None:
         """Samples published: whom they may make act (the ack plan asks for them)."""
@@ -114,7 +114,7 @@ class LockstepTick:
 
     def ack(self, agent: int, ack: m.Ack) -> None:
         """An agent's ack; one of another tick says nothing (a resent clock's second answer, a late one)."""
-        if ack.tick == self.world.tick:
+        if ack.tick == self.world.clock.tick:
             self.waiting.discard(agent)
             self.plan.acked(agent, ack.tick, ack.wake)
 

@@ -1,4 +1,5 @@
-"""The world service process: the simulation clock and Zenoh I/O around ``World``.
+"""The world service's Zenoh loop: the simulation clock and the I/O around a world (``served.ServedWorld``: the
+simulation or the hardware twin), which does none itself.
 
 Startup waits (up to ``start_timeout``) for the lander and every rover agent to announce themselves
 with a liveliness token, so no rover misses the start. Then the clock runs in one of two ways:
@@ -11,12 +12,13 @@ with a liveliness token, so no rover misses the start. Then the clock runs in on
   the processes allow.
 
 Photos take the camera's ``capture_time_s`` of simulated time in both modes: a camera process renders them
-meanwhile (``world_service.photos``), and in lockstep the clock waits for a render not done when its photo is due.
-The clock starts once that process is up.
+meanwhile (``world_service.camera.photos``), and in lockstep the clock waits for a render not done when its photo
+is due. The clock starts once that process is up.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import threading
 import time
@@ -29,19 +31,25 @@ from bus.process import freeze_start_up_heap
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from world_service.camera.photographer import Photographer
+from world_service.camera.photos import CameraProcess
 from world_service.lockstep import LockstepTick
-from world_service.photographer import Photographer
-from world_service.photos import CameraProcess
+from world_service.presence import Agents, agent_name, note_ack, note_liveliness
 from world_service.rover_ids import IdDesk
-from world_service.sim import World
+from world_service.served import ServedWorld
 
 log = logging.getLogger("lunarsim.world")
 
+SAVE_PERIOD_S = 1.0
+"""Simulated seconds between two saves of the world's state (``world_service.resume``): a rover walks at most 3.5 m
+in that time, which a restart may cost it."""
 CLOCK_RESEND_S = (0.05, 1.0)
 """Lockstep: a tick's clock is sent again after the first of these without every ack it waits for, then after
 twice as long each time up to the second. On a reliable link an ack comes within milliseconds and this is never
 needed; on a lossy one a lost clock would otherwise hold the run for ``ack_timeout``. An agent acks a clock it
 has already handled again, and does no more."""
+
+
 @dataclass
 class ClockSettings:
     time_scale: float = 1.0
@@ -54,64 +62,20 @@ class ClockSettings:
     state_file: Path | None = None
 
 
-@dataclass
-class Agents:
-    """Which agents are present (liveliness) and, in lockstep, whose ack of the current tick is still due."""
-
-    keys: ks.Keyspace
-    present: set[str] = field(default_factory=set)
-    ids: dict[str, int] = field(default_factory=dict)  # liveliness key -> agent id (0 the lander)
-    desk: IdDesk | None = None
-    tick: LockstepTick | None = None  # lockstep's schedule; None in real time
-
-    def arrive(self, alive_key: str, agent: int) -> None:
-        self.present.add(alive_key)
-        self.ids[alive_key] = agent
-
-    def leave(self, alive_key: str) -> None:
-        self.present.discard(alive_key)
-        agent = self.ids.pop(alive_key, None)
-        if self.tick is not None and agent is not None:
-            self.tick.forget(agent)
-
-
-def declare_io(bus: Bus, keys: ks.Keyspace) -> None:
-    for topic in World.INPUT_TOPICS:
-        bus.subscribe(keys.rovers(topic))
-    bus.subscribe(keys.lander(ks.COMM_OUT))
-    bus.subscribe(keys.lander(ks.STATUS))
-    bus.subscribe(keys.ground_command)
-    bus.subscribe(keys.rovers(ks.ACK))
-    bus.subscribe(keys.lander(ks.ACK))
+def declare_io(bus: Bus, keys: ks.Keyspace, world: type[ServedWorld] | ServedWorld) -> None:
+    """Subscribe to what ``world`` takes (``input_keys``) and watch the agents' liveliness tokens."""
+    for key in world.input_keys(keys):
+        bus.subscribe(key)
     bus.watch_liveliness(keys.alive_rovers)
     bus.watch_liveliness(keys.alive_lander)
 
 
-def note_liveliness(world: World, agents: Agents, item: Received) -> None:
-    if not item.alive:
-        agents.leave(item.key)
-    if item.key == world.keys.alive_lander:
-        if item.alive:
-            agents.arrive(item.key, ks.LANDER_ID)
-        return
-    try:
-        rover_id = world.keys.parse_alive_key(item.key)
-    except ValueError as exc:
-        log.warning("ignored liveliness token: %s", exc)
-        return
-    if item.alive:
-        agents.arrive(item.key, rover_id)
-    world.set_alive(rover_id, item.alive)
-    if agents.desk is not None:
-        agents.desk.note_alive(rover_id, item.alive)
-
-
-def handle(world: World, bus: Bus, item: Received, agents: Agents) -> None:
+def handle(world: ServedWorld, bus: Bus, item: Received, agents: Agents) -> None:
     """Route one inbox item: liveliness updates the watchdog, acks the lockstep, data goes to the world."""
     if item.alive is not None:
-        note_liveliness(world, agents, item)
+        note_liveliness(world, agents, item.key, item.alive)
     elif item.key.endswith(f"/{ks.ACK}"):
-        _note_ack(world, agents, item)
+        note_ack(world, agents, item.key, item.payload)
     else:
         for key, message in world.receive(item.key, item.payload):
             _publish(bus, agents, key, message)
@@ -123,46 +87,22 @@ def _publish(bus: Bus, agents: Agents, key: str, message: m.Message) -> None:
     bus.publish(key, message)
 
 
-def _note_ack(world: World, agents: Agents, item: Received) -> None:
-    """Acks matter only in lockstep (agents send none in real time), but a malformed one, or one naming a rover
-    the scenario does not have, is counted and logged as any other rejected input, whatever the clock."""
-    try:
-        ack = codec.decode(m.Ack, item.payload)
-        agent = _acking_agent(world, item.key)
-    except (codec.DecodeError, ValueError) as exc:
-        world.count_rejected(item.key, exc)
-        return
-    if agents.tick is not None:
-        agents.tick.ack(agent, ack)
-
-
-def _acking_agent(world: World, key: str) -> int:
-    """The agent an ack's key names: the lander by its own key, a rover by an id the scenario has (``rover/0``
-    is no lander)."""
-    if key == world.keys.lander(ks.ACK):
-        return ks.LANDER_ID
-    rover_id, _ = world.keys.parse_rover_key(key)
-    if rover_id not in world.bodies:
-        raise ValueError(f"no rover {rover_id} in this scenario")
-    return rover_id
-
-
-def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event,
+def wait_for_agents(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event,
                     agents: Agents) -> None:
     """Until every rover's and the lander's token is there (or ``start_timeout``), answering id requests."""
     keys = world.keys
-    agents.desk = IdDesk(world.bodies)
+    agents.desk = IdDesk(world.rover_ids)
     bus.serve(keys.rover_ids, lambda requester: codec.encode(agents.desk.grant(requester.decode(errors="replace"))))
-    wanted = {keys.alive_rover(rid) for rid in world.bodies}
+    wanted = {keys.alive_rover(rid) for rid in world.rover_ids}
     if settings.wait_for_lander:
         wanted.add(keys.alive_lander)
-    log.info("run %s of %s (seed %d): waiting up to %g s for %d agent(s) on %s", world.run_id, world.scenario.name,
-             world.scenario.seed, settings.start_timeout, len(wanted), keys.prefix)
+    log.info("run %s of %s (seed %d): waiting up to %g s for %d agent(s) on %s", world.clock.run_id,
+             world.scenario.name, world.scenario.seed, settings.start_timeout, len(wanted), keys.prefix)
     deadline = time.monotonic() + settings.start_timeout
     next_clock = 0.0
     while not stop.is_set() and not wanted <= agents.present and time.monotonic() < deadline:
         if time.monotonic() >= next_clock:
-            bus.publish(keys.clock, world.clock(running=False))
+            bus.publish(keys.clock, world.clock.message(running=False))
             next_clock = time.monotonic() + 0.5
         item = bus.receive(timeout=0.1)
         if item is not None:
@@ -174,24 +114,24 @@ def wait_for_agents(world: World, bus: Bus, settings: ClockSettings, stop: threa
         log.info("every agent is there (%d)", len(wanted))
 
 
-def _step_realtime(world: World, bus: Bus, photographer: Photographer, state_file: Path | None) -> None:
+def _step_realtime(world: ServedWorld, bus: Bus, photographer: Photographer, state_file: Path | None) -> None:
     """One tick in real time: due photos, the world's samples, then the clock at ``CLOCK_HZ`` (a granted step
     always shows it)."""
-    for key, message in photographer.take(world.tick + 1):
+    for key, message in photographer.take(world.clock.tick + 1):
         bus.publish(key, message)
     world.dropped_messages = sum(bus.inbox.dropped.values())
     out = world.step()
     _keep(world, state_file)
     clock_key = world.keys.clock
     for key, message in out:
-        if key != clock_key or world.tick % world.clock_period == 0 or world.hold.paused:
+        if key != clock_key or world.clock.announced():
             bus.publish(key, message)
 
 
-def _step_lockstep(world: World, bus: Bus, photographer: Photographer, tick: LockstepTick, agents: Agents,
+def _step_lockstep(world: ServedWorld, bus: Bus, photographer: Photographer, tick: LockstepTick, agents: Agents,
                    state_file: Path | None) -> None:
     """One tick in lockstep (``LockstepTick.step``): the clock goes out only when the tick waits for someone."""
-    photos = photographer.take(world.tick + 1)
+    photos = photographer.take(world.clock.tick + 1)
     world.dropped_messages = sum(bus.inbox.dropped.values())
     samples, clock = tick.step(photos, set(agents.ids.values()))
     _keep(world, state_file)
@@ -201,35 +141,49 @@ def _step_lockstep(world: World, bus: Bus, photographer: Photographer, tick: Loc
         bus.publish(world.keys.clock, clock)
 
 
-def _keep(world: World, state_file: Path | None) -> None:
-    if state_file is not None and world.RENDERS_PHOTOS and world.tick % world.save_period == 0:
+def _keep(world: ServedWorld, state_file: Path | None) -> None:
+    """The world's state, every ``SAVE_PERIOD_S`` simulated seconds, for a restart to resume."""
+    if state_file is not None and world.RESUMABLE and world.clock.tick % world.clock.period(1.0 / SAVE_PERIOD_S) == 0:
         snapshot.save(world, state_file)
 
 
-def _hold(world: World, bus: Bus, agents: Agents, stop: threading.Event) -> None:
+def _hold(world: ServedWorld, bus: Bus, agents: Agents, stop: threading.Event) -> None:
     """Paused by the ground: say so on the clock (agents answer nothing to a stopped clock) and handle what
     arrives, until a resume or a step."""
-    bus.publish(world.keys.clock, world.clock(running=False))
+    bus.publish(world.keys.clock, world.clock.message(running=False))
     deadline = time.monotonic() + 0.5
-    while not stop.is_set() and world.hold.waiting and time.monotonic() < deadline:
+    while not stop.is_set() and world.clock.hold.waiting and time.monotonic() < deadline:
         item = bus.receive(timeout=0.05)
         if item is not None:
             handle(world, bus, item, agents)
 
 
-def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) -> m.MissionReport:
+def serve(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event, report_file: Path | None = None,
+          lingering: bool = True) -> m.MissionReport:
+    """The world service's life on ``bus``: the mission (``run``), its report written to ``report_file``, then, while
+    ``lingering``, the final statistics until ``stop``."""
+    declare_io(bus, world.keys, world)
+    report = run(world, bus, settings, stop)
+    if report_file is not None:
+        report_file.write_text(json.dumps(report.model_dump(), indent=2) + "\n")
+    if lingering:
+        linger(world, bus, report, stop)
+    return report
+
+
+def run(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event) -> m.MissionReport:
     """Run the mission until every rover is done or stuck, ``max_sim_time`` passes, or ``stop`` is set."""
-    world.time_scale, world.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
+    world.clock.time_scale, world.clock.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
     camera = (CameraProcess(world.scenario, priority.for_mode("auto", settings.lockstep))
               if world.RENDERS_PHOTOS else None)  # starts while the agents connect
     agents = Agents(world.keys)
     photographer = Photographer(world, settings.lockstep, camera, settings.photo_dir)
     try:
         wait_for_agents(world, bus, settings, stop, agents)
-        photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock(running=False)))
+        photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock.message(running=False)))
         freeze_start_up_heap()
         agents.tick = LockstepTick(world, settings.max_sim_time) if settings.lockstep else None
-        log.info("clock started at t = %.1f s: %s", world.sim_time,
+        log.info("clock started at t = %.1f s: %s", world.clock.sim_time,
                  "lockstep" if settings.lockstep else f"real time x {settings.time_scale:g}")
         (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
     finally:
@@ -239,34 +193,34 @@ def run(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event) 
         snapshot.discard(settings.state_file)
     bus.publish(world.keys.state, world.observed_state())  # the final state, then the report computed from it
     report = world.report()
-    bus.publish(world.keys.stats, m.WorldStats(stamp=world.sim_time, report=report, final=True))
+    bus.publish(world.keys.stats, m.WorldStats(stamp=world.clock.sim_time, report=report, final=True))
     _log_end(world, report, stop.is_set())
     return report
 
 
-def _log_end(world: World, report: m.MissionReport, stopped: bool) -> None:
+def _log_end(world: ServedWorld, report: m.MissionReport, stopped: bool) -> None:
     how = "stopped" if stopped and not world.complete else "complete" if world.complete else "ended"
     log.info("mission %s at t = %.1f s: %d/%d rovers reached their final goal, %d stuck (%d counted by the "
-             "watchdog)", how, world.sim_time, report.rovers_reached_final_goal, report.rovers_total,
+             "watchdog)", how, world.clock.sim_time, report.rovers_reached_final_goal, report.rovers_total,
              report.rovers_stuck, report.rovers_stalled)
     refused = ", ".join(f"{n} on {topic}" for topic, n in sorted(world.rejected.by_topic.items()))
     log.info("refused %d sample(s)%s; dropped %d over the inbox's bound; agents refused %d", report.rejected_messages,
              f" ({refused})" if refused else "", report.dropped_messages, report.agent_rejected_messages)
 
 
-def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents,
+def _run_realtime(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents,
                   photographer: Photographer) -> None:
-    period = world.dt / settings.time_scale if settings.time_scale > 0 else 0.0
+    period = world.clock.dt / settings.time_scale if settings.time_scale > 0 else 0.0
     next_tick = time.monotonic()
     while not stop.is_set():
         for item in bus.drain():
             handle(world, bus, item, agents)
-        if world.hold.held():
+        if world.clock.hold.held():
             _hold(world, bus, agents, stop)
             next_tick = time.monotonic()
             continue
         _step_realtime(world, bus, photographer, settings.state_file)
-        if world.complete or (settings.max_sim_time is not None and world.sim_time >= settings.max_sim_time):
+        if world.complete or (settings.max_sim_time is not None and world.clock.sim_time >= settings.max_sim_time):
             return
         next_tick += period
         delay = next_tick - time.monotonic()
@@ -276,14 +230,14 @@ def _run_realtime(world: World, bus: Bus, settings: ClockSettings, stop: threadi
             next_tick = time.monotonic()  # fell far behind: do not sprint to catch up
 
 
-def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents,
+def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event, agents: Agents,
                   photographer: Photographer) -> None:
     """The schedule is ``LockstepTick``'s; this loop does its I/O: publishes, and waits for the acks."""
     tick = agents.tick
     tally = LockstepTally(start=time.perf_counter())
     try:
         while not stop.is_set():
-            while world.hold.held() and not stop.is_set():
+            while world.clock.hold.held() and not stop.is_set():
                 _hold(world, bus, agents, stop)
             t0 = time.perf_counter()
             _step_lockstep(world, bus, photographer, tick, agents, settings.state_file)
@@ -298,7 +252,7 @@ def _run_lockstep(world: World, bus: Bus, settings: ClockSettings, stop: threadi
             for key, message in tick.take():
                 bus.publish(key, message)
     finally:
-        log.info("%s; waiting for photos %.2f s", tally.summary(world.sim_time), photographer.waited_s)
+        log.info("%s; waiting for photos %.2f s", tally.summary(world.clock.sim_time), photographer.waited_s)
 
 
 @dataclass
@@ -321,7 +275,7 @@ class LockstepTally:
                 f"{self.stepping:.2f} s; the world's CPU {cpu:.2f} s")
 
 
-def _collect_until_acked(world: World, bus: Bus, settings: ClockSettings, stop: threading.Event,
+def _collect_until_acked(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event,
                          agents: Agents) -> None:
     """Hand the tick the agents' answers until every agent it waits for has acknowledged it; then what else has
     arrived (answers no tick waited for, ground commands) without waiting for more."""
@@ -339,27 +293,23 @@ def _collect_until_acked(world: World, bus: Bus, settings: ClockSettings, stop: 
             if not tick.waiting:
                 break
             if time.monotonic() > deadline:
-                late = ", ".join(_agent_name(agent) for agent in sorted(tick.waiting))
-                log.warning("tick %d: no ack after %g s from %s; going on without them", world.tick,
+                late = ", ".join(agent_name(agent) for agent in sorted(tick.waiting))
+                log.warning("tick %d: no ack after %g s from %s; going on without them", world.clock.tick,
                             settings.ack_timeout, late)
                 tick.waiting.clear()
             continue
         if item.alive is not None:
-            note_liveliness(world, agents, item)
+            note_liveliness(world, agents, item.key, item.alive)
         elif item.key.endswith(f"/{ks.ACK}"):
-            _note_ack(world, agents, item)
+            note_ack(world, agents, item.key, item.payload)
         else:
             tick.answer(item.key, item.payload)
 
 
-def _agent_name(agent: int) -> str:
-    return "the lander" if agent == ks.LANDER_ID else f"rover {agent}"
-
-
-def linger(world: World, bus: Bus, report: m.MissionReport, stop: threading.Event) -> None:
+def linger(world: ServedWorld, bus: Bus, report: m.MissionReport, stop: threading.Event) -> None:
     """After the mission: keep answering with the final statistics until told to stop."""
-    final = m.WorldStats(stamp=world.sim_time, report=report, final=True)
-    stopped = world.clock(running=False)
+    final = m.WorldStats(stamp=world.clock.sim_time, report=report, final=True)
+    stopped = world.clock.message(running=False)
     while not stop.wait(1.0):
         bus.publish(world.keys.stats, final)
         bus.publish(world.keys.clock, stopped)

@@ -1,14 +1,18 @@
 """The simulated world, one tick at a time, with no I/O: samples in, (key, message) pairs out.
 
-The service (``world_service.service``) owns Zenoh and the clock; this class owns ground truth.
-Keeping them apart lets the whole world be tested, and later stepped in lockstep, without a router.
+The service (``world_service.service``) owns Zenoh and paces the clock; this class owns ground truth. It is a
+coordinator over parts that own their state: the clock, the terrain and the scene, actuation (the bodies and
+their actions), the radio, the rovers' power, their cameras and sensors, and the referee (statuses, stalls, the
+mission's end, statistics). It routes each input to the part it is for and, each tick, asks every part for what
+it publishes, in a fixed order: that order, and the order of the draws from the one seeded generator, are part
+of a run's result.
 """
 
 from __future__ import annotations
 
 import logging
-import uuid
-from typing import ClassVar
+from collections.abc import Callable, Collection
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -16,113 +20,75 @@ from bus.rejections import Rejections
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.mission import RoverMissions
-from schemas.params import RoverParams
+from schemas.messages import Out
 from schemas.scenario import Scenario
-from world_service import navigation as nav
-from world_service import statistics as stats
-from world_service.actions import ActionLedger
-from world_service.airtime import Airtime
-from world_service.clock_hold import ClockHold
-from world_service.completion import FINISHED_STATES, Completion, relay_wait_s
-from world_service.energy import Energy
-from world_service.perception import Perceiver
-from world_service.photos import PhotoJob, render_photo
-from world_service.progress import ProgressWatch
-from world_service.scene import Scene, circle_pairs
-from world_service.terrain import Heightmap
-from world_service.terrain_views import UncachedView
-from world_service.world_actions import ActionInputs
-from world_service.world_radio import RadioLink
+from world_service.actuation.actuator import Actuator, action_name
+from world_service.camera.photos import PhotoJob
+from world_service.camera.shutter import Shutter
+from world_service.clock import Clock, tick_length
+from world_service.outcome.referee import Referee
+from world_service.power.energy import Energy
+from world_service.radio.link import RadioLink
+from world_service.scene import Scene
+from world_service.sensors.readings import Sensors
+from world_service.terrain.heightmap import Heightmap
 
 log = logging.getLogger("lunarsim.world")
 
-Out = tuple[str, m.Message]
-KIND_NAMES = np.array(m.HIT_KINDS)
-CLOCK_HZ = 5.0
-"""How often the clock is published in real time. Agents learn the time from every sample's stamp; the clock
-drives their own timers, the shortest of which is a second, and tells them the world is there. At the tick rate
-(20 Hz) it was 40% of what every agent received. In lockstep it goes out on every tick that waits for an ack."""
-ACTION_RESEND_S = 1.0
-SAVE_PERIOD_S = 1.0
-"""Simulated seconds between two saves of the world's state (``world_service.resume``): a rover walks at most 3.5 m
-in that time, which a restart may cost it."""
-"""How often the world re-sends the end of a rover's last action until its agent's status says it has heard it."""
+Handler = Callable[[int, Any], list[Out]]
+"""What a rover's input topic is handled by: (rover id, decoded message) -> what the world answers."""
 
 
-def tick_length(params: RoverParams) -> float:
-    """The world's tick: the period of its fastest publication, so every rate is a whole number of ticks."""
-    p = params
-    return 1.0 / max(p.perception.publish_frequency, p.perception.gyroscope_frequency, p.navigation.publish_frequency)
-
-
-def ticks_per_period(rate_hz: float, dt: float) -> int:
-    return max(1, round(1.0 / (rate_hz * dt)))
-
-
-class World(ActionInputs, RadioLink):
+class World:
     RENDERS_PHOTOS: ClassVar[bool] = True
     """The service starts a camera process for it (a twin's photos come from the rovers' own cameras)."""
+    RESUMABLE: ClassVar[bool] = True
+    """The service saves its state for a restart to resume (``world_service.resume``)."""
+    INPUT_TOPICS: ClassVar[tuple[str, ...]] = (ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.SPEED_ACTION,
+                                               ks.COMM_OUT, ks.STATUS, ks.PHOTO_ACTION)
+    """Rover topics the world takes from the agents (besides lockstep acks)."""
 
     def __init__(self, scenario: Scenario, keyspace: ks.Keyspace) -> None:
-        self.scenario = scenario
-        self.keys = keyspace
-        self.params = scenario.rover_params
-        self.rng = np.random.default_rng(scenario.seed)
-        self.radio_rng = np.random.default_rng([scenario.seed, 1])  # its own stream: traffic never shifts the noise
-        p = self.params
-        self.dt = tick_length(p)
-        self.perception_period = self._period(p.perception.publish_frequency)
-        self.gyroscope_period = self._period(p.perception.gyroscope_frequency)
-        self.status_period = self._period(p.navigation.publish_frequency)
-        self.partners_period = self._period(p.communication.partners_frequency)
-        self.stats_period = self._period(1.0)
-        self.save_period = self._period(1.0 / SAVE_PERIOD_S)
-        self.clock_period = self._period(CLOCK_HZ)
-        self.activation_range = scenario.terrain_spec().chunk_activation_range_m
-        self.tick = 0
-        self.terrain = Heightmap.from_scenario(scenario, self.rng)  # first draw: photos.build_ground relies on it
+        self.scenario, self.keys = scenario, keyspace
+        p = scenario.rover_params
+        rng = np.random.default_rng(scenario.seed)
+        self.clock = Clock(tick_length(p))
+        self.terrain = Heightmap.from_scenario(scenario, rng)  # first draw: photos.build_ground relies on it
         self.scene = Scene.from_scenario(scenario)
-        self.mission_stats = stats.MissionStats(scenario, RoverMissions(scenario))
-        self.missions = self.mission_stats.missions  # one bookkeeping of goals, followed with the ground's commands
-        self.perceiver = Perceiver(self.scene, self.terrain, self.params)
-        self.bodies = {i + 1: nav.RoverBody(i + 1, r.x, r.z, r.heading_deg % 360.0)
-                       for i, r in enumerate(scenario.rovers)}
-        self.status = {rid: m.RoverStatus(stamp=0.0, state="waiting") for rid in self.bodies}
-        self.alive = dict.fromkeys(self.bodies, True)
-        self.actions = ActionLedger(self._period(ACTION_RESEND_S))
-        self.progress = ProgressWatch(p.watchdog.stall_after_s)
-        self.stalled: frozenset[int] = frozenset()
-        self.lander_status: m.LanderStatus | None = None
-        self.resumes = 0  # restarts of the world service that resumed this run (``world_service.resume``)
-        self._refused_on: dict[int, int] = {}  # rover -> the tick its last refusal was answered on
-        self.refusals_held = 0
-        self.dropped_messages = 0  # counted by the service's inbox, reported here
-        self.rover_collisions = 0
-        self.camera_free_at: dict[int, int] = {}  # rover -> first tick its camera may take another photo
-        self.obstacle_collisions = 0
+        self.activation_range = scenario.terrain_spec().chunk_activation_range_m
         self.rejected = Rejections(log)
-        self.radio_dropped = 0
-        self.radio_lost = 0
-        self.photo_jobs: list[PhotoJob] = []
-        self._in_flight_radio: list[tuple[int, Out]] = []  # (due tick, delivery) with latency
-        self.completion = Completion(relay_wait_s(scenario.rover_params))
-        self._positions: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self.time_scale = 1.0  # what the clock announces; the service paces the ticks
-        self.lockstep = False
-        self.hold = ClockHold()  # the ground's pause: the service holds the clock
-        self.run_id = uuid.uuid4().hex[:12]  # not the seed's: two runs of one seed are still two runs
-        self.graph = self._build_graph()
-        self.airtime = Airtime(len(self.bodies) + 1, self.dt)
-        self.energy = Energy(scenario, self.terrain, self.scene, keyspace, self.dt, list(self.bodies),
-                             self.perception_period, self._period(p.power.publish_frequency)) if scenario.sun else None
+        self.dropped_messages = 0  # counted by the service's inbox, reported here
+        self.resumes = 0  # restarts of the world service that resumed this run (``world_service.resume``)
+        ids = list(range(1, len(scenario.rovers) + 1))
+        self.referee = Referee(scenario, ids)
+        self.power = Energy(scenario, self.terrain, self.scene, keyspace, self.clock.dt, ids,
+                            self.clock.period(p.perception.publish_frequency),
+                            self.clock.period(p.power.publish_frequency)) if scenario.sun else None
+        self.shutter = Shutter(self.terrain, self.scene, p, self.clock.dt)
+        self.actuator = Actuator(scenario, keyspace, self.clock, self.terrain, self.scene, rng, self.rejected,
+                                 self.shutter, self.power)
+        self.radio = RadioLink(scenario, keyspace, self.clock.dt, self.terrain, self.scene,
+                               list(self.actuator.bodies.values()), self.rejected, self.power)
+        self.sensors = Sensors(self.scene, self.terrain, p, keyspace, self.clock, rng)
+        self.partners_period = self.clock.period(p.communication.partners_frequency)
+        self.state_period = self.sensors.perception_period
+        self.stats_period = self.clock.period(1.0)
+        self.handlers: dict[str, Handler] = {
+            ks.MOVE_ACTION: self.actuator.move, ks.ROTATE_ACTION: self.actuator.rotate,
+            ks.CANCEL_ACTION: self.actuator.cancel, ks.SPEED_ACTION: self.actuator.speed,
+            ks.COMM_OUT: self._transmit, ks.STATUS: self._status, ks.PHOTO_ACTION: self.actuator.photo,
+        }
 
-    def _period(self, rate_hz: float) -> int:
-        return ticks_per_period(rate_hz, self.dt)
+    @classmethod
+    def input_keys(cls, keys: ks.Keyspace) -> list[str]:
+        """What the world service subscribes to for this world: the agents' inputs, the ground's commands and the
+        lockstep acks."""
+        return [*(keys.rovers(topic) for topic in cls.INPUT_TOPICS), keys.lander(ks.COMM_OUT), keys.lander(ks.STATUS),
+                keys.ground_command, keys.rovers(ks.ACK), keys.lander(ks.ACK)]
 
     @property
-    def sim_time(self) -> float:
-        return self.tick * self.dt
+    def rover_ids(self) -> Collection[int]:
+        return self.actuator.bodies.keys()
 
     # ---- input ----
 
@@ -130,21 +96,21 @@ class World(ActionInputs, RadioLink):
         """Handle one sample from an agent; a bad one is logged, counted and answered with nothing."""
         try:
             if key == self.keys.ground_command:
-                self._on_ground_command(codec.decode(m.GroundCommand, payload))
+                self._ground_command(codec.decode(m.GroundCommand, payload))
                 return []
             if key == self.keys.lander(ks.COMM_OUT):
-                return self._radio(ks.LANDER_ID, codec.decode(m.OutboundComm, payload), from_lander=True)
+                return self.radio.transmit(ks.LANDER_ID, codec.decode(m.OutboundComm, payload), True, self.clock.tick)
             if key == self.keys.lander(ks.STATUS):
-                self.lander_status = codec.decode(m.LanderStatus, payload)
+                self.referee.note_lander(codec.decode(m.LanderStatus, payload))
                 return []
             rover_id, topic = self.keys.parse_rover_key(key)
-            if rover_id not in self.bodies:
+            if rover_id not in self.actuator.bodies:
                 raise ValueError(f"no rover {rover_id} in scenario {self.scenario.name!r} "
-                                 f"(ids 1..{len(self.bodies)})")
-            handler = self._handlers.get(topic)
+                                 f"(ids 1..{len(self.actuator.bodies)})")
+            handler = self.handlers.get(topic)
             if handler is None:
                 raise ValueError(f"topic {topic!r} is not an input of the world")
-            return handler(self, rover_id, codec.decode(m.TOPIC_MODELS[topic], payload))
+            return handler(rover_id, codec.decode(m.TOPIC_MODELS[topic], payload))
         except (codec.DecodeError, ValueError) as exc:
             self.count_rejected(key, exc)
             return []
@@ -153,240 +119,120 @@ class World(ActionInputs, RadioLink):
         topic = key.rsplit("/", 1)[-1] if key.startswith(self.keys.prefix + "/") else "<other world>"
         self.rejected.count(topic, exc, key)
 
-    def render(self, job: PhotoJob) -> m.Photo:
-        """The photo rendered here (tests, the loopback); the service renders in a ``photos.CameraProcess``."""
-        return render_photo(UncachedView(self.terrain), self.scene, self.params, job)
+    def _transmit(self, rid: int, msg: m.OutboundComm) -> list[Out]:
+        return self.radio.transmit(rid, msg, False, self.clock.tick)
 
-    def _on_ground_command(self, command: m.GroundCommand) -> None:
+    def _status(self, rid: int, msg: m.RoverStatus) -> list[Out]:
+        self.referee.note_status(rid, msg, self.clock.sim_time)
+        self.actuator.note_heard(rid, msg.action_id)
+        return []
+
+    def _ground_command(self, command: m.GroundCommand) -> None:
         """Follow the ground's changes to the mission, so statistics judge each rover's real final goal; pause,
         resume and step hold and release the clock (a replay follows them too)."""
-        self.mission_stats.command(command)
-        self.hold.command(command)
+        self.referee.command(command)
+        self.clock.hold.command(command)
 
     def set_alive(self, rover_id: int, alive: bool) -> None:
         """Watchdog: a rover whose agent is gone stops where it is. When it comes back (its router restarted,
         its link returned, the agent restarted), the ledger re-sends how its action ended until it has heard."""
-        if rover_id not in self.bodies:
-            return
-        self.alive[rover_id] = alive
-        if not alive:
-            self.bodies[rover_id].cancel()
+        if rover_id in self.actuator.bodies:
+            self.actuator.set_alive(rover_id, alive)
 
     def resumed(self) -> None:
         """Loaded from a saved state by a restarted world service: every agent counts as gone until its liveliness
         token shows again (an agent that died meanwhile sent no word of it); the service waits for the tokens
         before the clock runs, as at the start."""
         self.resumes += 1
-        self.alive = dict.fromkeys(self.bodies, False)
-        self._positions = None
+        self.actuator.resumed()
 
-    def _activate_terrain(self) -> None:
-        """Chunk activation (report 10.7.1): keep terrain tiles near rovers loaded, let far ones go."""
-        points = np.array([(b.x, b.z) for b in self.bodies.values()])
-        self.terrain.keep_near(points, self.activation_range)
+    # ---- photos ----
+
+    def take_photo_jobs(self) -> list[PhotoJob]:
+        return self.shutter.take_jobs()
+
+    def render(self, job: PhotoJob) -> m.Photo:
+        """The photo rendered here (tests, the loopback); the service renders in a ``camera.photos.CameraProcess``."""
+        return self.shutter.render(job)
 
     # ---- time ----
 
     def step(self) -> list[Out]:
         """Advance one tick and return everything the world publishes for it."""
-        self.tick += 1
-        out: list[Out] = []
-        out += self._move_bodies()
-        if self.energy is not None:
+        clock = self.clock
+        clock.tick += 1
+        out = self.actuator.step()
+        if self.power is not None:
             out += self._power_step()
-        if self.tick % self.partners_period == 0:
-            self._activate_terrain()
-            self.graph = self._build_graph()
-        out += self._due_radio()
-        out += self.actions.resend_due(self.tick, self.alive)
-        out += self._sensors()
-        self._check_complete()
-        out.append((self.keys.clock, self.clock()))
+        bodies = list(self.actuator.bodies.values())
+        partners_due = clock.tick % self.partners_period == 0
+        if partners_due:
+            self.terrain.keep_near(np.array([(b.x, b.z) for b in bodies]), self.activation_range)  # report 10.7.1
+            self.radio.rebuild(bodies)
+        out += self.radio.due(clock.tick)
+        out += self.actuator.resend_due()
+        out += self.sensors.read(bodies)
+        out += self.actuator.statuses()
+        if partners_due:
+            out += self.radio.partners()
+        if self._observer_tick(self.state_period):
+            out.append((self.keys.state, self.observed_state()))
+        if self._observer_tick(self.stats_period):
+            out.append((self.keys.stats, m.WorldStats(stamp=clock.sim_time, report=self.report())))
+        self.referee.check_complete(clock.sim_time, self.actuator.moving(), self.radio.reaches_lander)
+        out.append((self.keys.clock, clock.message()))
         return out
-
-    def clock(self, running: bool = True) -> m.Clock:
-        return m.Clock(tick=self.tick, sim_time=self.sim_time, time_scale=self.time_scale, running=running,
-                       lockstep=self.lockstep, run=self.run_id)
-
-    def _move_bodies(self) -> list[Out]:
-        """Step every busy rover, then stop short, as one batch, those that would touch something."""
-        active = [b for b in self.bodies.values() if b.busy]
-        if not active:
-            return []
-        factors = self._slope_factors([b for b in active if isinstance(b.action, nav.Move)])
-        before = {b.id: (b.x, b.z, b.distance_covered) for b in active}
-        ended = {b.id: nav.step(b, self.dt, self.params.navigation, factors.get(b.id, 1.0)) for b in active}
-        moved = [b for b in active if (b.x, b.z) != before[b.id][:2]]
-        for body in self._colliding(moved):
-            body.x, body.z, body.distance_covered = before[body.id]
-            # a move may have ended on this very step: its start is then in its end, and the agent needs the
-            # CancelResult built from it (a "collided" status without one left the agent waiting for ever)
-            done = ended[body.id]
-            start = body.action.start if body.action is not None else done.start if done else None
-            body.action, body.velocity = None, 0.0
-            ended[body.id] = nav.Ended("move", "collided", start)
-        self._positions = None
-        return [o for b in active if ended[b.id] for o in self._ended(b, ended[b.id])]
 
     def _power_step(self) -> list[Out]:
         """Batteries, temperatures and light; a rover that has just gone off stops where it is."""
-        out, gone_off = self.energy.step(self.tick, self.sim_time, list(self.bodies.values()))
+        out, gone_off = self.power.step(self.clock.tick, self.clock.sim_time, list(self.actuator.bodies.values()))
         for rid in gone_off:
-            self.bodies[rid].cancel()
-            log.info("rover %d shut down at t = %.1f s: %s", rid, self.sim_time, self.energy.refusal(rid)[1])
-        return out
-
-    def _slope_factors(self, moving: list[nav.RoverBody]) -> dict[int, float]:
-        if not moving:
-            return {}
-        pitch = self.terrain.pitch_deg(*(np.array([getattr(b, a) for b in moving]) for a in ("x", "z", "heading")))
-        return dict(zip((b.id for b in moving), nav.slope_factor(pitch, self.params.navigation).tolist(),
-                        strict=True))
-
-    def _colliding(self, moved: list[nav.RoverBody]) -> list[nav.RoverBody]:
-        """Movers now touching a rock, wall, the lander or another rover; counts each contact once."""
-        if not moved:
-            return []
-        radius = self.params.behaviour.rover_radius
-        mx, mz = np.array([b.x for b in moved]), np.array([b.z for b in moved])
-        static = self.scene.contacts(mx, mz, radius)
-        self.obstacle_collisions += int(static.sum())
-        bodies = list(self.bodies.values())
-        xs, zs = np.array([b.x for b in bodies]), np.array([b.z for b in bodies])
-        index = {b.id: i for i, b in enumerate(bodies)}
-        mover, other = circle_pairs(mx, mz, xs, zs, np.full(len(xs), radius), radius, 4 * radius)
-        own = np.array([index[moved[i].id] for i in mover], int)
-        touching = (other != own) & (np.hypot(xs[other] - mx[mover], zs[other] - mz[mover]) < 2 * radius)
-        pairs = {tuple(sorted((int(own[k]), int(other[k])))) for k in np.nonzero(touching)[0]}
-        self.rover_collisions += len(pairs)
-        hit = {moved[i].id for i in np.nonzero(static)[0]} | {bodies[i].id for pair in pairs for i in pair}
-        return [b for b in moved if b.id in hit]
-
-    def _ended(self, body: nav.RoverBody, ended: nav.Ended) -> list[Out]:
-        rid = body.id
-        action_id = self.actions.running_id(rid)
-        status = m.NavigationStatus(stamp=self.sim_time, action=ended.action, remaining=0.0, outcome=ended.outcome,
-                                    action_id=action_id)
-        out: list[Out] = [(self.keys.rover(rid, ks.NAVIGATION_STATUS), status)]
-        if ended.outcome != "completed" and ended.start is not None:
-            x, z, angle = body.relative_to_start(ended.start)
-            out.append((self.keys.rover(rid, ks.CANCEL_RESULT),
-                        m.CancelResult(x=x, z=z, angle_deg=angle, reason=ended.outcome, action_id=action_id)))
-        self.actions.end(rid, out)
-        return out
-
-    def _sensors(self) -> list[Out]:
-        bodies = list(self.bodies.values())
-        xs, zs, hs = (np.array([getattr(b, a) for b in bodies]) for a in ("x", "z", "heading"))
-        out = self._perceptions(bodies, xs, zs, hs)
-        if self.tick % self.gyroscope_period == 0:
-            out += self._gyroscopes(bodies, xs, zs, hs)
-        for body in bodies:
-            if body.busy and self.tick % self.status_period == 0:
-                out.append(self._nav_status(body, "move" if isinstance(body.action, nav.Move) else "rotate"))
-        if self.tick % self.partners_period == 0:
-            out += [(self.keys.rover(b.id, ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(b.id)))
-                    for b in bodies]
-            out.append((self.keys.lander(ks.COMM_PARTNERS), m.CommPartners(ids=self.graph.partners(ks.LANDER_ID))))
-        if self._observer_tick(self.perception_period):
-            out.append((self.keys.state, self.observed_state()))
-        if self._observer_tick(self.stats_period):
-            out.append((self.keys.stats, m.WorldStats(stamp=self.sim_time, report=self.report())))
+            self.actuator.stop(rid)
+            log.info("rover %d shut down at t = %.1f s: %s", rid, self.clock.sim_time, self.power.refusal(rid)[1])
         return out
 
     def _observer_tick(self, period: int) -> bool:
         """Ground truth and statistics, which only observers read, go out half a period after the ticks that
-        rebuild the radio graph and send every rover its partners. Together, at 100 rovers, those made one tick a
-        second cost 15 ms of the world's CPU against 4 for the others, and in real time the ticks after it
-        started late."""
-        return self.tick % period == period // 2
-
-    def _perceptions(self, bodies, xs, zs, hs) -> list[Out]:
-        """Each rover scans once per perception period, the rovers staggered over the period's ticks.
-
-        Staggered in lockstep too, though scanning all on one tick would leave more ticks waiting for nobody:
-        rovers that decide on the same tick meet each other's right of way symmetrically, and in the daisy chain
-        scenario that cost a rover its goal. Independent rovers do not share a clock phase either."""
-        which = np.array([i for i, b in enumerate(bodies) if (self.tick + b.id) % self.perception_period == 0], int)
-        scans = self.perceiver.scan(xs, zs, hs, which)
-        # Built from checked arrays at 5 Hz per rover: skip re-validation (receivers still validate).
-        return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
-                 m.Perception.model_construct(stamp=self.sim_time, angles_deg=np.round(s.angles_deg, 3).tolist(),
-                                              distances_m=np.round(s.distances_m, 3).tolist(),
-                                              kinds=KIND_NAMES[s.kinds].tolist()))
-                for i, s in zip(which, scans, strict=True)]
-
-    def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:
-        pitch = self.terrain.pitch_deg(xs, zs, hs)
-        noise = self.params.perception.gyroscope_noise_std_deg
-        if noise > 0:
-            pitch = pitch + self.rng.normal(0.0, noise, len(pitch))
-        stamp = self.sim_time
-        return [(self.keys.rover(b.id, ks.GYROSCOPE), m.Gyroscope(stamp=stamp, pitch_deg=p))
-                for b, p in zip(bodies, np.round(pitch, 4).tolist(), strict=True)]
-
-    def _nav_status(self, body: nav.RoverBody, action: str) -> Out:
-        status = m.NavigationStatus(stamp=self.sim_time, action=action, remaining=round(body.remaining(), 4),
-                                    action_id=self.actions.running_id(body.id))
-        return self.keys.rover(body.id, ks.NAVIGATION_STATUS), status
+        rebuild the radio graph and send every rover its partners. Together, at 100 rovers, they would make one tick
+        a second cost 15 ms of the world's CPU against 4 for the others, and in real time the ticks after it would
+        start late."""
+        return self.clock.tick % period == period // 2
 
     # ---- ground truth and statistics ----
 
-    def _goal_of(self, rid: int):
-        return self.missions.goal(rid, self.status[rid].goal_index)
-
     def world_state(self) -> m.WorldState:
-        rovers = [self._truth(b) for b in self.bodies.values()]
-        stalled = frozenset(r.id for r in rovers if r.stalled)
-        for rid in sorted(stalled - self.stalled):
-            log.warning("t = %.1f s: rover %d counted stuck: no nearer its goal for %g s", self.sim_time, rid,
-                        self.params.watchdog.stall_after_s)
-        self.stalled = stalled
-        lander = (self.lander_status,) if self.lander_status is not None else ()
-        counters = m.WorldCounters(rover_collisions=self.rover_collisions, obstacle_collisions=self.obstacle_collisions,
-                                   rejected_messages=self.rejected.total, radio_dropped=self.radio_dropped,
-                                   radio_lost=self.radio_lost, dropped_messages=self.dropped_messages,
-                                   agent_rejected=sum(s.rejected for s in (*self.status.values(), *lander)),
-                                   world_resumes=self.resumes, rovers_lost=sum(s.lost for s in self.status.values()),
-                                   lander_map_lost=any(s.map_lost for s in lander),
-                                   **(self.energy.counters() if self.energy is not None else {}))
-        return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links(),
-                            relays=self.graph.relays(), counters=counters, completed_at=self.completed_at)
+        now = self.clock.sim_time
+        rovers = [self._truth(rid, now) for rid in self.actuator.bodies]
+        self.referee.note_stalled(rovers, now)
+        a, radio = self.actuator, self.radio
+        counters = m.WorldCounters(rover_collisions=a.rover_collisions, obstacle_collisions=a.obstacle_collisions,
+                                   rejected_messages=self.rejected.total, radio_dropped=radio.dropped,
+                                   radio_lost=radio.lost, dropped_messages=self.dropped_messages,
+                                   world_resumes=self.resumes, **self.referee.agent_counters(),
+                                   **(self.power.counters() if self.power is not None else {}))
+        return m.WorldState(stamp=now, rovers=rovers, comm_links=radio.graph.links(), relays=radio.graph.relays(),
+                            counters=counters, completed_at=self.completed_at)
 
-    def _truth(self, b: nav.RoverBody) -> m.RoverTruth:
-        status = self.status[b.id]
-        distance = round(stats.distance_to_goal(self.scenario, self._goal_of(b.id), b.x, b.z), 3)
-        power = self.energy.truth(b.id) if self.energy is not None else {}
-        waiting = status.state in FINISHED_STATES or status.state == "charging" or power.get("powered") is False
-        stalled = self.progress.observe(b.id, status.goal_index, distance, self.sim_time, waiting)
+    def _truth(self, rid: int, now: float) -> m.RoverTruth:
+        b = self.actuator.bodies[rid]
+        power = self.power.truth(rid) if self.power is not None else {}
+        distance, stalled = self.referee.judge(rid, b.x, b.z, now, power.get("powered"))
+        status = self.referee.status[rid]
         # validated: with few lists and six fields left to their defaults, faster than model_construct
-        return m.RoverTruth(id=b.id, x=round(b.x, 4), z=round(b.z, 4), heading_deg=round(b.heading, 3),
-                            action=self._action_name(b), state=status.state, goal_index=status.goal_index,
+        return m.RoverTruth(id=rid, x=round(b.x, 4), z=round(b.z, 4), heading_deg=round(b.heading, 3),
+                            action=action_name(b), state=status.state, goal_index=status.goal_index,
                             distance_to_goal_m=distance, distance_covered_m=round(b.distance_covered, 3),
-                            alive=self.alive[b.id], stalled=stalled, **power)
+                            alive=self.actuator.alive[rid], stalled=stalled, **power)
 
     def observed_state(self) -> m.WorldState:
         """The state to publish, counted into the statistics: they are computed from what is published."""
         state = self.world_state()
-        self.mission_stats.observe(state)
+        self.referee.stats.observe(state)
         return state
-
-    @staticmethod
-    def _action_name(body: nav.RoverBody) -> str:
-        if isinstance(body.action, nav.Move):
-            return "cancel" if body.action.cancelling else "move"
-        return "rotate" if isinstance(body.action, nav.Rotate) else "idle"
-
-    def _check_complete(self) -> None:
-        self.completion.check(self.sim_time, self.status, {b.id: b.busy for b in self.bodies.values()},
-                              self._reaches_lander, self.stalled)
-
-    def _reaches_lander(self) -> dict[int, bool]:
-        return dict(zip(self.graph.ids.tolist(), self.graph.connected_to_lander().tolist(), strict=True))
 
     @property
     def completed_at(self) -> float | None:
-        return self.completion.at
+        return self.referee.completed_at
 
     @property
     def complete(self) -> bool:
@@ -394,6 +240,6 @@ class World(ActionInputs, RadioLink):
 
     def report(self) -> m.MissionReport:
         """Statistics as of the last published state (``lunarsim report`` gets the same from a recording)."""
-        if self.mission_stats.last is None:
+        if self.referee.stats.last is None:
             self.observed_state()
-        return self.mission_stats.report()
+        return self.referee.stats.report()

@@ -14,7 +14,7 @@ taken from what the programs do:
   publishes the rover's sensors and its driver's ``telemetry``, subscribes to the rover's actions and radio
   output (``AGENT_TOPICS``, ``comm_out``) and the clock, and watches its own agent's token. The world keeps
   no right to publish a bridged rover's sensors; it follows the bridged rovers as a twin instead
-  (``TwinWorld.INPUT_TOPICS``, as ``twin_service.declare_io`` subscribes). On a bench without a world one
+  (``TwinWorld.INPUT_TOPICS``, as ``service.declare_io`` subscribes for it). On a bench without a world one
   bridge may be the clock (``bridge_clock``);
 - the ground alone publishes ``ground/command``; the lander answers it on ``ground/command_result``;
 - the recorder reads the whole world and writes nothing; it and the ground watch a replay's token (``alive/replay``),
@@ -91,8 +91,8 @@ def _bridge_outputs() -> tuple[str, ...]:
 
 
 def _twin_inputs() -> tuple[str, ...]:
-    """Rover topics the world follows in twin mode (``twin_service.declare_io``)."""
-    from world_service.twin import TwinWorld
+    """Rover topics the world follows in twin mode (``TwinWorld.input_keys``)."""
+    from world_service.twin.world import TwinWorld
 
     return TwinWorld.INPUT_TOPICS
 

@@ -8,10 +8,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from world_service.terrain import Heightmap
+from world_service.terrain.heightmap import Heightmap
 
 if TYPE_CHECKING:
-    from world_service.height_grid import HeightGrid
+    from world_service.terrain.height_grid import HeightGrid
 
 
 class DenseView:

@@ -1,4 +1,4 @@
-"""Terrain meshes: import an OBJ/STL/PLY/GLB surface into the heightmap (``terrain_export`` writes one back out).
+"""Terrain meshes: import an OBJ/STL/PLY/GLB surface into the heightmap (``export`` writes one back out).
 
 Import: the mesh (y up, x/z the ground plane, as Unity and NASA's lunar models) is loaded with trimesh and
 kept as triangles binned on a coarse grid. A terrain tile asks for the heights of its node block and only
@@ -18,7 +18,6 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from schemas.scenario import TerrainSpec
 from schemas.scenario_files import read_mesh
 
 BATCH_PAIRS = 2_000_000
@@ -38,17 +37,6 @@ def load_vertices_faces(path: str | Path, scale: float | Sequence[float] = 1.0,
         raise ValueError(f"{path}: no triangles to make a terrain from")
     vertices = np.asarray(mesh.vertices, float) * np.broadcast_to(np.asarray(scale, float), 3)
     return vertices + np.asarray(offset, float), np.asarray(mesh.faces, np.int64)
-
-
-def fit_spec(path: str | Path, resolution_m: float = 1.0, scale: float | Sequence[float] = 1.0,
-             offset: Sequence[float] = (0.0, 0.0, 0.0), **fields: object) -> TerrainSpec:
-    """A TerrainSpec covering the mesh's ground footprint (a whole number of cells, so every node is on it)."""
-    vertices, _ = load_vertices_faces(path, scale, offset)
-    lo, hi = vertices[:, [0, 2]].min(axis=0), vertices[:, [0, 2]].max(axis=0)
-    cells = np.maximum(np.floor((hi - lo) / resolution_m + 1e-9), 1)
-    return TerrainSpec(origin=(float(lo[0]), float(lo[1])), size_m=tuple(float(c * resolution_m) for c in cells),
-                       resolution_m=resolution_m, mesh=str(path), mesh_scale=scale, mesh_offset=tuple(offset),
-                       **fields)
 
 
 @dataclass(frozen=True)
@@ -86,7 +74,7 @@ class _Triangles:
 
 
 class MeshSurface:
-    """A triangle surface answering height blocks for terrain tiles (``terrain.HeightSource``)."""
+    """A triangle surface answering height blocks for terrain tiles (``landforms.HeightSource``)."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, bin_size_m: float = 256.0) -> None:
         self.triangles = _Triangles.of(np.asarray(vertices, float), np.asarray(faces, np.int64))

@@ -33,8 +33,8 @@ import numpy as np
 
 from schemas.scenario import Scenario
 from world_service import geometry as geo
+from world_service.outcome.statistics import arrival_point
 from world_service.scene import scatter_rock_fields
-from world_service.statistics import arrival_point
 
 CORRIDOR_HALF_WIDTH_M = 10.0
 """Half the corridor's width: the default perception radius, what a rover on the path sees to either side."""
@@ -107,15 +107,6 @@ def _mark(out: np.ndarray, grid: Grid, box: tuple[float, float, float, float], i
     pz = grid.origin_z + (np.arange(j0, j1)[:, None] + sub[None, :]).ravel() * c
     hit = inside(px[None, :], pz[:, None]).reshape(j1 - j0, SUBSAMPLES, i1 - i0, SUBSAMPLES)
     out[j0:j1, i0:i1] |= hit.any(axis=(1, 3))
-
-
-def truth_craters(scenario: Scenario, grid: Grid) -> np.ndarray:
-    """Bool (height, width): cells whose centre lies within a crater's outer rim."""
-    x, z = _centres(grid)
-    out = np.zeros((grid.height, grid.width), bool)
-    for c in scenario.craters:
-        out |= np.hypot(x - c.x, z - c.z) <= c.outer_radius
-    return out
 
 
 def corridor_path(scenario: Scenario) -> list[tuple[float, float]]:

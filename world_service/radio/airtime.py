@@ -1,8 +1,8 @@
 """The radio's capacity: how many deliveries one sender's transmissions may make in a simulated second.
 
 A real radio has a data rate, and a sender flooding it (a buggy agent, or one taken over) only fills its own
-airtime. Without a bound, every flooded transmission went on to every target, and the agents fell tens of seconds
-behind handling them. The bound is generous: twenty deliveries a second for every radio in the scenario, where a
+airtime. Without a bound, every flooded transmission would go on to every target, and the agents would fall tens of
+seconds behind handling them. The bound is generous: twenty deliveries a second for every radio in the scenario, where a
 mission's own traffic (the lander's calibration and direction to each rover once a second, a rover's estimate,
 reports and photos) is a few.
 """

@@ -7,15 +7,15 @@ simulated world publishes, so viewers, the recorder and the statistics (``Missio
 The drivers do the sensing, moving, radio and camera; the twin only watches.
 
 Like ``World`` this class does no I/O (samples in, (key, message) pairs out) and it offers the interface the
-world service's clock loop drives (``world_service.service.run``), in real time only.
+world service's clock loop drives (``served.ServedWorld``), in real time only.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-import uuid
-from dataclasses import dataclass, field
+from collections.abc import Callable, Collection
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -23,83 +23,19 @@ from bus.rejections import Rejections
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.frames import to_world
+from schemas.messages import Out
 from schemas.mission import RoverMissions
 from schemas.scenario import Scenario
-from world_service import statistics as stats
-from world_service.clock_hold import ClockHold
-from world_service.completion import Completion, relay_wait_s
-from world_service.radio import CommGraph, build_graph
-from world_service.sim import CLOCK_HZ, Out, tick_length, ticks_per_period
+from world_service.clock import Clock, tick_length
+from world_service.outcome import statistics as stats
+from world_service.outcome.completion import Completion, relay_wait_s
+from world_service.radio.graph import CommGraph, build_graph
+from world_service.twin.rovers import Pose, TwinRover, rover_truth
+
+if TYPE_CHECKING:
+    from world_service.camera.photos import PhotoJob
 
 log = logging.getLogger("lunarsim.world")
-
-STALE_AFTER_S = 2.0
-"""A rover whose driver has sent no telemetry for this long is marked stale (its last pose is kept)."""
-
-
-@dataclass(frozen=True)
-class Pose:
-    x: float
-    z: float
-    heading_deg: float
-
-
-def compose(start: Pose, telemetry: m.Telemetry) -> Pose:
-    """Where a rover is on the map: its start pose moved by the driver's odometry (relative to that start)."""
-    x, z = to_world(start.x, start.z, start.heading_deg, telemetry.x, telemetry.z)
-    return Pose(x, z, (start.heading_deg + telemetry.heading_deg) % 360.0)
-
-
-@dataclass
-class TwinRover:
-    """One real rover as the twin knows it: the last pose its driver reported, and the path summed so far.
-
-    The driver's frame starts at the rover's start pose, so the path is counted from its origin: a twin
-    that starts (or a sample that arrives) late bridges the gap with a straight line instead of losing it.
-    """
-
-    id: int
-    start: Pose
-    pose: Pose = field(init=False)
-    distance_covered: float = 0.0
-    moving: bool = False
-    odometry: tuple[float, float] = (0.0, 0.0)  # last (x, z) in the driver's own frame
-    last_sample_at: float = 0.0
-    stale: bool = False
-
-    def __post_init__(self) -> None:
-        self.pose = self.start
-
-    def follow(self, telemetry: m.Telemetry, now: float) -> None:
-        here = (telemetry.x, telemetry.z)
-        self.distance_covered += math.dist(self.odometry, here)
-        self.odometry, self.pose, self.moving = here, compose(self.start, telemetry), telemetry.moving
-        self.last_sample_at = now
-        if self.stale:
-            self.stale = False
-            log.warning("rover %d: telemetry again after a gap", self.id)
-
-    def check_stale(self, now: float) -> None:
-        """Mark the rover stale once its telemetry stops, and say so once per gap."""
-        if not self.stale and now - self.last_sample_at > STALE_AFTER_S:
-            self.stale = True
-            log.warning("rover %d: no telemetry for %g s; keeping its last pose until its driver reports again",
-                        self.id, STALE_AFTER_S)
-
-    @property
-    def in_motion(self) -> bool:
-        """Moving as far as the twin knows: a stale rover's last word does not hold the mission open."""
-        return self.moving and not self.stale
-
-
-def rover_truth(rover: TwinRover, status: m.RoverStatus, goal_distance_m: float, alive: bool) -> m.RoverTruth:
-    pose = rover.pose
-    return m.RoverTruth(id=rover.id, x=round(pose.x, 4), z=round(pose.z, 4), heading_deg=round(pose.heading_deg, 3),
-                        action="move" if rover.in_motion else "idle", state=status.state,
-                        goal_index=status.goal_index, distance_to_goal_m=round(goal_distance_m, 3),
-                        distance_covered_m=round(rover.distance_covered, 3), alive=alive,
-                        telemetry_stale=rover.stale)
 
 
 def radio_links(partners: dict[int, list[int]]) -> list[tuple[int, int]]:
@@ -118,19 +54,18 @@ def radio_graph(ids: list[int], links: list[tuple[int, int]]) -> CommGraph:
 
 
 class TwinWorld:
-    INPUT_TOPICS = (ks.TELEMETRY, ks.STATUS, ks.COMM_PARTNERS)
+    RENDERS_PHOTOS: ClassVar[bool] = False
+    """No camera: the drivers take the photos."""
+    RESUMABLE: ClassVar[bool] = False
+    """Real rovers hold their own state: there is nothing of theirs to resume."""
+    INPUT_TOPICS: ClassVar[tuple[str, ...]] = (ks.TELEMETRY, ks.STATUS, ks.COMM_PARTNERS)
     """Rover keys the twin follows; the lander's comm_partners, ground commands and liveliness as well."""
-    RENDERS_PHOTOS = False
 
     def __init__(self, scenario: Scenario, keyspace: ks.Keyspace) -> None:
-        self.run_id = uuid.uuid4().hex[:12]
         self.scenario, self.keys = scenario, keyspace
-        self.hold = ClockHold()  # never paused: the twin follows real rovers, whose time does not stop
-        self.dt = tick_length(scenario.rover_params)
-        self.state_period = ticks_per_period(scenario.rover_params.perception.publish_frequency, self.dt)
-        self.stats_period = ticks_per_period(1.0, self.dt)
-        self.clock_period = ticks_per_period(CLOCK_HZ, self.dt)
-        self.tick = 0
+        self.clock = Clock(tick_length(scenario.rover_params))  # its hold is never used: real time does not stop
+        self.state_period = self.clock.period(scenario.rover_params.perception.publish_frequency)
+        self.stats_period = self.clock.period(1.0)
         self.mission_stats = stats.MissionStats(scenario, RoverMissions(scenario))
         self.missions = self.mission_stats.missions
         self.bodies = {i + 1: TwinRover(i + 1, Pose(r.x, r.z, r.heading_deg % 360.0))
@@ -140,13 +75,19 @@ class TwinWorld:
         self.partners: dict[int, list[int]] = {}  # node (0 the lander) -> ids its radio hears
         self.graph = radio_graph([ks.LANDER_ID, *self.bodies], [])
         self.rejected = Rejections(log)
+        self.dropped_messages = 0  # counted by the service's inbox; the twin does not report it
         self.completion = Completion(relay_wait_s(scenario.rover_params))
-        self.time_scale, self.lockstep = 1.0, False
-        self.photo_jobs: list = []  # no camera: the drivers take the photos
+        self.handlers: dict[str, Callable[[int, Any], None]] = {
+            ks.TELEMETRY: self._on_telemetry, ks.STATUS: self._on_status, ks.COMM_PARTNERS: self._on_partners}
+
+    @classmethod
+    def input_keys(cls, keys: ks.Keyspace) -> list[str]:
+        return [*(keys.rovers(topic) for topic in cls.INPUT_TOPICS), keys.lander(ks.COMM_PARTNERS),
+                keys.ground_command]
 
     @property
-    def sim_time(self) -> float:
-        return self.tick * self.dt
+    def rover_ids(self) -> Collection[int]:
+        return self.bodies.keys()
 
     @property
     def completed_at(self) -> float | None:
@@ -156,6 +97,12 @@ class TwinWorld:
     def complete(self) -> bool:
         return self.completed_at is not None
 
+    def take_photo_jobs(self) -> list[PhotoJob]:
+        return []
+
+    def render(self, job: PhotoJob) -> m.Photo:
+        raise ValueError("the twin has no camera: the rovers' drivers take the photos")
+
     # ---- input ----
 
     def receive(self, key: str, payload: bytes) -> list[Out]:
@@ -163,8 +110,11 @@ class TwinWorld:
         try:
             self._receive(key, payload)
         except (codec.DecodeError, ValueError) as exc:
-            self.rejected.count(key.rsplit("/", 1)[-1], exc, key)
+            self.count_rejected(key, exc)
         return []
+
+    def count_rejected(self, key: str, exc: Exception) -> None:
+        self.rejected.count(key.rsplit("/", 1)[-1], exc, key)
 
     def _receive(self, key: str, payload: bytes) -> None:
         if key == self.keys.ground_command:
@@ -175,15 +125,16 @@ class TwinWorld:
             rid, topic = self.keys.parse_rover_key(key)
             if rid not in self.bodies:
                 raise ValueError(f"no rover {rid} in scenario {self.scenario.name!r} (ids 1..{len(self.bodies)})")
-            if topic not in self.INPUT_TOPICS:
+            handler = self.handlers.get(topic)
+            if handler is None:
                 raise ValueError(f"topic {topic!r} is not an input of the twin")
-            message = codec.decode(m.TOPIC_MODELS[topic], payload)
-            if topic == ks.TELEMETRY:
-                self.bodies[rid].follow(message, self.sim_time)
-            elif topic == ks.STATUS:
-                self.status[rid] = message
-            else:
-                self._on_partners(rid, message)
+            handler(rid, codec.decode(m.TOPIC_MODELS[topic], payload))
+
+    def _on_telemetry(self, rid: int, msg: m.Telemetry) -> None:
+        self.bodies[rid].follow(msg, self.clock.sim_time)
+
+    def _on_status(self, rid: int, msg: m.RoverStatus) -> None:
+        self.status[rid] = msg
 
     def _on_partners(self, node: int, msg: m.CommPartners) -> None:
         unknown = sorted(set(msg.ids) - {ks.LANDER_ID, *self.bodies})
@@ -201,22 +152,19 @@ class TwinWorld:
 
     def step(self) -> list[Out]:
         """Advance one tick and return what the world publishes for it (state, statistics, clock)."""
-        self.tick += 1
+        clock = self.clock
+        clock.tick += 1
         for rover in self.bodies.values():
-            rover.check_stale(self.sim_time)
+            rover.check_stale(clock.sim_time)
         out: list[Out] = []
-        if self.tick % self.state_period == 0:
+        if clock.tick % self.state_period == 0:
             out.append((self.keys.state, self.observed_state()))
-        if self.tick % self.stats_period == 0:
-            out.append((self.keys.stats, m.WorldStats(stamp=self.sim_time, report=self.report())))
-        self.completion.check(self.sim_time, self.status, {rid: r.in_motion for rid, r in self.bodies.items()},
+        if clock.tick % self.stats_period == 0:
+            out.append((self.keys.stats, m.WorldStats(stamp=clock.sim_time, report=self.report())))
+        self.completion.check(clock.sim_time, self.status, {rid: r.in_motion for rid, r in self.bodies.items()},
                               self._reaches_lander)
-        out.append((self.keys.clock, self.clock()))
+        out.append((self.keys.clock, clock.message()))
         return out
-
-    def clock(self, running: bool = True) -> m.Clock:
-        return m.Clock(tick=self.tick, sim_time=self.sim_time, time_scale=self.time_scale, running=running,
-                       lockstep=False, run=self.run_id)
 
     def _reaches_lander(self) -> dict[int, bool]:
         return dict(zip(self.graph.ids.tolist(), self.graph.connected_to_lander().tolist(), strict=True))
@@ -227,7 +175,7 @@ class TwinWorld:
         rovers = [rover_truth(r, self.status[rid], self._goal_distance(r), self.alive[rid])
                   for rid, r in self.bodies.items()]
         counters = m.WorldCounters(rejected_messages=self.rejected.total)
-        return m.WorldState(stamp=self.sim_time, rovers=rovers, comm_links=self.graph.links(),
+        return m.WorldState(stamp=self.clock.sim_time, rovers=rovers, comm_links=self.graph.links(),
                             relays=self.graph.relays(), counters=counters, completed_at=self.completed_at)
 
     def _goal_distance(self, rover: TwinRover) -> float:

@@ -8,17 +8,16 @@ refused with their answers:
 - the world re-sends an action's end every ``resend_period`` ticks until the agent's status says it has heard it
   (``RoverStatus.action_id``), so neither a lost end nor a lost query leaves an agent waiting.
 
-Id 0 means "no id" (tools and drivers written before ids): such actions are answered once, as before.
+Id 0 means "no id" (tools and drivers that send none): such actions are answered once.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from schemas import messages as m
+from schemas.messages import Out
 from schemas.wire_limits import highest_action_id
 
-Out = tuple[str, m.Message]
 STALE = "stale"
 FUTURE = "out_of_sequence"
 REFUSED_KINDS = (STALE, FUTURE)

@@ -1,13 +1,13 @@
 """Heightmap terrain on a regular grid, split into square tiles that are generated on first use.
 
-The surface is a flat plain (or an imported mesh, see ``world_service.terrain_mesh``) plus a seeded
+The surface is a flat plain (or an imported mesh, see ``world_service.terrain.mesh``) plus a seeded
 undulation of ``roughness_m`` plus crater bowls with raised rims. Every layer is a pure function of
 (x, z) and the seed, so a tile can be generated on its own and still join its neighbours exactly: this is
 what lets a 50 km² terrain run while only the tiles near rovers are in memory (the report's 10.7.1 chunk
 activation). Tiles live in an LRU with a cap (``TerrainSpec.max_tiles_in_memory``); ``keep_near`` loads
 the tiles around the rovers and drops the far ones.
 
-The layers themselves (undulation, craters) are in ``world_service.landforms``.
+The layers themselves (undulation, craters) are in ``world_service.terrain.landforms``.
 
 Grid node (i, j) sits at (origin_x + i * resolution, origin_z + j * resolution); arrays are indexed
 [j, i] (row = z). Tile (tz, tx) holds nodes tx*T .. tx*T + T along x (T cells per tile, edge nodes shared
@@ -28,10 +28,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from schemas.scenario import Crater, Scenario, TerrainSpec
-from world_service.landforms import CraterSet, HeightSource, Undulation
+from world_service.terrain.landforms import CraterSet, HeightSource, Undulation
 
 if TYPE_CHECKING:
-    from world_service.height_grid import HeightGrid
+    from world_service.terrain.height_grid import HeightGrid
 
 log = logging.getLogger("lunarsim.terrain")
 
@@ -96,7 +96,7 @@ class Heightmap:
         undulation = Undulation.draw(spec.roughness_m, rng) if spec.roughness_m > 0 else None
         if spec.mesh is None:
             return cls(spec, craters, undulation)
-        from world_service.terrain_mesh import MeshSurface
+        from world_service.terrain.mesh import MeshSurface
 
         path = Path(spec.mesh)
         if base_dir is not None and not path.is_absolute():
@@ -312,11 +312,6 @@ class Heightmap:
         gx, gz = self._sample(("slope_x", "slope_z"), x, z)
         return gx, gz
 
-    def slope_deg(self, x, z) -> np.ndarray:
-        """Steepest slope angle at the points, whatever the heading (what ``max_slope_deg`` is judged on)."""
-        gx, gz = self.gradient(x, z)
-        return np.degrees(np.arctan(np.hypot(gx, gz)))
-
     def pitch_deg(self, x, z, heading_deg) -> np.ndarray:
         """Nose-up angle of a rover standing at (x, z) facing ``heading_deg``: the slope along its heading."""
         x, z, heading = np.broadcast_arrays(np.asarray(x, float), np.asarray(z, float), np.asarray(heading_deg, float))
@@ -348,7 +343,7 @@ class Heightmap:
 
     def grid(self, i0: int, i1: int, j0: int, j1: int, *, cache: bool = True) -> HeightGrid:
         """Height nodes [j0..j1] x [i0..i1] (inclusive) as one block, with the height bound as its ceiling."""
-        from world_service.height_grid import HeightGrid  # here: Numba loads only where photos are rendered
+        from world_service.terrain.height_grid import HeightGrid  # here: Numba loads only where photos are rendered
 
         return HeightGrid(self._assemble("heights", i0, i1, j0, j1, cache), i0, j0, self.nx, self.nz,
                           self.origin_x, self.origin_z, self.resolution, self.max_height_bound())

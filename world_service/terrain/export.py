@@ -4,7 +4,7 @@
 triangle mesh viewers can load; tiles it needs but has not loaded are generated without entering the LRU, so an
 export does not evict the rovers' working set.
 
-    python -m world_service.terrain_export SCENARIO.yaml OUT.glb [--step N] [--bounds X0 Z0 X1 Z1]
+    python -m world_service.terrain.export SCENARIO.yaml OUT.glb [--step N] [--bounds X0 Z0 X1 Z1]
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import IO
 import numpy as np
 import trimesh
 
-from world_service.terrain import Heightmap
+from world_service.terrain.heightmap import Heightmap
 
 Bounds = tuple[float, float, float, float]
 
@@ -85,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     """Export a scenario's terrain as GLB (a mesh path in the scenario is read relative to the file)."""
     from schemas.scenario import load_scenario
 
-    parser = argparse.ArgumentParser(prog="python -m world_service.terrain_export", description=main.__doc__)
+    parser = argparse.ArgumentParser(prog="python -m world_service.terrain.export", description=main.__doc__)
     parser.add_argument("scenario", type=Path)
     parser.add_argument("output", type=Path)
     parser.add_argument("--step", type=int, default=None, help="keep every N-th grid node (default: fit 1M vertices)")

@@ -1,5 +1,5 @@
 """Sunlight, power and heat for every rover, stepped with the world: the glue of ``sun``,
-``shadows``, ``power`` and ``thermal``, and the three sensors it publishes.
+``shadows``, ``battery`` and ``thermal``, and the three sensors it publishes.
 
 The world holds one ``Energy`` only when the scenario has a ``sun`` block; without it nothing here runs and
 nothing is published. Each tick: which panels are lit (re-traced every ``light_period`` ticks: a rover
@@ -15,23 +15,22 @@ import numpy as np
 
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
 from schemas.scenario import Scenario
-from world_service import navigation as nav
-from world_service import power
+from world_service.actuation import navigation as nav
+from world_service.power import battery
+from world_service.power.shadows import Occluders, ShadowCache
+from world_service.power.sun import Sun
+from world_service.power.thermal import Thermal
 from world_service.scene import Scene
-from world_service.shadows import Occluders, ShadowCache
-from world_service.sun import Sun
-from world_service.terrain import Heightmap
-from world_service.thermal import Thermal
-
-Out = tuple[str, m.Message]
+from world_service.terrain.heightmap import Heightmap
 
 
 def activity(body: nav.RoverBody) -> int:
     action = body.action
     if isinstance(action, nav.Move):
-        return power.TURNING if action.turning else power.MOVING
-    return power.TURNING if isinstance(action, nav.Rotate) else power.IDLE
+        return battery.TURNING if action.turning else battery.MOVING
+    return battery.TURNING if isinstance(action, nav.Rotate) else battery.IDLE
 
 
 class Energy:
@@ -46,7 +45,7 @@ class Energy:
                                    scenario.sun.max_shadow_m)
         self.ids = list(ids)
         self.index = {rid: i for i, rid in enumerate(self.ids)}
-        self.batteries = power.Batteries(p.power, len(self.ids))
+        self.batteries = battery.Batteries(p.power, len(self.ids))
         self.thermal = Thermal(p.thermal, len(self.ids))
         self.lit = np.zeros(len(self.ids), bool)
         self.solar = np.zeros(len(self.ids))
@@ -91,7 +90,7 @@ class Energy:
         was_off = self.batteries.empty | self.thermal.cold
         acts = np.array([activity(b) for b in bodies], int)
         levels = np.array([b.speed_level for b in bodies], int)
-        draw = power.draw_w(self.params, acts, levels)
+        draw = battery.draw_w(self.params, acts, levels)
         self.batteries.step(draw, self.solar, ~self.thermal.cold, self.dt)
         self.thermal.step(self.lit, self.dt)
         now_off = self.batteries.empty | self.thermal.cold
@@ -111,7 +110,7 @@ class Energy:
         xs, zs = np.array([b.x for b in bodies]), np.array([b.z for b in bodies])
         lit = self.shadows.lit(sun, xs, zs)
         gx, gz = self.terrain.gradient(xs, zs)
-        self.solar = power.solar_w(self.params, lit, power.incidence_cos(self.params, sun, gx, gz))
+        self.solar = battery.solar_w(self.params, lit, battery.incidence_cos(self.params, sun, gx, gz))
         changed = (lit != self.lit) if tick > 1 else np.zeros(len(bodies), bool)
         self.lit = lit
         return changed

@@ -23,10 +23,10 @@ from bus.priority import Priority, lower
 from schemas import messages as m
 from schemas.params import RoverParams
 from schemas.scenario import Scenario
-from world_service import camera
+from world_service.camera import rendering
 from world_service.scene import Scene
-from world_service.terrain import FULL_GRID_LIMIT, Heightmap
-from world_service.terrain_views import DenseView
+from world_service.terrain.heightmap import FULL_GRID_LIMIT, Heightmap
+from world_service.terrain.views import DenseView
 
 log = logging.getLogger("lunarsim.world")
 
@@ -49,13 +49,13 @@ class PhotoJob:
     others_z: np.ndarray
 
 
-def render_photo(terrain: camera.HeightField, scene: Scene, params: RoverParams, job: PhotoJob) -> m.Photo:
-    image = camera.render(terrain, scene, job.others_x, job.others_z, params.behaviour.rover_radius, job.x, job.z,
+def render_photo(terrain: rendering.HeightField, scene: Scene, params: RoverParams, job: PhotoJob) -> m.Photo:
+    image = rendering.render(terrain, scene, job.others_x, job.others_z, params.behaviour.rover_radius, job.x, job.z,
                           job.heading, params.camera, tilt_deg=PHOTO_TILT_DEG)
-    return m.Photo(stamp=job.stamp, label=job.label, png=camera.encode_png(image))
+    return m.Photo(stamp=job.stamp, label=job.label, png=rendering.encode_png(image))
 
 
-def build_ground(scenario: Scenario) -> camera.HeightField:
+def build_ground(scenario: Scenario) -> rendering.HeightField:
     """The scenario's terrain, drawn from a generator seeded as the world's is when it builds its own; held
     whole when it is small enough, which samples faster and gives the same heights."""
     terrain = Heightmap.from_scenario(scenario, np.random.default_rng(scenario.seed))
@@ -86,14 +86,14 @@ class CameraProcess:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 
-_ground: tuple[camera.HeightField, Scene, RoverParams] | None = None
+_ground: tuple[rendering.HeightField, Scene, RoverParams] | None = None
 
 
 def _start(scenario: Scenario, priority: Priority, world_pid: int) -> None:
     global _ground
     exit_when_orphaned(world_pid)  # a world killed with SIGKILL cannot shut its pool down
     lower(priority)
-    from world_service import height_grid  # Numba: loaded in the camera process, not in the world's
+    from world_service.terrain import height_grid  # Numba: loaded in the camera process, not in the world's
 
     _ground = (build_ground(scenario), Scene.from_scenario(scenario), scenario.rover_params)
     height_grid.warm_up()

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from schemas.params import PowerParams
-from world_service.sun import SunPosition
+from world_service.power.sun import SunPosition
 
 IDLE, MOVING, TURNING = 0, 1, 2
 """Activity codes of ``draw_w``."""

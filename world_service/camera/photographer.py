@@ -1,7 +1,8 @@
 """The world's camera at run time: photo jobs rendered in a camera process, published (and saved) when due.
 
-The rendering itself is ``world_service.photos`` and ``camera``; this is the service's side of it: when a photo
-goes out, in real time and in lockstep, and what happens when the camera process dies.
+The rendering itself is ``photos`` and ``rendering``, the jobs come from the world's ``shutter``; this is the
+service's side of it: when a photo goes out, in real time and in lockstep, and what happens when the camera process
+dies.
 """
 
 from __future__ import annotations
@@ -13,11 +14,12 @@ import time
 from collections.abc import Callable
 from concurrent.futures import BrokenExecutor, Future
 from pathlib import Path
+from typing import Protocol
 
 from schemas import keyspace as ks
 from schemas import messages as m
-from world_service.photos import CameraProcess, PhotoJob
-from world_service.sim import Out, World
+from schemas.messages import Out
+from world_service.camera.photos import CameraProcess, PhotoJob
 
 log = logging.getLogger("lunarsim.world")
 
@@ -25,6 +27,15 @@ CAMERA_START_TIMEOUT_S = 60.0
 """How long the clock waits for the camera process to start (about a second here; Numba compiles its loops on a
 first run without a cache, a few seconds)."""
 
+
+class PhotoSource(Protocol):
+    """Where the photos come from: a world's jobs, and a render in its own process should the camera's die."""
+
+    keys: ks.Keyspace
+
+    def take_photo_jobs(self) -> list[PhotoJob]: ...
+
+    def render(self, job: PhotoJob) -> m.Photo: ...
 
 
 def save_photo(folder: Path, job: PhotoJob, photo: m.Photo) -> None:
@@ -46,7 +57,7 @@ class Photographer:
     rendered here instead, and the run goes on.
     """
 
-    def __init__(self, world: World, lockstep: bool, camera: CameraProcess | None,
+    def __init__(self, world: PhotoSource, lockstep: bool, camera: CameraProcess | None,
                  photo_dir: Path | None = None) -> None:
         self.world, self.photo_dir = world, photo_dir
         self.wait = lockstep
@@ -56,8 +67,7 @@ class Photographer:
 
     def take(self, tick: int) -> list[Out]:
         """Start the new jobs; the photos due by ``tick`` (the tick about to be stepped), to publish."""
-        jobs, self.world.photo_jobs = self.world.photo_jobs, []
-        self.queued += [(job, self._submit(job)) for job in jobs]
+        self.queued += [(job, self._submit(job)) for job in self.world.take_photo_jobs()]
         due = [(job, f) for job, f in self.queued if job.due_tick <= tick and (self.wait or f.done())]
         out = []
         for job, future in due:

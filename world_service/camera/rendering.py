@@ -1,10 +1,10 @@
-"""The rover's forward camera (report 10.5): a ray caster over the heightmap and the scene, and a PNG codec.
+"""The rover's forward camera (report 10.5): a ray caster over the heightmap and the scene, and its PNG.
 
 The report's simulator grabbed a frame from a Unity camera when a PhotoAction arrived. We have no engine, so the
-photo is rendered here. Every pixel's ray is marched against the heightmap (compiled, ``world_service.height_grid``),
-then met analytically with rocks, the lander, other rovers and walls; the nearest hit wins and is
-shaded with a low sun, as at the report's polar sites, over a black sky. The functions are pure: the same world
-state gives the same image byte for byte, which is what makes photos comparable across runs.
+photo is rendered here. Every pixel's ray is marched against the heightmap (compiled,
+``world_service.terrain.height_grid``), then met analytically with rocks, the lander, other rovers and walls; the
+nearest hit wins and is shaded with a low sun, as at the report's polar sites, over a black sky. The functions are
+pure: the same world state gives the same image byte for byte, which is what makes photos comparable across runs.
 
 Frames follow ``schemas.frames``: heading 0 looks along +z, 90 along +x; y is up.
 """
@@ -22,7 +22,7 @@ from schemas.params import CameraParams
 from world_service.scene import LANDER, Scene
 
 if TYPE_CHECKING:
-    from world_service.height_grid import HeightGrid
+    from world_service.terrain.height_grid import HeightGrid
 
 SKY, TERRAIN, ROCK, LANDER_BODY, ROVER_BODY, WALL = range(6)
 
@@ -223,7 +223,7 @@ def _screen_box(cam: _Camera, rel: np.ndarray, radius: float) -> tuple[slice, sl
 def _ray_sphere(dirs: np.ndarray, rel: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """Distance to the near side of a sphere (inf on a miss) and the outward normal there.
 
-    A camera inside the sphere sees nothing of it, as in the perception rays of ``geometry.ray_circles``.
+    A camera inside the sphere sees nothing of it, as in the perception rays of ``geometry.ray_circle``.
     """
     b = dirs @ rel
     c = float(rel @ rel) - radius * radius
@@ -315,8 +315,6 @@ def _shade(hits: _Hits, sun_dir: np.ndarray) -> np.ndarray:
 
 # ---- PNG ----
 
-PNG_SIGNATURE = png.SIGNATURE
-
 
 def encode_png(image: np.ndarray) -> bytes:
     """An RGB8 PNG of a (height, width, 3) uint8 image (``schemas.png``: one IDAT, no row filtering)."""
@@ -326,11 +324,3 @@ def encode_png(image: np.ndarray) -> bytes:
                          f"{image.dtype}")
     height, width = image.shape[:2]
     return png.encode(width, height, image.tobytes(), channels=3)
-
-
-def decode_png(data: bytes) -> np.ndarray:
-    """Read back an RGB8 PNG that ``encode_png`` writes; anything else is a ValueError."""
-    width, height, channels, pixels = png.decode(data)
-    if channels != 3:
-        raise ValueError(f"expected an RGB PNG, got {channels} channel(s)")
-    return np.frombuffer(pixels, np.uint8).reshape(height, width, 3).copy()

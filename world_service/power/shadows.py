@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from world_service.power.sun import SunPosition
 from world_service.scene import CircleGrid, Scene
-from world_service.sun import SunPosition
-from world_service.terrain import Heightmap
+from world_service.terrain.heightmap import Heightmap
 
 CACHE_CELL_M = 0.25
 MAX_CACHED_CELLS = 200_000
@@ -58,10 +58,6 @@ class Occluders:
         return cls(scene.circle_x, np.atleast_1d(cy), scene.circle_z, scene.circle_r, scene.grid, e,
                    np.atleast_1d(top))
 
-    @classmethod
-    def none(cls) -> Occluders:
-        empty = np.zeros(0)
-        return cls(empty, empty, empty, empty, CircleGrid(empty, empty, empty, 10.0), np.zeros((0, 4)), empty)
 
 
 def lit(terrain: Heightmap, occluders: Occluders, sun: SunPosition, xs, zs, panel_height_m: float,

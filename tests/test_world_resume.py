@@ -1,0 +1,58 @@
+"""A killed world's saved state (``world_service.resume``): resumed when it works with this code, refused with one
+clear log line when it does not (a world pickled by a version whose parts held other attributes), never a crash."""
+
+from __future__ import annotations
+
+import logging
+
+from procs import SCENARIOS
+
+from bus import snapshot
+from schemas import codec
+from schemas import keyspace as ks
+from schemas import messages as m
+from schemas.scenario import load_scenario
+from world_service import resume
+from world_service.sim import World
+
+KEYS = ks.Keyspace("resume")
+SCENARIO = load_scenario(SCENARIOS / "crater_observation.yaml").with_overrides(rovers=2)
+
+
+def _under_way() -> World:
+    world = World(SCENARIO, KEYS)
+    world.receive(KEYS.rover(1, ks.MOVE_ACTION), codec.encode(m.MoveAction(x=0.0, z=4.0, action_id=1)))
+    for _ in range(10):
+        world.step()
+    return world
+
+
+def test_a_saved_world_resumes_where_it_was_with_every_agent_counted_gone(tmp_path):
+    world = _under_way()
+    snapshot.save(world, tmp_path / "world.state")
+    resumed = resume.load(tmp_path / "world.state", SCENARIO)
+    assert resumed is not None and resumed.clock.tick == world.clock.tick == 10
+    assert resumed.clock.run_id == world.clock.run_id and resumed.resumes == 1
+    assert (resumed.actuator.bodies[1].x, resumed.actuator.bodies[1].z) == (world.actuator.bodies[1].x,
+                                                                            world.actuator.bodies[1].z)
+    assert not any(resumed.actuator.alive.values())
+    assert resumed.step()[-1][0] == KEYS.clock  # and it goes on
+
+
+def test_a_world_saved_by_code_whose_parts_differ_is_refused_with_a_reason(tmp_path, caplog):
+    world = _under_way()
+    del world.actuator.ledger  # as a version whose actuation kept its actions elsewhere would have pickled it
+    snapshot.save(world, tmp_path / "world.state")
+    with caplog.at_level(logging.INFO, logger="lunarsim.world"):
+        assert resume.load(tmp_path / "world.state", SCENARIO) is None
+    refusals = [r.getMessage() for r in caplog.records if r.name == "lunarsim.world"]
+    assert len(refusals) == 1, refusals
+    assert "does not work with this version of the code" in refusals[0] and "ledger" in refusals[0], refusals[0]
+
+
+def test_the_trial_step_leaves_the_saved_world_as_it_was(tmp_path):
+    world = _under_way()
+    snapshot.save(world, tmp_path / "world.state")
+    loaded = snapshot.load(tmp_path / "world.state", logging.getLogger("test"))
+    assert resume.unworkable(loaded) is None
+    assert loaded.clock.tick == 10 and loaded.world_state() == world.world_state()
