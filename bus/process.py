@@ -1,8 +1,9 @@
 """What every LunarSim process shares: signal handling, logging set-up and exit codes.
 
-Exit codes: 0 done, 1 failed (a process of the run died, or an unexpected error), 2 bad input (usage, scenario,
-a file that cannot be read or written), 3 no router reachable, 130 interrupted. Whatever goes wrong, a command
-says so in one line on stderr; only ``--verbose`` adds a traceback.
+Exit codes (``schemas.errors``): 0 done, 1 failed (a process of the run died, or an unexpected error), 2 bad input
+(usage, scenario, a file that cannot be read or written), 3 no router reachable, 130 interrupted. Each
+``LunarSimError`` carries its own. Whatever goes wrong, a command says so in one line on stderr; only ``--verbose``
+adds a traceback.
 """
 
 from __future__ import annotations
@@ -22,11 +23,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from bus.errors import RouterUnreachable, UsageError
+from schemas.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_NO_ROUTER, EXIT_USAGE, LunarSimError
 
-EXIT_FAILED = 1
-EXIT_USAGE = 2
-EXIT_NO_ROUTER = 3
-EXIT_INTERRUPTED = 130
+__all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_NO_ROUTER", "EXIT_USAGE", "RouterUnreachable", "UsageError",
+           "check_common_arguments", "freeze_start_up_heap", "main_for", "run_guarded", "setup_logging",
+           "state_folder", "stop_on_signals"]
 
 
 @contextlib.contextmanager
@@ -91,16 +92,15 @@ def check_common_arguments(args: argparse.Namespace) -> None:
 
 def run_guarded(run, args: argparse.Namespace) -> int:
     """Run a command, turning every error into one line on stderr and an exit code (no traceback, unless
-    ``--verbose``: an unexpected error is still a bug to report, with the traceback that shows it)."""
-    from schemas.scenario import ScenarioError
-
+    ``--verbose``: an unexpected error is still a bug to report, with the traceback that shows it). A
+    ``LunarSimError`` worded for the user ends the command with its own exit code."""
     try:
         check_common_arguments(args)
         return run(args)
-    except (UsageError, ScenarioError) as exc:
-        return _fail(f"error: {exc}", EXIT_USAGE)
-    except RouterUnreachable as exc:
-        return _fail(f"error: {exc}", EXIT_NO_ROUTER)
+    except LunarSimError as exc:
+        if not exc.for_the_user:
+            return _unexpected(exc, args)
+        return _fail(f"error: {exc}", exc.exit_code)
     except KeyboardInterrupt:
         return EXIT_INTERRUPTED
     except OSError as exc:

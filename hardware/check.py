@@ -29,6 +29,7 @@ from hardware.driver import (
     NotSupported,
     Odometry,
 )
+from schemas.errors import LunarSimError
 from schemas.frames import to_relative, wrap_deg
 from schemas.messages import HIT_KINDS
 
@@ -44,7 +45,7 @@ SLACK_S = 0.2
 """A call may overrun its bound by this much (scheduling) before it counts as too slow."""
 
 
-class Violation(Exception):
+class Violation(LunarSimError):
     """A rule broken badly enough that the rest of a step makes no sense."""
 
 

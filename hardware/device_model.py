@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from schemas.errors import LunarSimError
 from schemas.frames import to_relative, to_world, wrap_deg
 
 STEP_S = 0.01
@@ -43,7 +44,7 @@ class BaseParams:
     """The ground rises towards +z (the start heading) at this angle; the IMU's pitch follows the heading."""
 
 
-class Refused(Exception):
+class Refused(LunarSimError):
     """An action the device refuses; ``code`` is the protocol's error code."""
 
     def __init__(self, code: str, detail: str) -> None:

@@ -29,6 +29,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Literal
 
+from schemas.errors import LunarSimError
 from schemas.messages import HitKind
 
 ActionKind = Literal["move", "rotate"]
@@ -37,7 +38,7 @@ RefusalReason = Literal["out_of_view", "out_of_range", "blocked", "action_in_pro
 RadioChannel = Literal["comm_in", "mission_direction", "calibration"]
 
 
-class DriverError(RuntimeError):
+class DriverError(LunarSimError, RuntimeError):
     """The device failed to do what was asked (not answering, I/O error, an answer that makes no sense)."""
 
 

@@ -9,9 +9,10 @@ from urllib.parse import parse_qsl, urlsplit
 
 from hardware.driver import Driver
 from hardware.serial_driver import SerialDriver
+from schemas.errors import LunarSimError
 
 
-class UnknownDriver(ValueError):
+class UnknownDriver(LunarSimError, ValueError):
     """A driver URL that names nothing usable; the message says what was wrong."""
 
 

@@ -35,6 +35,8 @@ import math
 import re
 from dataclasses import dataclass
 
+from schemas.errors import LunarSimError
+
 MAX_LINE = 65536
 """A photo travels as one base64 line: 64 KiB holds a 160x120 PNG of the emulator's view with room to spare."""
 MAX_SEQ = 999_999
@@ -43,7 +45,7 @@ ERROR_CODES = ("out_of_view", "out_of_range", "blocked", "busy", "no_action", "b
 _WORD = re.compile(r"^[!-~]+$")  # printable ASCII without space
 
 
-class GarbledLine(ValueError):
+class GarbledLine(LunarSimError, ValueError):
     """A line that is not a valid reply (noise on the wire, a reset device, a wrong baud rate)."""
 
 

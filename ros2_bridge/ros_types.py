@@ -16,6 +16,8 @@ import numpy as np
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.base import Nodetype
 
+from schemas.errors import LunarSimError
+
 Fields = dict[str, Any]
 
 _DTYPES = {"bool": np.bool_, "byte": np.uint8, "char": np.uint8, "int8": np.int8, "uint8": np.uint8,
@@ -26,7 +28,7 @@ MAX_INBOUND_BYTES = 64 * 1024
 """The largest CDR sample the bridge decodes: its inbound types (a pose, a point, a label) are a few hundred bytes."""
 
 
-class CdrError(ValueError):
+class CdrError(LunarSimError, ValueError):
     """A payload that is not a CDR encoding of the expected type (or too large to be one)."""
 
 

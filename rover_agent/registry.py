@@ -12,6 +12,7 @@ import sys
 from importlib.metadata import entry_points
 
 from rover_agent.decisions import BaseBehaviour
+from schemas.errors import LunarSimError
 
 BUILT_IN = {
     "default": "rover_agent.behaviour:DefaultBehaviour",
@@ -21,7 +22,7 @@ BUILT_IN = {
 ENTRY_POINT_GROUP = "lunarsim.behaviours"
 
 
-class UnknownBehaviour(ValueError):
+class UnknownBehaviour(LunarSimError, ValueError):
     """A behaviour name that resolves to nothing usable; the message lists what is known."""
 
 

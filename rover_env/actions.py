@@ -17,6 +17,7 @@ from rover_env.spaces import COMMANDS, GOAL_REPORTS, pack_numbers
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas import radio
+from schemas.errors import LunarSimError
 from schemas.messages import Out
 
 PUBLISHED_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.SPEED_ACTION, ks.PHOTO_ACTION,
@@ -25,7 +26,7 @@ PUBLISHED_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION
 
 
 
-class ActionError(ValueError):
+class ActionError(LunarSimError, ValueError):
     """A policy's action that no rover could publish: names the rover and what is wrong."""
 
 

@@ -11,12 +11,14 @@ from typing import Any, Final, TypeVar
 import msgpack
 from pydantic import BaseModel, ValidationError
 
+from schemas.errors import LunarSimError
+
 SCHEMA_VERSION: Final = 1
 
 M = TypeVar("M", bound=BaseModel)
 
 
-class DecodeError(ValueError):
+class DecodeError(LunarSimError, ValueError):
     """A payload that is not a valid encoding of the expected message."""
 
 

@@ -6,6 +6,7 @@ which goal is each rover's final one. One implementation, so the two never disag
 
 from __future__ import annotations
 
+from schemas.errors import LunarSimError
 from schemas.messages import Calibration, GroundCommand
 from schemas.scenario import Goal, LanderSpec, RoverSpawn, Scenario
 
@@ -21,7 +22,7 @@ def dispatch_pose(lander: LanderSpec, spawn: RoverSpawn) -> Calibration:
     return Calibration(x=spawn.x - lander.x, z=spawn.z - lander.z, heading_deg=spawn.heading_deg)
 
 
-class CommandRefused(ValueError):
+class CommandRefused(LunarSimError, ValueError):
     """A ground command that cannot be carried out; the message says why, for the operator."""
 
 

@@ -12,6 +12,7 @@ import typing
 
 from pydantic import BaseModel, ValidationError
 
+from schemas.errors import EXIT_USAGE, LunarSimError
 from schemas.scenario_limits import clip
 
 LINE_CHARS = 1000
@@ -24,8 +25,10 @@ GUESS_CHARS = 100
 length squared."""
 
 
-class ScenarioError(ValueError):
+class ScenarioError(LunarSimError, ValueError):
     """A scenario that cannot be used; the message names the file and is meant for the user as it is."""
+
+    exit_code = EXIT_USAGE
 
 
 def format_error(source: str, exc: ValidationError, model: type[BaseModel] | None = None) -> str:

@@ -17,11 +17,12 @@ from mcap.records import Channel, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import Writer
 
+from schemas.errors import LunarSimError
 from sessions.format import PROFILE
 from sessions.writer import CHUNK_SIZE, COMPRESSION
 
 
-class NotARecording(ValueError):
+class NotARecording(LunarSimError, ValueError):
     """The file does not even start like an MCAP file."""
 
 

@@ -10,13 +10,14 @@ from collections.abc import Iterable
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.errors import LunarSimError
 from schemas.mission import RoverMissions
 from schemas.scenario import Scenario
 from sessions.format import Sample
 from world_service.outcome.statistics import MissionStats
 
 
-class NothingToReport(ValueError):
+class NothingToReport(LunarSimError, ValueError):
     """The recording holds no world state of the world asked for."""
 
 

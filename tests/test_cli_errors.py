@@ -8,6 +8,7 @@ only tells a hang from a slow machine, it times nothing.
 
 from __future__ import annotations
 
+import argparse
 import os
 import socket
 import subprocess
@@ -17,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from procs import SCENARIOS, free_port, lunarsim
+from procs import REPO, SCENARIOS, free_port, lunarsim
 
 from bus.process import EXIT_NO_ROUTER, EXIT_USAGE
 
@@ -240,3 +241,54 @@ def test_a_behaviour_module_is_found_in_the_folder_lunarsim_runs_in(tmp_path):
     assert runs["bad"].returncode == EXIT_USAGE
     assert runs["bad"].stderr == ("error: bad.yaml: behaviour 'my_rovers.slow:Fast' cannot be loaded: module "
                                   "'my_rovers.slow' has no attribute 'Fast'\n")
+
+
+def _error_classes() -> dict[str, type[BaseException]]:
+    """Every exception class LunarSim's packages define: found in the source (a class whose base is an exception,
+    also through other classes of ours), then imported."""
+    import ast
+    import builtins
+    import importlib
+
+    defined: dict[tuple[str, str], set[str]] = {}
+    for path in sorted(REPO.glob("*/**/*.py")):
+        parts = path.relative_to(REPO).with_suffix("").parts
+        if not (REPO / parts[0] / "__init__.py").is_file() or "node_modules" in parts:
+            continue
+        module = ".".join(parts).removesuffix(".__init__")
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ClassDef):
+                defined[(module, node.name)] = {getattr(base, "id", getattr(base, "attr", "")) for base in node.bases}
+    known = {name for name in dir(builtins) if isinstance(getattr(builtins, name), type)
+             and issubclass(getattr(builtins, name), BaseException)}
+    errors: set[tuple[str, str]] = set()
+    while new := {key for key, bases in defined.items() if key not in errors and bases & known}:
+        errors |= new
+        known |= {name for _, name in new}
+    return {f"{module}.{name}": getattr(importlib.import_module(module), name) for module, name in sorted(errors)}
+
+
+def test_every_lunarsim_error_sits_under_one_root():
+    from schemas.errors import LunarSimError
+
+    classes = _error_classes()
+    assert len(classes) > 15, sorted(classes)  # the search finds them
+    assert not [name for name, cls in classes.items() if not issubclass(cls, LunarSimError)]
+
+
+def test_an_error_worded_for_the_user_carries_its_exit_code():
+    from bus.errors import RouterUnreachable, UsageError
+    from bus.process import run_guarded
+    from schemas.scenario_errors import ScenarioError
+
+    def failing(exc: BaseException):
+        def run(args) -> int:
+            raise exc
+
+        return run
+
+    args = argparse.Namespace(verbose=False)
+    assert run_guarded(failing(UsageError("no")), args) == EXIT_USAGE
+    assert run_guarded(failing(ScenarioError("no")), args) == EXIT_USAGE
+    assert run_guarded(failing(RouterUnreachable("none")), args) == EXIT_NO_ROUTER
+    assert run_guarded(failing(ValueError("a bug")), args) == 1

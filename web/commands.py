@@ -15,12 +15,13 @@ from bus import process
 from bus.ground_commands import RESEND_S, build_command
 from schemas import codec
 from schemas import messages as m
+from schemas.errors import LunarSimError
 
 PAGE_COMMANDS = ("set-target", "stop", "return", "pause", "resume", "step")
 ANSWER_TIMEOUT_S = 10.0
 
 
-class CommandError(ValueError):
+class CommandError(LunarSimError, ValueError):
     """A command the page asked for that cannot be sent; the message is shown on the page."""
 
 

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 from aiohttp import web
 
+from schemas.errors import LunarSimError
+
 LOOPBACK_NAMES = frozenset({"127.0.0.1", "localhost", "::1"})
 WILDCARDS = frozenset({"0.0.0.0", "::", ""})
 TOKEN_ENV = "LUNARSIM_VIEW_TOKEN"
@@ -39,7 +41,7 @@ _NAME = re.compile(r"[a-z0-9_]([a-z0-9_-]*[a-z0-9_])?(\.[a-z0-9_]([a-z0-9_-]*[a-
 ECHO_CHARS = 100
 
 
-class HostError(ValueError):
+class HostError(LunarSimError, ValueError):
     """A host name or Host header that is not one (the message says why)."""
 
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
+from schemas.errors import LunarSimError
 from schemas.scenario import Scenario, ScenarioError
 from schemas.scenario_limits import MAX_ROCKS, MAX_SCENARIO_BYTES
 from web import editor
@@ -166,11 +167,11 @@ def profile_export(body: bytes) -> Answer:
     return answer({"ok": True, "profile": editor.profile_of(scenario)})
 
 
-class Busy(Exception):
+class Busy(LunarSimError):
     """``MAX_PENDING`` uploads are already in hand."""
 
 
-class WorkerDied(Exception):
+class WorkerDied(LunarSimError):
     """The worker process ended during a job (killed, or out of memory)."""
 
 
