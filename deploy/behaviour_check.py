@@ -99,7 +99,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def scripted_problems(cls, params) -> list[str]:
     """Contract checks on scripted views; returns one line per problem."""
     from rover_agent import decisions as b
-    from rover_agent.dead_reckoning import Pose
+    from shared.pose import Pose
 
     problems: list[str] = []
     fov, radius = params.perception.field_of_view_degrees, params.perception.perception_radius

@@ -36,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    from schemas.profiles import load_profile, scenario_to_profile
+    from scenarios.profiles import load_profile, scenario_to_profile
     from schemas.scenario import dump_scenario, load_scenario
 
     if args.scenario_command == "list":

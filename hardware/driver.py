@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from schemas.errors import LunarSimError
-from schemas.messages import HitKind
+from shared.hit import Hit
 
 ActionKind = Literal["move", "rotate"]
 Outcome = Literal["running", "completed", "cancelled", "collided"]
@@ -61,15 +61,6 @@ class InvalidCommand(DriverError, ValueError):
 
 class NotSupported(DriverError):
     """This rover has no such part (no camera, no radio)."""
-
-
-@dataclass(frozen=True)
-class Hit:
-    """One perceived thing: angle relative to the rover (negative left), distance in metres, what it is."""
-
-    angle_deg: float
-    distance_m: float
-    kind: HitKind
 
 
 @dataclass(frozen=True)

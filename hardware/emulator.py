@@ -25,7 +25,7 @@ from typing import ClassVar
 from bus import process
 from hardware import protocol as p
 from hardware.device_model import BaseParams, DeviceModel, Refused, Rock
-from schemas import png
+from shared import png
 
 DEVICE_NAME = "LUNARSIM-EMU"
 PROTOCOL_VERSION = "1"

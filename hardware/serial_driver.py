@@ -24,7 +24,6 @@ from hardware.driver import (
     Driver,
     DriverError,
     DriverTimeout,
-    Hit,
     Imu,
     InvalidCommand,
     NotSupported,
@@ -36,6 +35,7 @@ from hardware.driver import (
     check_finite,
 )
 from schemas.messages import HIT_KINDS
+from shared.hit import Hit
 
 log = logging.getLogger("lunarsim.hardware.serial")
 

@@ -19,8 +19,8 @@ from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.messages import Out
-from schemas.mission import calibration
 from schemas.scenario import Scenario
+from shared.mission import calibration
 from world_service.sim import World
 
 __all__ = ["Drop", "answer", "rover_agents", "run_mission", "run_mission_agents"]

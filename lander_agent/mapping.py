@@ -30,9 +30,10 @@ import numpy as np
 
 from lander_agent.map_legend import with_legend
 from schemas import messages as m
-from schemas import png, radio
+from schemas import radio
 from schemas.scenario import Scenario
 from schemas.scenario_limits import MAP_MARGIN_M
+from shared import png
 
 CLASSES = ("unknown", "free", "obstacle", "crater", "rover")
 UNKNOWN, FREE, OBSTACLE, CRATER, ROVER = range(len(CLASSES))

@@ -16,9 +16,9 @@ from lander_agent.daisy_chain import Chain, in_radio_reach, plan_chain
 from lander_agent.stations import fitted_offsets, pick_rim_station, pick_station, rim_offsets
 from schemas import messages as m
 from schemas.frames import bearing_deg
-from schemas.mission import RoverMissions, calibration
 from schemas.radio import GoalReport, StationRequest
 from schemas.scenario import Goal, Scenario
+from shared.mission import RoverMissions, calibration
 
 OBSTACLE_GAP_M = 1.0
 """Metres kept between a station and the lander's body."""

@@ -18,8 +18,8 @@ from lander_agent.resume import LanderMemory
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.lockstep import lockstep_answer
-from schemas.mission import CommandRefused
+from shared.lockstep import lockstep_answer
+from shared.mission import CommandRefused
 
 log = logging.getLogger("lunarsim.lander")
 SEND_PERIOD_S = 1.0

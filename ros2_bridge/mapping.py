@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 
 from ros2_bridge import frames as fr
-from ros2_bridge.odometry import Pose
 from schemas import messages as m
 from schemas.base import HIT_KINDS
 from schemas.params import PerceptionParams
+from shared.pose import Pose
 
 Fields = dict[str, Any]
 NAN = float("nan")
@@ -98,7 +98,7 @@ def _pose(x: float, z: float, heading_deg: float) -> Fields:
 def odometry(pose: Pose, stamp: float, rover_id: int) -> Fields:
     """Dead-reckoned odometry (``ros2_bridge.odometry``) in ``rover_<id>/odom``: no covariance, no velocity."""
     return {"header": fr.header(stamp, fr.odom_frame(rover_id)), "child_frame_id": fr.base_link(rover_id),
-            "pose": {"pose": _pose(pose.x, pose.z, pose.heading_deg), "covariance": UNKNOWN_6},
+            "pose": {"pose": _pose(pose.x, pose.z, pose.heading), "covariance": UNKNOWN_6},
             "twist": {"covariance": UNKNOWN_6}}
 
 

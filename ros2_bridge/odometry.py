@@ -19,16 +19,10 @@ from dataclasses import dataclass
 
 from schemas import messages as m
 from schemas.frames import bearing_deg, to_world
+from shared.pose import Pose
 
 REMEMBERED_ACTIONS = 16
 """Actions sent and not yet answered that the odometry keeps: an agent has one running and perhaps one re-sent."""
-
-
-@dataclass(frozen=True)
-class Pose:
-    x: float
-    z: float
-    heading_deg: float
 
 
 @dataclass(frozen=True)
@@ -94,8 +88,7 @@ class Odometry:
             return False
         _, _, start = running
         self.acted = True
-        x, z = to_world(start.x, start.z, start.heading_deg, msg.x, msg.z)
-        self.pose = Pose(x, z, (start.heading_deg + msg.angle_deg) % 360.0)
+        self.pose = start.after_partial(msg.x, msg.z, msg.angle_deg)
         self._end(msg.action_id)
         return True
 
@@ -123,8 +116,8 @@ def _share(sent: _Sent, remaining: float) -> float:
 
 def _after(start: Pose, sent: _Sent, share: float) -> Pose:
     if sent.kind == "rotate":
-        return Pose(start.x, start.z, (start.heading_deg + share * sent.degrees) % 360.0)
+        return Pose(start.x, start.z, (start.heading + share * sent.degrees) % 360.0)
     if math.hypot(sent.x, sent.z) <= 1e-9:
         return start
-    x, z = to_world(start.x, start.z, start.heading_deg, share * sent.x, share * sent.z)
-    return Pose(x, z, bearing_deg(x - start.x, z - start.z) if share > 0 else start.heading_deg)
+    x, z = to_world(start.x, start.z, start.heading, share * sent.x, share * sent.z)
+    return Pose(x, z, bearing_deg(x - start.x, z - start.z) if share > 0 else start.heading)

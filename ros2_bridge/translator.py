@@ -19,12 +19,12 @@ from ros2_bridge.odometry import Odometry
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
 from schemas.wire_limits import ACTION_ID_STRIDE, MAX_ID
 
 log = logging.getLogger("lunarsim.ros2")
 RosOut = tuple[str, str, dict[str, Any]]
 """(topic, ROS type, fields) of one ROS message to publish."""
-LunarOut = tuple[str, m.Message]
 
 ROVER_SOURCES = {ks.PERCEPTION: m.Perception, ks.GYROSCOPE: m.Gyroscope, ks.BATTERY: m.Battery, ks.PHOTO: m.Photo,
                  ks.NAVIGATION_STATUS: m.NavigationStatus, ks.ACTION_REJECTED: m.ActionRejected,
@@ -80,7 +80,7 @@ class Translator:
         self.driven: frozenset[int] = frozenset()
         """Rovers the bridge holds the token of for an outside (ROS 2) agent (``--drive``): they take requests."""
         self.sim_time = 0.0
-        self.requests: list[LunarOut] = []
+        self.requests: list[Out] = []
         """LunarSim messages a LunarSim sample has made due (a move goal's rotation once its move completed): the
         loop publishes and clears them."""
         self._rover_head = f"{keys.prefix}/rover/"
@@ -180,7 +180,7 @@ class Translator:
 
     # ---- ROS 2 -> LunarSim ----
 
-    def inbound(self, topic: str, payload: bytes) -> list[LunarOut]:
+    def inbound(self, topic: str, payload: bytes) -> list[Out]:
         """A sample a ROS node published on one of the bridge's inbound topics (its full name)."""
         try:
             if topic == tp.GROUND_GOAL.name:
@@ -209,7 +209,7 @@ class Translator:
         else:
             self.agents.discard(rover_id)
 
-    def _rover_request(self, rid: int, spec: tp.Topic, fields: dict[str, Any]) -> list[LunarOut]:
+    def _rover_request(self, rid: int, spec: tp.Topic, fields: dict[str, Any]) -> list[Out]:
         if rid in self.agents and rid not in self.driven:
             raise ValueError(f"rover {rid} is driven by its agent: ROS 2 drives only rovers without one")
         side = self.rovers[rid]
@@ -239,7 +239,7 @@ class Translator:
             side.heard = action_id
             self.requests.append(self._status(rid, side))
 
-    def _status(self, rid: int, side: RoverSide) -> LunarOut:
+    def _status(self, rid: int, side: RoverSide) -> Out:
         """A driven rover's status, as its agent would publish it."""
         return self.keys.rover(rid, ks.STATUS), m.RoverStatus(stamp=self.sim_time, state=side.state,
                                                               goal_index=side.goal_index, action_id=side.heard)
@@ -247,7 +247,7 @@ class Translator:
     def _id(self, side: RoverSide) -> int:
         return side.ids.next(self.sim_time)
 
-    def _rotate(self, rid: int, side: RoverSide, degrees: float) -> LunarOut:
+    def _rotate(self, rid: int, side: RoverSide, degrees: float) -> Out:
         side.then_rotate = None
         return self.keys.rover(rid, ks.ROTATE_ACTION), m.RotateAction(degrees=degrees, action_id=self._id(side))
 

@@ -20,21 +20,22 @@ from pathlib import Path
 from bus.rejections import Rejections
 from rover_agent.actions.tracker import ActionTracker
 from rover_agent.behaviour import DefaultBehaviour
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import BaseBehaviour, Decision, Finish, Hit, Hold, MoveTo, Rotate, View
 from rover_agent.estimation.estimator import Estimator
 from rover_agent.mission.goals import Mission
 from rover_agent.mission.photos import PhotoOutbox
 from rover_agent.mission.traverse_map import MapRecorder
-from rover_agent.outgoing import Out, Sender
+from rover_agent.outgoing import Sender
 from rover_agent.restarts.resume import Restarts
 from rover_agent.senses import Senses
 from rover_agent.status import status_detail
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.lockstep import lockstep_answer
+from schemas.messages import Out
 from schemas.params import RoverParams
+from shared.lockstep import lockstep_answer
+from shared.pose import Pose
 
 log = logging.getLogger("lunarsim.rover")
 

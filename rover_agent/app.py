@@ -86,8 +86,8 @@ def run_from_args(args: argparse.Namespace) -> int:
 def _dispatch(params: Path | None, rover_ids: list[int]) -> dict[int, m.Calibration]:
     """The planned dispatch poses when ``--params`` is a mission (scenario) file, read once for every agent of the
     process: the fallback for a rover that never hears the lander's calibration (``rover_agent.contact``)."""
-    from schemas.mission import dispatch_pose
     from schemas.scenario import load_dispatch_plan
+    from shared.mission import dispatch_pose
 
     plan = load_dispatch_plan(params)
     if plan is None:

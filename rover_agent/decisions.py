@@ -8,15 +8,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from rover_agent.dead_reckoning import Pose
 from schemas.params import RoverParams
-
-
-@dataclass(frozen=True)
-class Hit:
-    angle_deg: float
-    distance_m: float
-    kind: str
+from shared.hit import Hit
+from shared.pose import Pose
 
 
 @dataclass(frozen=True)

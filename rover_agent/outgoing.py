@@ -1,4 +1,5 @@
-"""What the agent publishes: each sample as a (key, message) pair, and the keys of one rover's own topics.
+"""What the agent publishes: each sample as a (key, message) pair (``schemas.messages.Out``), addressed to one
+rover's own topics.
 
 The agent's parts return these pairs rather than publish them; the Zenoh loop (``runtime``) or the in-process
 harness moves them, so every part runs in tests without a router.
@@ -11,9 +12,7 @@ from dataclasses import dataclass
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas import radio
-
-Out = tuple[str, m.Message]
-"""One sample to publish: its key and its message."""
+from schemas.messages import Out
 
 
 @dataclass(frozen=True)

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from rover_agent.outgoing import Out
 from schemas import messages as m
+from schemas.messages import Out
 
 
 @dataclass

@@ -26,13 +26,14 @@ from typing import ClassVar
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from harness.rounds import Heard, Out, Rounds
+from harness.rounds import Heard, Rounds
 from rover_env import spaces as sp
 from rover_env.actions import ActionError, ArrayActions, checked_messages
 from rover_env.rewards import Rewards, RewardWeights
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
 from schemas.scenario import Scenario
 
 CLOCK_MODEL = {ks.CLOCK: m.Clock}

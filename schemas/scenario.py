@@ -366,7 +366,7 @@ def load_rover_params(path: str | Path | None) -> RoverParams:
     """Rover parameters from a YAML file: either a bare parameter mapping or a scenario's ``rover_params``.
 
     A rover agent reads these (its own specification) and, from a scenario, only its planned dispatch pose
-    (``load_dispatch_plan``, ``schemas.mission.dispatch_pose``), never the rest: the world is for it to sense.
+    (``load_dispatch_plan``, ``shared.mission.dispatch_pose``), never the rest: the world is for it to sense.
     """
     if path is None:
         return RoverParams()

@@ -11,9 +11,9 @@ from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.errors import LunarSimError
-from schemas.mission import RoverMissions
 from schemas.scenario import Scenario
 from sessions.format import Sample
+from shared.mission import RoverMissions
 from world_service.outcome.statistics import MissionStats
 
 

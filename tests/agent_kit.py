@@ -6,11 +6,11 @@ import math
 
 from rover_agent.agent import RoverAgent
 from rover_agent.behaviour import DefaultBehaviour
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Goal, Hit, MoveTo, View
 from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.params import RoverParams
+from shared.pose import Pose
 
 RUN = "r1"
 

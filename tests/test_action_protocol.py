@@ -13,13 +13,13 @@ from harness.loopback import run_mission
 from rover_agent.actions.ids import ActionIds
 from rover_agent.actions.in_flight import ACTION_QUERY_S
 from rover_agent.agent import RoverAgent
-from rover_agent.dead_reckoning import Pose
 from rover_agent.restarts.saved_state import SavedState, load_state, save_state
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
+from shared.pose import Pose
 from world_service.sim import World
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"

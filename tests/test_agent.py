@@ -8,12 +8,12 @@ import math
 import pytest
 from agent_kit import BOXED_IN, PARAMS, joined_agent
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.mission.stations import STATION_ASK_M, STATION_ASK_RETRY_S
 from rover_agent.rules.tuning import MAX_BLOCKED_ROTATIONS
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
+from shared.pose import Pose
 
 KEYS = ks.Keyspace("w")
 

@@ -9,7 +9,6 @@ from dataclasses import replace
 import pytest
 from agent_kit import BOXED_IN, PARAMS, RADIUS, angle_of, fresh_behaviour, goal_at, view_of
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Finish, Goal, Hit, Hold, MoveTo, Rotate
 from rover_agent.rules.free_space import ray_angles
 from rover_agent.rules.tuning import (
@@ -22,6 +21,7 @@ from rover_agent.rules.tuning import (
     WAYPOINT_CLOSE,
     WAYPOINT_IN_VIEW,
 )
+from shared.pose import Pose
 
 # ---- heading for a goal ----
 

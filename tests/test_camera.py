@@ -8,9 +8,9 @@ import zlib
 import numpy as np
 import pytest
 
-from schemas import png
 from schemas.params import CameraParams
 from schemas.scenario import Crater, TerrainSpec, parse_scenario
+from shared import png
 from world_service.camera import rendering
 from world_service.scene import Scene
 from world_service.terrain.heightmap import Heightmap

@@ -6,9 +6,9 @@ from __future__ import annotations
 import pytest
 from agent_kit import PARAMS, angle_of, fresh_behaviour, goal_at, view_of
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Finish, Goal, Hit, MoveTo, Rotate, TakePhoto
 from rover_agent.rules.tuning import BOWL_PITCH, CROWD_SQUEEZE_S, MAX_BACKS
+from shared.pose import Pose
 
 
 def test_crater_goal_is_not_reached_by_distance_alone():

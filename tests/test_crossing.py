@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 
 from rover_agent.behaviour import DefaultBehaviour, Goal, Hit, View
-from rover_agent.dead_reckoning import Pose
 from rover_agent.rules.crossing import STOP_WITHIN_S, CrossingWatch, contact_time
 from schemas.params import RoverParams
+from shared.pose import Pose
 
 PARAMS = RoverParams()
 RADIUS = PARAMS.behaviour.rover_radius

@@ -10,7 +10,6 @@ import pytest
 from agent_kit import ORIGIN, PARAMS, angle_of, fresh_behaviour, goal_at, view_of
 
 from rover_agent.behaviour import DefaultBehaviour
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Finish, Goal, Hit, Hold, MoveTo, Rotate
 from rover_agent.rules.occupancy import ray_point
 from rover_agent.rules.tuning import (
@@ -22,6 +21,7 @@ from rover_agent.rules.tuning import (
     MAX_BLOCKED_ROTATIONS,
     MAX_CROWD_WAIT_S,
 )
+from shared.pose import Pose
 
 # A ring of rovers 3 m away all round: the way is blocked by rovers, not by anything that stays.
 RINGED_BY_ROVERS = tuple(Hit(a, 3.0, "rover") for a in range(-105, 106, 5))

@@ -20,8 +20,8 @@ from schemas.keyspace import Keyspace
 
 THIRD_PARTY = {"zenoh", "msgpack", "pydantic", "yaml", "serial"}
 """What the flight wheel's dependencies provide (pyserial only with its ``serial`` extra)."""
-PROJECT_ROOTS = {"schemas", "bus", "rover_agent", "lander_agent", "world_service", "scenarios", "harness", "sessions",
-                 "hardware", "web", "deploy"}
+PROJECT_ROOTS = {"schemas", "bus", "shared", "rover_agent", "lander_agent", "world_service", "scenarios", "harness",
+                 "sessions", "hardware", "web", "deploy"}
 GROUND_ONLY = ("world_service", "numpy", "trimesh", "matplotlib", "mcap", "foxglove", "rich", "lander_agent",
                "sessions", "web", "harness", "deploy")
 UNITS = REPO / "deploy" / "systemd"

@@ -12,8 +12,8 @@ from lander_agent.mission import MissionPlan
 from lander_agent.runtime import Lander
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.mission import CommandRefused
 from schemas.scenario import load_scenario
+from shared.mission import CommandRefused
 
 SCENARIO = load_scenario(SCENARIOS / "crater_observation.yaml")
 

@@ -10,7 +10,6 @@ import math
 import numpy as np
 import pytest
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Hit
 from rover_agent.estimation.pose_filter import CI_WEIGHTS, Landmark, Localisation, NoiseModel
 from rover_agent.estimation.sightings import (
@@ -24,6 +23,7 @@ from rover_agent.estimation.sightings import (
 from schemas import radio
 from schemas.frames import bearing_deg, to_relative, to_world
 from schemas.params import NavigationParams, RoverParams
+from shared.pose import Pose
 from world_service.actuation import navigation as nav
 
 PARAMS = RoverParams()

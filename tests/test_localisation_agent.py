@@ -12,7 +12,6 @@ from agent_kit import joined_agent
 
 from harness.loopback import run_mission
 from rover_agent.agent import RoverAgent
-from rover_agent.dead_reckoning import Pose
 from rover_agent.estimation.estimator import Estimator
 from rover_agent.estimation.lander_fix import (
     DETAIL,
@@ -33,6 +32,7 @@ from schemas import messages as m
 from schemas.frames import to_relative
 from schemas.keyspace import Keyspace
 from schemas.params import RoverParams
+from shared.pose import Pose
 
 KEYS = Keyspace("w")
 QUIET = RoverParams()

@@ -23,8 +23,8 @@ from rover_agent.agent import RoverAgent
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from schemas.lockstep import lockstep_answer
 from schemas.scenario import load_scenario
+from shared.lockstep import lockstep_answer
 from world_service.camera import rendering
 from world_service.camera.photographer import Photographer
 from world_service.camera.photos import CameraProcess, build_ground

@@ -7,11 +7,11 @@ import math
 
 from rover_agent.actions.pace import FULL_AGAIN_S, FULL_LEVEL, SLOW_LEVEL, Pace
 from rover_agent.behaviour import DefaultBehaviour, Goal, Hit, MoveTo, View
-from rover_agent.dead_reckoning import Pose
 from rover_agent.outgoing import Sender
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.params import RoverParams
+from shared.pose import Pose
 
 PARAMS = RoverParams()
 KEYS = ks.Keyspace("w")

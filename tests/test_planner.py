@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 
 from rover_agent.behaviour import Hit
-from rover_agent.dead_reckoning import Pose
 from rover_agent.rules.occupancy import Point
 from rover_agent.rules.planner import OccupancyGrid, _farthest_visible, _forbidden, disc_offsets, next_waypoint, plan
 from schemas.scenario import load_scenario
+from shared.pose import Pose
 
 MAZE = Path(__file__).resolve().parents[1] / "scenarios" / "maze.yaml"
 MAZE_START = (-500.0, 95.0)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from procs import wait_for
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.restarts.saved_state import SavedState, StateWriter, load_state
+from shared.pose import Pose
 
 
 def _state(x: float, z: float, h: float) -> SavedState:

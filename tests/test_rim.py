@@ -8,12 +8,12 @@ import math
 import pytest
 
 from rover_agent.behaviour import DefaultBehaviour
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Finish, Goal, Hit, MoveTo, Rotate, TakePhoto, View
 from rover_agent.rules import rim
 from rover_agent.rules.crater import near_station_m
 from rover_agent.rules.tuning import CROWD_SQUEEZE_S, MAX_CROWD_WAIT_S
 from schemas.params import RoverParams
+from shared.pose import Pose
 
 PARAMS = RoverParams()
 # a crater goal 60 m north; this rover's station is on the crest 10 m east of the goal

@@ -11,8 +11,8 @@ import pytest
 import trimesh
 import yaml
 
+from scenarios.profiles import load_profile, profile_to_scenario, scenario_to_profile
 from schemas.params import RoverParams, SpawnParams
-from schemas.profiles import load_profile, profile_to_scenario, scenario_to_profile
 from schemas.scenario import (
     Scenario,
     ScenarioError,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from schemas import messages as m
-from schemas.mission import RoverMissions
 from schemas.scenario import parse_scenario
+from shared.mission import RoverMissions
 from world_service.outcome.completion import Completion, all_finished
 from world_service.outcome.statistics import MissionStats
 

@@ -10,7 +10,6 @@ from procs import SCENARIOS
 
 from harness.loopback import run_mission
 from rover_agent.behaviour import DefaultBehaviour, Goal, Hold, MoveTo, Rotate, View
-from rover_agent.dead_reckoning import Pose
 from rover_agent.examples import SunIgnoring
 from rover_agent.registry import load_behaviour
 from schemas import codec
@@ -18,6 +17,7 @@ from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.params import RoverParams
 from schemas.scenario import load_scenario
+from shared.pose import Pose
 
 PARAMS = RoverParams()  # low_charge_fraction 0.5, recharge_to_fraction 0.95
 GOAL = Goal(0, 1, "waypoint", 0.0, 50.0)

@@ -25,9 +25,10 @@ from schemas import messages as m
 from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
 from sessions.format import read_samples
+from shared.pose import Pose
 from world_service.served import ServedWorld
 from world_service.sim import World
-from world_service.twin.rovers import STALE_AFTER_S, Pose, TwinRover, compose
+from world_service.twin.rovers import STALE_AFTER_S, TwinRover, compose
 from world_service.twin.world import TwinWorld
 
 STARTS = [{"x": -510.0, "z": 100.0, "heading_deg": 180.0}, {"x": -500.0, "z": 100.0, "heading_deg": 90.0}]
@@ -77,13 +78,13 @@ def test_the_twin_and_the_simulation_both_offer_what_the_service_loop_drives(twi
 ])
 def test_telemetry_is_placed_on_the_map_from_the_start_pose(heading, expected):
     pose = compose(Pose(10.0, 20.0, heading), m.Telemetry(stamp=1.0, x=1.0, z=2.0, heading_deg=30.0))
-    assert (pose.x, pose.z, pose.heading_deg) == pytest.approx(expected)
+    assert (pose.x, pose.z, pose.heading) == pytest.approx(expected)
 
 
 def test_heading_wraps_into_0_to_360():
     pose = compose(Pose(0.0, 0.0, 300.0), m.Telemetry(stamp=0.0, x=0.0, z=0.0, heading_deg=100.0))
-    assert pose.heading_deg == pytest.approx(40.0)
-    assert compose(Pose(0.0, 0.0, 10.0), m.Telemetry(stamp=0.0, x=0.0, z=0.0, heading_deg=-30.0)).heading_deg \
+    assert pose.heading == pytest.approx(40.0)
+    assert compose(Pose(0.0, 0.0, 10.0), m.Telemetry(stamp=0.0, x=0.0, z=0.0, heading_deg=-30.0)).heading \
         == pytest.approx(340.0)
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import yaml
 
-from schemas.profiles import profile_to_scenario, scenario_to_profile
+from scenarios.profiles import profile_to_scenario, scenario_to_profile
 from schemas.scenario import Scenario, ScenarioError, dump_scenario, load_scenario, parse_scenario
 from schemas.scenario_files import load_yaml_text
 from schemas.scenario_limits import MAX_SCENARIO_BYTES, clip

@@ -1,9 +1,9 @@
 """Build ``lunarsim-rover``: the wheel a rover's flight computer installs.
 
 It holds only what runs on the rover: the rover agent, the hardware driver bridge and its drivers, the message
-schemas and the Zenoh plumbing they share. No world service, no rendering, no NumPy or trimesh: its
-dependencies are Zenoh, msgpack, pydantic and PyYAML (pyserial with the ``serial`` extra, for the reference
-driver). The modules are the project's own files, staged into a temporary project and built with pip, so
+schemas, and the Zenoh plumbing and pure code (``shared``) they share. No world service, no rendering, no NumPy or
+trimesh: its dependencies are Zenoh, msgpack, pydantic and PyYAML (pyserial with the ``serial`` extra, for the
+reference driver). The modules are the project's own files, staged into a temporary project and built with pip, so
 there is one copy of every line; ``FLIGHT_PACKAGES`` is the whole list, and tests check that nothing in it
 imports anything outside it.
 
@@ -25,7 +25,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 """The source tree; an installed copy of this module is given the checkout explicitly (``source=``)."""
 DIST_NAME = "lunarsim-rover"
-FLIGHT_PACKAGES = ("schemas", "bus", "rover_agent", "hardware")
+FLIGHT_PACKAGES = ("schemas", "bus", "shared", "rover_agent", "hardware")
 """The packages the rover carries, whole, with their subpackages: the layout keeps ground-side code out of them
 (``tests/test_layout.py``)."""
 DEPENDENCIES = ("eclipse-zenoh>=1.10,<2", "msgpack>=1.0", "pydantic>=2.6,<3", "pyyaml>=6")

@@ -11,12 +11,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import MoveTo, Rotate, TakePhoto
-from rover_agent.outgoing import Out, Sender
+from rover_agent.outgoing import Sender
 from rover_agent.restarts.saved_state import SavedFlight
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
+from shared.pose import Pose
 
 ACTION_QUERY_S = 2.0
 """Silence after which the agent asks again: ten navigation status periods at the report's 5 Hz."""

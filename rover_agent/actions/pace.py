@@ -6,9 +6,10 @@ import math
 from dataclasses import dataclass
 
 from rover_agent.decisions import MoveTo
-from rover_agent.outgoing import Out, Sender
+from rover_agent.outgoing import Sender
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
 
 SLOW_LEVEL, FULL_LEVEL = 1, 3
 """``SpeedAction`` levels (report 10): 1.5 and 3.5 m/s with the default parameters; the world starts at full."""

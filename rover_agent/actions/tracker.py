@@ -8,10 +8,11 @@ import logging
 from rover_agent.actions.ids import ActionIds
 from rover_agent.actions.in_flight import InFlight
 from rover_agent.actions.pace import Pace
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import MoveTo, Rotate, TakePhoto
-from rover_agent.outgoing import Out, Sender
+from rover_agent.outgoing import Sender
 from rover_agent.restarts.saved_state import SavedFlight
+from schemas.messages import Out
+from shared.pose import Pose
 
 log = logging.getLogger("lunarsim.rover")
 

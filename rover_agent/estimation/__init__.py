@@ -1,4 +1,4 @@
 """Where the rover thinks it is, without ground truth: the filter over its pose (``pose_filter``), what perception
 shows of the lander and of teammates (``sightings``), the way by the lander that fixes a drifted estimate
 (``lander_fix``), and the agent's part that feeds them all (``estimator``). How an action moves a pose, dead
-reckoning, is ``rover_agent.dead_reckoning``: part of what every behaviour sees."""
+reckoning, is ``shared.pose``: part of what every behaviour sees."""

@@ -21,7 +21,6 @@ import math
 
 from bus.rejections import Rejections
 from rover_agent.actions.in_flight import InFlight
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Goal, Hit, MoveTo, Rotate
 from rover_agent.estimation.lander_fix import LanderFix
 from rover_agent.estimation.pose_filter import Localisation, NoiseModel
@@ -38,6 +37,7 @@ from schemas import keyspace as ks
 from schemas import radio
 from schemas.params import RoverParams
 from schemas.scenario_limits import MAX_ROVERS
+from shared.pose import Pose
 
 log = logging.getLogger("lunarsim.rover")
 

@@ -20,10 +20,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Goal
 from rover_agent.estimation.pose_filter import Localisation
 from schemas.params import RoverParams
+from shared.pose import Pose
 
 LANDER_GOAL = Goal(index=0, total=1, kind="waypoint", x=0.0, z=0.0)
 """The lander as a goal: at the origin of the lander frame every rover navigates in."""

@@ -1,7 +1,7 @@
 """Localisation without ground truth (report 7.2.1-7.2.2): an extended Kalman filter over the rover's
 pose (x, z, heading) in the lander frame.
 
-Dead reckoning alone (``dead_reckoning``) drifts: the ground slips every move by a share of its length and every
+Dead reckoning alone (``shared.pose``) drifts: the ground slips every move by a share of its length and every
 move or rotate turns the heading a little (``NavigationParams.slip_std``, ``heading_noise_std_deg``), and the rover
 senses neither. So beside the dead-reckoned pose the filter keeps how unsure of it the rover is, a covariance grown
 by each action exactly as the rover's own noise parameters say, and corrects the pose whenever perception shows a
@@ -20,8 +20,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from rover_agent.dead_reckoning import Pose
 from schemas.params import NavigationParams
+from shared.pose import Pose
 
 Matrix = list[list[float]]
 CI_WEIGHTS = tuple(i / 20 for i in range(1, 20))

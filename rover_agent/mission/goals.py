@@ -7,7 +7,6 @@ from __future__ import annotations
 import logging
 import math
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Goal, Hit
 from rover_agent.mission.contact import ContactSearch
 from rover_agent.mission.relay import Relay
@@ -15,6 +14,7 @@ from rover_agent.mission.stations import StationAsk
 from schemas import messages as m
 from schemas import radio
 from schemas.params import RoverParams
+from shared.pose import Pose
 
 log = logging.getLogger("lunarsim.rover")
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Goal, Hit
 from schemas import radio
+from shared.pose import Pose
 
 STATION_ASK_M = 15.0
 """Near a shared waypoint, closer than this, the rover asks the lander for its station: just before it reaches

@@ -7,9 +7,9 @@ import logging
 from pathlib import Path
 
 from bus.world_watch import JOINED_LATE_S
-from rover_agent.dead_reckoning import Pose
 from rover_agent.restarts.saved_state import STATE_WRITER, SavedFlight, SavedState, load_state
 from schemas import messages as m
+from shared.pose import Pose
 
 log = logging.getLogger("lunarsim.rover")
 

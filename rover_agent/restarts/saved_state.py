@@ -17,7 +17,7 @@ import threading
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from rover_agent.dead_reckoning import Pose
+from shared.pose import Pose
 
 log = logging.getLogger("lunarsim.rover")
 

@@ -8,8 +8,8 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from rover_agent.dead_reckoning import Pose
     from rover_agent.decisions import Hit
+    from shared.pose import Pose
 
 Cell = tuple[int, int]
 Point = tuple[float, float]

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 from rover_agent.rules.occupancy import TIE, Cell, OccupancyGrid, Point, disc_offsets, segment_clear
 
 if TYPE_CHECKING:
-    from rover_agent.dead_reckoning import Pose
+    from shared.pose import Pose
 
 SQRT2 = math.sqrt(2.0)
 _NEIGHBOURS = ((1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import math
 
-from rover_agent.dead_reckoning import Pose
 from rover_agent.decisions import Goal
 from rover_agent.rules.tuning import CREST_FACING
 from schemas.frames import bearing_deg, wrap_deg
+from shared.pose import Pose
 
 FOOT_OUT = 0.6
 """The foot of a spoke stands this share of the crest's radius outside the crest: beyond the rim's outer slope

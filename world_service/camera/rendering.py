@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from schemas import png
 from schemas.params import CameraParams
+from shared import png
 from world_service.scene import LANDER, Scene
 
 if TYPE_CHECKING:
@@ -317,7 +317,7 @@ def _shade(hits: _Hits, sun_dir: np.ndarray) -> np.ndarray:
 
 
 def encode_png(image: np.ndarray) -> bytes:
-    """An RGB8 PNG of a (height, width, 3) uint8 image (``schemas.png``: one IDAT, no row filtering)."""
+    """An RGB8 PNG of a (height, width, 3) uint8 image (``shared.png``: one IDAT, no row filtering)."""
     image = np.asarray(image)
     if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8 or 0 in image.shape:
         raise ValueError(f"encode_png wants a non-empty (height, width, 3) uint8 array, got {image.shape} "

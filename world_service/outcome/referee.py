@@ -9,8 +9,8 @@ import logging
 from collections.abc import Callable
 
 from schemas import messages as m
-from schemas.mission import RoverMissions
 from schemas.scenario import Goal, Scenario
+from shared.mission import RoverMissions
 from world_service.outcome import statistics as stats
 from world_service.outcome.completion import FINISHED_STATES, Completion, relay_wait_s
 from world_service.outcome.progress import ProgressWatch

@@ -28,8 +28,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from schemas.messages import MISSION_COMMANDS, GroundCommand, MissionReport, WorldCounters, WorldState
-from schemas.mission import CommandRefused, RoverMissions
 from schemas.scenario import Goal, Scenario
+from shared.mission import CommandRefused, RoverMissions
 
 RIM_TOLERANCE = 0.15
 

@@ -9,7 +9,7 @@ import math
 from dataclasses import dataclass, field
 
 from schemas import messages as m
-from schemas.frames import to_world
+from shared.pose import Pose
 
 log = logging.getLogger("lunarsim.world")
 
@@ -17,17 +17,9 @@ STALE_AFTER_S = 2.0
 """A rover whose driver has sent no telemetry for this long is marked stale (its last pose is kept)."""
 
 
-@dataclass(frozen=True)
-class Pose:
-    x: float
-    z: float
-    heading_deg: float
-
-
 def compose(start: Pose, telemetry: m.Telemetry) -> Pose:
     """Where a rover is on the map: its start pose moved by the driver's odometry (relative to that start)."""
-    x, z = to_world(start.x, start.z, start.heading_deg, telemetry.x, telemetry.z)
-    return Pose(x, z, (start.heading_deg + telemetry.heading_deg) % 360.0)
+    return start.after_partial(telemetry.x, telemetry.z, telemetry.heading_deg)
 
 
 @dataclass
@@ -74,7 +66,7 @@ class TwinRover:
 
 def rover_truth(rover: TwinRover, status: m.RoverStatus, goal_distance_m: float, alive: bool) -> m.RoverTruth:
     pose = rover.pose
-    return m.RoverTruth(id=rover.id, x=round(pose.x, 4), z=round(pose.z, 4), heading_deg=round(pose.heading_deg, 3),
+    return m.RoverTruth(id=rover.id, x=round(pose.x, 4), z=round(pose.z, 4), heading_deg=round(pose.heading, 3),
                         action="move" if rover.in_motion else "idle", state=status.state,
                         goal_index=status.goal_index, distance_to_goal_m=round(goal_distance_m, 3),
                         distance_covered_m=round(rover.distance_covered, 3), alive=alive,

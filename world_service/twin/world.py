@@ -24,13 +24,14 @@ from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.messages import Out
-from schemas.mission import RoverMissions
 from schemas.scenario import Scenario
+from shared.mission import RoverMissions
+from shared.pose import Pose
 from world_service.clock import Clock, tick_length
 from world_service.outcome import statistics as stats
 from world_service.outcome.completion import Completion, relay_wait_s
 from world_service.radio.graph import CommGraph, build_graph
-from world_service.twin.rovers import Pose, TwinRover, rover_truth
+from world_service.twin.rovers import TwinRover, rover_truth
 
 if TYPE_CHECKING:
     from world_service.camera.photos import PhotoJob

@@ -12,10 +12,9 @@ from __future__ import annotations
 import logging
 
 from schemas import messages as m
+from schemas.messages import Out
 
 log = logging.getLogger("lunarsim.lockstep")
-
-Out = tuple[str, m.Message]
 
 
 def asked(clock: m.Clock, agent_id: int) -> bool:
