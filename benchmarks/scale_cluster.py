@@ -15,7 +15,7 @@ from proc_meter import with_descendants
 
 from bus.priority import Priority, lower
 from deploy.children import Children, wait_for_port
-from rover_agent.app import PRELOAD
+from rover_agent.commands.rover import PRELOAD
 from schemas import keyspace as ks
 from schemas.scenario import Scenario
 from world_service.clock import tick_length, ticks_per_period

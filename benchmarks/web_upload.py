@@ -39,7 +39,7 @@ def serve(port: int) -> None:
     from aiohttp import web
 
     from web import editor, live
-    from web.commands import Commands
+    from web.page_commands import Commands
     from web.server import Viewer, build_app
 
     work = Path(f"/tmp/web-upload-bench-{port}")

@@ -1,11 +1,19 @@
 """Ground commands as every ground tool builds them (``lunarsim command``, the web page's buttons): a
-``GroundCommand`` with a fresh request id, checked for what each command needs."""
+``GroundCommand`` with a fresh request id, checked for what each command needs; and sending one over a ``Bus``,
+waiting for the lander's answer to a mission command."""
 
 from __future__ import annotations
 
+import time
 import uuid
+from typing import TYPE_CHECKING
 
 from bus.errors import UsageError
+
+if TYPE_CHECKING:
+    from bus.bus import Bus
+    from schemas import messages as m
+    from schemas.keyspace import Keyspace
 
 RESEND_S = 1.0
 """Unanswered mission commands go again this often (the lander answers a repeat without acting twice)."""
@@ -31,3 +39,32 @@ def build_command(command: str, rover: int | None = None, x: float | None = None
     except ValidationError as exc:
         first = exc.errors()[0]
         raise UsageError(f"--{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
+
+
+def send(bus: Bus, keys: Keyspace, command: m.GroundCommand) -> None:
+    """Publish a command nobody answers (a clock or snapshot command), subscribed to the answers as for one that is
+    answered, so the two leave the same trace on the router."""
+    bus.subscribe(keys.ground_command_result)
+    bus.publish(keys.ground_command, command)
+
+
+def send_and_wait(bus: Bus, keys: Keyspace, command: m.GroundCommand, timeout: float) -> m.CommandResult | None:
+    """Publish a mission command, again every ``RESEND_S`` (a lander that started later, a lost sample), until the
+    lander answers it; None when no answer came within ``timeout`` seconds."""
+    from schemas import codec
+    from schemas import messages as m
+
+    send(bus, keys, command)
+    deadline = time.monotonic() + timeout
+    next_send = time.monotonic() + RESEND_S
+    while time.monotonic() < deadline:
+        item = bus.receive(timeout=0.2)
+        if time.monotonic() >= next_send:
+            bus.publish(keys.ground_command, command)
+            next_send += RESEND_S
+        if item is None:
+            continue
+        result = codec.decode(m.CommandResult, item.payload)
+        if result.request_id == command.request_id:
+            return result
+    return None

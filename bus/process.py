@@ -125,14 +125,15 @@ def _unexpected(exc: BaseException, args: argparse.Namespace) -> int:
 
 
 def main_for(name: str, module_name: str) -> None:
-    """``python -m <package>``: the same arguments and behaviour as ``lunarsim <name>``."""
+    """``python -m <package>``: the same arguments and behaviour as ``lunarsim <name>``, from its command module
+    ``module_name`` (``<package>.commands.<name>``)."""
     module = importlib.import_module(module_name)
     parser = argparse.ArgumentParser(prog=f"python -m {module_name.split('.')[0]}", description=module.__doc__)
     module.add_arguments(parser)
     parser.add_argument("--verbose", "-v", action="store_true", help="log progress at INFO level")
     args = parser.parse_args()
     setup_logging(args.verbose, events=True)
-    sys.exit(run_guarded(module.run_from_args, args))
+    sys.exit(run_guarded(module.run, args))
 
 
 def state_folder(world: str) -> Path:

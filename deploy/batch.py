@@ -1,22 +1,14 @@
-"""``lunarsim batch``: N seeded runs of a scenario, in parallel, summarised as the report's Table 2.
+"""N seeded runs of a scenario, in parallel, summarised as the report's Table 2 (``lunarsim batch``).
 
-Each run is a whole ``lunarsim run`` (its own router port and world name) with seed BASE + i. Every
-run's report and the aggregate go to ``DIR/batch.json``; a run that fails is recorded with the end of
-its output, and the others go on. Beside Table 2's columns the table shows the radio: the worst rover's
-share of the mission connected to the lander, the most rovers relaying at once, and the photos the lander
-archived (``photos_at_lander``, counted from the run's ``lander_archive/index.jsonl``): the daisy chain's
-figures.
-
-Runs made elsewhere (the Kubernetes Indexed Job, one run per pod) get the same batch.json and table from
-``lunarsim collect-batch`` (``deploy.batch_collect``), which shares this module's folder names, report reading and
-summary.
+Each run is a whole ``lunarsim run`` (its own router port and world name) with seed BASE + i. Every run's report and
+the aggregate go to ``DIR/batch.json``; a run that fails is recorded with the end of its output, and the others go
+on. ``deploy.batch_collect`` makes the same batch.json and table from runs made elsewhere, with this module's
+folder names, report reading and summary.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import os
 import socket
 import subprocess
 import sys
@@ -31,22 +23,6 @@ TABLE_WIDTH = 140
 """Columns of the printed table when the output is not a terminal (a log, CI): wide enough for every figure."""
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario YAML (see scenarios/)")
-    parser.add_argument("--runs", type=int, default=5, metavar="N", help="number of seeded runs (default 5)")
-    parser.add_argument("--seed", type=int, default=1, metavar="BASE", help="seed of the first run (default 1)")
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, metavar="J", help="runs at a time")
-    parser.add_argument("--lockstep", action="store_true", help="deterministic runs (recommended)")
-    parser.add_argument("--rovers", type=int, metavar="N", help="spawn N rovers in the scenario's formation")
-    parser.add_argument("--params", type=Path, metavar="FILE", help="rover parameters (YAML) replacing the "
-                        "scenario's rover_params, e.g. scenarios/params/report_defaults.yaml")
-    parser.add_argument("--max-sim-time", type=float, default=900.0, metavar="S",
-                        help="stop each run after S simulated seconds (default 900)")
-    parser.add_argument("--time-scale", type=float, default=4.0, metavar="K", help="without --lockstep (default 4)")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
-                        help="folder for the runs (one subfolder each) and batch.json")
-
-
 @dataclass
 class Run:
     index: int
@@ -56,25 +32,42 @@ class Run:
     started: float = 0.0
 
 
-def run_from_args(args: argparse.Namespace) -> int:
+@dataclass(frozen=True)
+class BatchSpec:
+    """The options of ``lunarsim batch`` (its ``--help`` says what each does)."""
+
+    scenario: Path
+    out: Path
+    runs: int = 5
+    seed: int = 1
+    jobs: int = 1
+    lockstep: bool = False
+    rovers: int | None = None
+    params: Path | None = None
+    max_sim_time: float = 900.0
+    time_scale: float = 4.0
+
+
+def run_batch(spec: BatchSpec) -> int:
+    """Every run, ``spec.jobs`` at a time; batch.json written and Table 2 printed. 1 if no run gave a report."""
     from schemas.scenario import load_rover_params, load_scenario
 
-    if args.runs < 1 or args.jobs < 1:
+    if spec.runs < 1 or spec.jobs < 1:
         raise process.UsageError("--runs and --jobs must be at least 1")
-    params = load_rover_params(args.params) if args.params else None
-    scenario = load_scenario(args.scenario).with_overrides(rovers=args.rovers, rover_params=params)
+    params = load_rover_params(spec.params) if spec.params else None
+    scenario = load_scenario(spec.scenario).with_overrides(rovers=spec.rovers, rover_params=params)
     console = table_console()
-    if args.out.exists() and any(args.out.glob("run-*")):
-        raise process.UsageError(f"{args.out} already holds a batch (run-* folders): choose another --out, so "
+    if spec.out.exists() and any(spec.out.glob("run-*")):
+        raise process.UsageError(f"{spec.out} already holds a batch (run-* folders): choose another --out, so "
                                  "no run overwrites another's report")
-    args.out.mkdir(parents=True, exist_ok=True)
-    runs = [Run(i, args.seed + i, args.out / run_folder(i + 1, args.seed + i)) for i in range(args.runs)]
-    console.print(f"{scenario.name}: {args.runs} runs, {len(scenario.rovers)} rovers, {args.jobs} at a time"
-                  + (", lockstep" if args.lockstep else ""))
-    reports, failed = _run_all(runs, args, console)
-    summary = summarise(scenario.name, len(scenario.rovers), args.lockstep, reports, failed)
-    write_summary(args.out / BATCH_FILE, summary, console)
-    console.print(f"written {args.out / BATCH_FILE}" + (f"; {len(failed)} run(s) failed" if failed else ""))
+    spec.out.mkdir(parents=True, exist_ok=True)
+    runs = [Run(i, spec.seed + i, spec.out / run_folder(i + 1, spec.seed + i)) for i in range(spec.runs)]
+    console.print(f"{scenario.name}: {spec.runs} runs, {len(scenario.rovers)} rovers, {spec.jobs} at a time"
+                  + (", lockstep" if spec.lockstep else ""))
+    reports, failed = _run_all(runs, spec, console)
+    summary = summarise(scenario.name, len(scenario.rovers), spec.lockstep, reports, failed)
+    write_summary(spec.out / BATCH_FILE, summary, console)
+    console.print(f"written {spec.out / BATCH_FILE}" + (f"; {len(failed)} run(s) failed" if failed else ""))
     return 1 if failed and not reports else 0
 
 
@@ -105,12 +98,12 @@ def write_summary(path: Path, summary: dict, console) -> None:
     console.print(table_2(summary["scenario"] or path.parent.name, summary["runs"], summary["aggregate"]))
 
 
-def _run_all(runs: list[Run], args: argparse.Namespace, console) -> tuple[list[dict], list[dict]]:
+def _run_all(runs: list[Run], spec: BatchSpec, console) -> tuple[list[dict], list[dict]]:
     waiting, active, reports, failed = list(runs), [], [], []
     while waiting or active:
-        while waiting and len(active) < args.jobs:
+        while waiting and len(active) < spec.jobs:
             run = waiting.pop(0)
-            run.proc, run.started = _start(run, args), time.monotonic()
+            run.proc, run.started = _start(run, spec), time.monotonic()
             active.append(run)
         time.sleep(0.2)
         for run in [r for r in active if r.proc.poll() is not None]:
@@ -125,16 +118,16 @@ def _run_all(runs: list[Run], args: argparse.Namespace, console) -> tuple[list[d
     return reports, failed
 
 
-def _start(run: Run, args: argparse.Namespace) -> subprocess.Popen:
-    command = [sys.executable, "-P", "-m", "deploy.cli", "run", str(args.scenario), "--seed", str(run.seed),
+def _start(run: Run, spec: BatchSpec) -> subprocess.Popen:
+    command = [sys.executable, "-P", "-m", "deploy.cli", "run", str(spec.scenario), "--seed", str(run.seed),
                "--out", str(run.out), "--port", str(_free_port()), "--world", f"batch{run.index}", "--quiet",
-               "--max-sim-time", str(args.max_sim_time), "--time-scale", str(args.time_scale)]
-    if args.lockstep:
+               "--max-sim-time", str(spec.max_sim_time), "--time-scale", str(spec.time_scale)]
+    if spec.lockstep:
         command.append("--lockstep")
-    if args.rovers:
-        command += ["--rovers", str(args.rovers)]
-    if args.params:
-        command += ["--params", str(args.params)]
+    if spec.rovers:
+        command += ["--rovers", str(spec.rovers)]
+    if spec.params:
+        command += ["--params", str(spec.params)]
     run.out.mkdir(parents=True, exist_ok=True)
     log = open(run.out / "run.log", "wb")  # noqa: SIM115 - handed to the child
     proc = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)

@@ -1,24 +1,13 @@
-"""``lunarsim collect-batch``: one batch.json and Table 2 from runs that other machines wrote, such as the pods of
+"""One batch.json and Table 2 from runs that other machines wrote (``lunarsim collect-batch``), such as the pods of
 the Kubernetes Indexed Job (deploy/k8s/batch/job.yaml), each writing one run to a shared volume.
 
-DIR holds a folder per run, run-<NNN>-seed<S>: NNN is the Job's index + 1, as lunarsim batch numbers its runs,
-so the collector reads either's folders. It writes DIR/batch.json and prints the table as lunarsim batch does
-for the same runs (the same code writes both), and names what is wrong instead of failing on it:
-
-- runs missing: no folder (the pod never started the run), or a folder without report.json (its pod failed,
-  or is still running); give --runs to see a missing last run too;
-- reports unreadable (cut short, edited, not a mission report): counted, named, left out;
-- seeds that came twice: the lowest run number is kept, the others are left out of the aggregate.
-
-    lunarsim collect-batch /results/lunarsim-batch-x7k2p --runs 20
-
-Exit status: 0 batch.json written (problems named above the table), 1 no run had a readable report, 2 bad input
-(DIR is not a folder or holds no run folder, --runs below 1, runs of different missions in one DIR).
+The run folders are named as ``deploy.batch`` names them, and the summary is written by the same code, so the table
+is the one ``lunarsim batch`` prints for the same runs. What is wrong is named instead of failing the collection:
+runs missing, reports unreadable, seeds that came twice.
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import re
 from dataclasses import dataclass, field
@@ -29,14 +18,6 @@ from deploy.batch import BATCH_FILE, read_run, summarise, table_console, write_s
 
 RUN_FOLDER = re.compile(r"run-(?P<run>\d+)-seed(?P<seed>-?\d+)")
 """What ``deploy.batch.run_folder`` names a run's folder."""
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("folder", type=Path, metavar="DIR",
-                        help="the folder of the runs: a Job's /results/<job name>, or a lunarsim batch --out")
-    parser.add_argument("--runs", type=int, metavar="N", help="runs expected (the Job's completions), so that a "
-                        "missing last run is named too (default: up to the highest run number found)")
-    parser.add_argument("--out", type=Path, metavar="FILE", help="where to write batch.json (default DIR/batch.json)")
 
 
 @dataclass
@@ -54,24 +35,22 @@ class Collected:
         return [report for report, _ in self.read]
 
 
-def run_from_args(args: argparse.Namespace) -> int:
-    if args.runs is not None and args.runs < 1:
-        raise process.UsageError(f"--runs must be at least 1, got {args.runs}")
-    if not args.folder.is_dir():
-        raise process.UsageError(f"{args.folder}: no such folder")
-    found = run_folders(args.folder)
+def collect_batch(folder: Path, runs: int | None = None, out: Path | None = None) -> int:
+    """Read the run folders in ``folder`` (``runs`` expected), write batch.json (to ``out``, default beside them) and
+    print Table 2 with what is wrong named above it; 1 if no run had a readable report."""
+    found = run_folders(folder)
     if not found:
-        raise process.UsageError(f"{args.folder} holds no run folders (run-<NNN>-seed<S>): give the folder the Job "
+        raise process.UsageError(f"{folder} holds no run folders (run-<NNN>-seed<S>): give the folder the Job "
                                  "wrote, /results/<job name>")
-    expected = max(args.runs or 0, max(run for run, _, _ in found))  # a run past --runs is still a run
+    expected = max(runs or 0, max(run for run, _, _ in found))  # a run past --runs is still a run
     collected = collect(found, expected)
-    scenario, rovers = _mission(collected.reports, args.folder)
+    scenario, rovers = _mission(collected.reports, folder)
     summary = summarise(scenario, rovers, _lockstep(collected), collected.reports, collected.failed,
                         missing=collected.missing, unreadable=collected.unreadable,
                         duplicate_seeds=collected.duplicates)
-    out = args.out or args.folder / BATCH_FILE
+    out = out or folder / BATCH_FILE
     console = table_console()
-    console.print(f"{args.folder}: {len(collected.reports)} of {expected} runs in the aggregate", highlight=False)
+    console.print(f"{folder}: {len(collected.reports)} of {expected} runs in the aggregate", highlight=False)
     for item in collected.failed:
         console.print(f"  run {item['run']} (Job index {item['run'] - 1}, seed {_seed(item['seed'])}): "
                       f"{item['error']}", highlight=False, markup=False, soft_wrap=True)

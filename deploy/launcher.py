@@ -1,26 +1,30 @@
-"""``lunarsim run``: a whole mission on this machine, every part its own OS process.
+"""A whole mission on this machine, every part its own OS process (``lunarsim run``, ``deploy.commands.run``).
 
-Starts the world service, the lander agent and a process per rover agent (``--agents-per-process`` groups
+``launch`` starts the world service, the lander agent and a process per rover agent (``agents_per_process`` groups
 them, as ``lunarsim rover --ids`` runs them); the world is the Zenoh router the others connect to, unless
-``--connect`` names a router for all of them. Shows progress, and warns when an agent falls behind the world's
-clock (``deploy.agent_lag``); stops when every rover is done or stuck, or at
-``--max-sim-time``; writes ``report.json`` into the run folder (scoring the lander's traverse map, ``map.npz``
-and ``map.png`` there); and stops every process it started, also on Ctrl-C or SIGTERM.
+``connect`` names a router for all of them. It shows progress, and warns when an agent falls behind the world's
+clock (``deploy.agent_lag``); stops when every rover is done or stuck, or at ``max_sim_time``; writes
+``report.json`` into the run folder (scoring the lander's traverse map, ``map.npz`` and ``map.png`` there); and
+stops every process it started, also on Ctrl-C or SIGTERM.
 """
 
 from __future__ import annotations
 
-import argparse
 import datetime as dt
 import json
 import shutil
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bus import priority, process
 from bus.zenoh_config import DEFAULT_PORT
 from deploy.agent_lag import AgentLag
-from deploy.rover_groups import external_ids, groups
+from deploy.rover_groups import groups
+
+if TYPE_CHECKING:
+    from schemas.scenario import Scenario
 
 START_TIMEOUT_S = 30.0
 SESSION_FILE = "session.mcap"
@@ -29,88 +33,55 @@ VIEW_PERIOD_S = 0.25
 lockstep world sends its state 75 times a second at 15 x real time, and the launcher shares the cores."""
 
 
-def _share(text: str) -> float:
-    value = float(text)
-    if not 0.0 <= value < 1.0:
-        raise argparse.ArgumentTypeError(f"must be at least 0 and below 1, got {text}")
-    return value
+@dataclass(frozen=True)
+class LaunchOptions:
+    """How to run a mission: the options of ``lunarsim run`` (its ``--help`` says what each does)."""
+
+    world: str = "default"
+    port: int = DEFAULT_PORT
+    connect: str | None = None
+    time_scale: float = 1.0
+    max_sim_time: float | None = None
+    lockstep: bool = False
+    agents_per_process: int = 1
+    agent_priority: str = "auto"
+    quiet: bool = False
+    record: bool = True
+    ros2: bool = False
+    external: frozenset[int] = frozenset()
+    """Rovers an outside ROS 2 node drives: no agent is started for them."""
+    fault_loss: float = 0.0
+    verbose: bool = False
 
 
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, nargs="?", help="scenario YAML (see scenarios/)")
-    parser.add_argument("--from", dest="from_recording", type=Path, metavar="FILE.mcap",
-                        help="re-run the scenario and seed a recording was made with (use --lockstep to get the "
-                        "same message sequence again)")
-    parser.add_argument("--out", type=Path, metavar="DIR", help="run folder (default runs/<scenario>-<timestamp>)")
-    parser.add_argument("--max-sim-time", type=float, metavar="S", help="stop after S simulated seconds")
-    parser.add_argument("--seed", type=int, help="override the scenario's seed")
-    parser.add_argument("--rovers", type=int, metavar="N", help="spawn N rovers in the scenario's formation")
-    parser.add_argument("--params", type=Path, metavar="FILE", help="rover parameters (YAML) replacing the "
-                        "scenario's rover_params, e.g. scenarios/params/report_defaults.yaml")
-    parser.add_argument("--time-scale", type=float, default=1.0, metavar="K",
-                        help="simulated seconds per wall second (default 1 = real time)")
-    parser.add_argument("--lockstep", action="store_true",
-                        help="deterministic clock: a tick advances only when every agent has handled the last one")
-    parser.add_argument("--agents-per-process", type=_positive, default=1, metavar="K",
-                        help="rover agents sharing one process, K to a process as 'lunarsim rover --ids' runs them "
-                             "(default 1: a process per rover). Fewer processes wake fewer times a tick: a 5-rover "
-                             "lockstep run goes about a quarter faster in one process")
-    parser.add_argument("--agent-priority", choices=priority.CHOICES, default="auto", help=priority.HELP)
-    parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
-    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port on 127.0.0.1 where the world "
-                        f"routes for the run (default {DEFAULT_PORT})")
-    parser.add_argument("--connect", metavar="ENDPOINT", help="join a running router (every process does) instead "
-                        "of the world routing for the run")
-    parser.add_argument("--quiet", "-q", action="store_true", help="no live progress, only the summary")
-    parser.add_argument("--no-record", action="store_true", help="do not record the session (by default it "
-                        "goes to session.mcap in the run folder)")
-    parser.add_argument("--ros2", action="store_true", help="also run the ROS 2 bridge ('lunarsim ros2'), on "
-                        "$ROS_DOMAIN_ID (default 0): the rovers' topics for ROS 2 nodes on rmw_zenoh")
-    parser.add_argument("--external", metavar="IDS", help="rovers an outside ROS 2 node drives, e.g. 1 or 1,3: no "
-                        "agent is started for them and the ROS 2 bridge runs with --drive IDS (real time only)")
-    parser.add_argument("--fault-loss", type=_share, default=0.0, metavar="P",
-                        help="fault injection: the world drops this share (0-1) of the samples it publishes, as a "
-                             "bad link would (seeded by the scenario's seed); to test what the agents survive")
-
-
-def run_from_args(args: argparse.Namespace) -> int:
+def launch(scenario: Scenario, options: LaunchOptions, out: Path | None = None) -> int:
+    """Run ``scenario`` to its end in the run folder ``out`` (default runs/<scenario>-<timestamp>); the exit code."""
     from rich.console import Console
 
-    from deploy.behaviour_check import require_behaviour
-    from schemas.scenario import dump_scenario, load_rover_params
+    from schemas.scenario import dump_scenario
 
-    if args.time_scale <= 0:
-        raise process.UsageError(f"--time-scale must be positive for a live run, got {args.time_scale}")
-    if args.external and args.lockstep:
-        raise process.UsageError("--external with --lockstep: a lockstep tick waits for every agent's ack, and a "
-                                 "ROS 2 node does not acknowledge ticks; run the outside rovers in real time")
-    params = load_rover_params(args.params) if args.params else None
-    scenario = _base_scenario(args).with_overrides(seed=args.seed, rovers=args.rovers, rover_params=params)
-    require_behaviour(scenario.behaviour, str(args.scenario or args.from_recording))  # before any process starts
-    args.external_ids = external_ids(args.external, len(scenario.rovers))
-    if not args.connect:
-        _check_port_free(args.port)  # before the run folder is made: a run that cannot start leaves nothing
-    out = args.out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
+    if not options.connect:
+        check_port_free(options.port)  # before the run folder is made: a run that cannot start leaves nothing
+    out = out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
     out.mkdir(parents=True, exist_ok=True)
     scenario_file = out / "scenario.yaml"
     scenario_file.write_text(dump_scenario(scenario))
     console = Console()
     console.print(f"[bold]{scenario.name}[/]: {len(scenario.rovers)} rovers, seed {scenario.seed}, "
                   f"run folder {out}")
-    return Mission(args, scenario, scenario_file, out, console).run()
+    return Mission(options, scenario, scenario_file, out, console).run()
 
 
-def _check_port_free(port: int) -> None:
+def check_router(endpoint: str) -> None:
+    """Reach the router of ``connect`` before anything starts. The mission would start its recorder and world against
+    it, write the run folder, and give up on them only after half a minute; this fails within
+    ``ONE_SHOT_TIMEOUT_S``, exit code 3, with nothing written."""
+    from bus.zenoh_config import ONE_SHOT_TIMEOUT_S, build_config, open_session
+
+    open_session(build_config(connect=[endpoint]), endpoint, ONE_SHOT_TIMEOUT_S, who="lunarsim run").close()
+
+
+def check_port_free(port: int) -> None:
     from bus.zenoh_config import port_in_use
 
     if port_in_use("127.0.0.1", port):
@@ -119,22 +90,22 @@ def _check_port_free(port: int) -> None:
                                  f"--connect tcp/127.0.0.1:{port} joins it")
 
 
-def _base_scenario(args: argparse.Namespace):
+def base_scenario(scenario: Path | None, recording: Path | None) -> Scenario:
     """The scenario file, or the one a recording embeds (``--from``): it holds the recorded seed too."""
     from schemas.scenario import load_scenario
 
-    if (args.scenario is None) == (args.from_recording is None):
+    if (scenario is None) == (recording is None):
         raise process.UsageError("give a scenario file or --from FILE.mcap (one of them)")
-    if args.scenario is not None:
-        return load_scenario(args.scenario)
+    if scenario is not None:
+        return load_scenario(scenario)
     from sessions.format import scenario_for
 
-    if not args.from_recording.is_file():
-        raise process.UsageError(f"{args.from_recording}: no such file")
-    scenario = scenario_for(args.from_recording, None)
-    if scenario is None:
-        raise process.UsageError(f"{args.from_recording} embeds no scenario: it cannot be re-run")
-    return scenario
+    if not recording.is_file():
+        raise process.UsageError(f"{recording}: no such file")
+    found = scenario_for(recording, None)
+    if found is None:
+        raise process.UsageError(f"{recording} embeds no scenario: it cannot be re-run")
+    return found
 
 
 def with_map_figures(report, scenario, folder: Path):
@@ -150,17 +121,17 @@ def with_map_figures(report, scenario, folder: Path):
 
 
 class Mission:
-    def __init__(self, args, scenario, scenario_file: Path, out: Path, console) -> None:
+    def __init__(self, options: LaunchOptions, scenario, scenario_file: Path, out: Path, console) -> None:
         from deploy.children import Children
-        from rover_agent.app import PRELOAD
+        from rover_agent.commands.rover import PRELOAD
 
-        self.args = args
+        self.options = options
         self.scenario = scenario
         self.scenario_file = scenario_file
         self.out = out
         self.console = console
         self.children = Children(out / "logs", preload=PRELOAD)
-        self.endpoint = args.connect or f"tcp/127.0.0.1:{args.port}"
+        self.endpoint = options.connect or f"tcp/127.0.0.1:{options.port}"
         self.reported_dead: set[str] = set()
         self.lag = AgentLag()
         self.rejected = 0  # malformed samples on the keys the launcher follows
@@ -193,24 +164,24 @@ class Mission:
         return code
 
     def _start_processes(self) -> None:
-        common = ["--world", self.args.world, "--connect", self.endpoint]
+        common = ["--world", self.options.world, "--connect", self.endpoint]
         shutil.rmtree(self.out / "state", ignore_errors=True)  # a reused run folder must not resume old poses
         (self.out / "state").mkdir()
-        if self.args.connect:  # a router is there: everyone joins it, the recorder first
+        if self.options.connect:  # a router is there: everyone joins it, the recorder first
             self._start_recorder(common)
             self.children.start("world", "world_service", *self._world_args(), *common)
         else:
             self._start_world_as_router()
             self._start_recorder(common)
-        agents = priority.for_mode(self.args.agent_priority, self.args.lockstep)
-        external = getattr(self.args, "external_ids", frozenset())
-        if getattr(self.args, "ros2", False) or external:
+        agents = priority.for_mode(self.options.agent_priority, self.options.lockstep)
+        external = self.options.external
+        if self.options.ros2 or external:
             drive = ["--drive", ",".join(map(str, sorted(external)))] if external else []
             self.children.start("ros2", "ros2_bridge", "--params", str(self.scenario_file), *drive, *common)
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
                             str(self.out / "lander_archive"), "--map-out", str(self.out), "--state",
                             str(self.out / "state"), *common, priority=agents)
-        count, per = len(self.scenario.rovers), self.args.agents_per_process
+        count, per = len(self.scenario.rovers), self.options.agents_per_process
         for first, last in groups([i for i in range(1, count + 1) if i not in external], per):
             name, which = self._rover_group(first, last)
             self.children.start(name, "rover_agent", *which, "--params", str(self.scenario_file),
@@ -224,16 +195,16 @@ class Mission:
         return f"rovers{first}-{last}", ["--ids", f"{first}-{last}", "--state", str(state)]
 
     def _world_args(self) -> list[str]:
-        args = [str(self.scenario_file), "--world", self.args.world, "--time-scale", str(self.args.time_scale),
+        args = [str(self.scenario_file), "--world", self.options.world, "--time-scale", str(self.options.time_scale),
                 "--start-timeout", str(START_TIMEOUT_S), "--photos", str(self.out / "photos"),
                 "--state", str(self.out / "state" / "world.state")]
-        if self.args.max_sim_time is not None:
-            args += ["--max-sim-time", str(self.args.max_sim_time)]
-        if self.args.lockstep:
+        if self.options.max_sim_time is not None:
+            args += ["--max-sim-time", str(self.options.max_sim_time)]
+        if self.options.lockstep:
             args.append("--lockstep")
-        if self.args.fault_loss:
-            args += ["--fault-loss", str(self.args.fault_loss)]
-        if getattr(self.args, "verbose", False):
+        if self.options.fault_loss:
+            args += ["--fault-loss", str(self.options.fault_loss)]
+        if self.options.verbose:
             args.append("--verbose")  # its progress (and lockstep's summary) into world.log
         return args
 
@@ -243,15 +214,15 @@ class Mission:
         """
         from deploy.children import wait_for_port
 
-        _check_port_free(self.args.port)
+        check_port_free(self.options.port)
         world = self.children.start("world", "world_service", *self._world_args(), "--listen", self.endpoint)
-        if not wait_for_port("127.0.0.1", self.args.port, START_TIMEOUT_S, world):
+        if not wait_for_port("127.0.0.1", self.options.port, START_TIMEOUT_S, world):
             raise RuntimeError(f"the world did not open {self.endpoint}: {self.children.log_tail('world')}")
 
     def _start_recorder(self, common: list[str]) -> None:
         """The recorder subscribes before the world's clock starts (the world waits for the agents, started
         after it), so the session is complete from the first tick."""
-        if self.args.no_record:
+        if not self.options.record:
             return
         recorder = self.children.start("recorder", "deploy.cli", "record", "-o", str(self.out / SESSION_FILE),
                                        "--scenario", str(self.scenario_file), *common)
@@ -283,7 +254,7 @@ class Mission:
         from schemas import messages as m
         from schemas.keyspace import STATUS, Keyspace
 
-        keys = Keyspace(self.args.world)
+        keys = Keyspace(self.options.world)
         state: bytes | None = None  # the latest WorldState, decoded only when shown
         last: m.WorldState | None = None
         report = None
@@ -299,12 +270,12 @@ class Mission:
 
         session = self._open_session(open_session, build_config)
         start_up = StartUp(len(self.scenario.rovers), keys.alive_lander)
-        with Bus(session) as bus, ProgressView(self.console, self.scenario.name, self.args.quiet) as view:
+        with Bus(session) as bus, ProgressView(self.console, self.scenario.name, self.options.quiet) as view:
             bus.watch_liveliness(keys.alive_rovers)
             bus.watch_liveliness(keys.alive_lander)
             bus.subscribe(keys.stats)
             bus.subscribe(keys.state)
-            if not self.args.lockstep:  # in lockstep the world waits for its agents
+            if not self.options.lockstep:  # in lockstep the world waits for its agents
                 bus.subscribe(keys.rovers(STATUS))
             while not stop.is_set():
                 if time.monotonic() >= next_view:
@@ -366,9 +337,9 @@ class Mission:
             return None
 
     def _wall_deadline(self) -> float | None:
-        if self.args.max_sim_time is None or self.args.lockstep:
+        if self.options.max_sim_time is None or self.options.lockstep:
             return None
-        return time.monotonic() + START_TIMEOUT_S + 60.0 + 2.0 * self.args.max_sim_time / self.args.time_scale
+        return time.monotonic() + START_TIMEOUT_S + 60.0 + 2.0 * self.options.max_sim_time / self.options.time_scale
 
     def _check_world_alive(self) -> None:
         """The world (the router too) is essential; a lost agent is reported once and its rover stops."""

@@ -193,12 +193,12 @@ def _short(value: object) -> str:
 
 
 def cli_page() -> str:
-    from deploy.cli import COMMANDS, build_parser
+    from deploy.cli import build_parsers
 
     before = os.environ.get("COLUMNS")
     os.environ["COLUMNS"] = HELP_COLUMNS
     try:
-        return _cli_help(build_parser(), COMMANDS)
+        return _cli_help(build_parsers())
     finally:
         if before is None:
             del os.environ["COLUMNS"]
@@ -206,17 +206,13 @@ def cli_page() -> str:
             os.environ["COLUMNS"] = before
 
 
-def _cli_help(parser: argparse.ArgumentParser, commands: dict) -> str:
+def _cli_help(parsers) -> str:
+    """Each command's help under ``##``, its own subcommands' under ``###``, in the order ``COMMANDS`` lists them."""
     lines = ["# Commands", "", "Every `lunarsim` command with its `--help` (generated from the parsers).", "",
-             "```text", parser.format_help().rstrip(), "```", ""]
-    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    for name in commands:
-        command = subparsers.choices[name]
-        lines += [f"## lunarsim {name}", "", "```text", command.format_help().rstrip(), "```", ""]
-        nested = [a for a in command._actions if isinstance(a, argparse._SubParsersAction)]
-        for action in nested:
-            for sub_name, sub in action.choices.items():
-                lines += [f"### lunarsim {name} {sub_name}", "", "```text", sub.format_help().rstrip(), "```", ""]
+             "```text", parsers.top.format_help().rstrip(), "```", ""]
+    for name, parser in parsers.commands.items():
+        level = "###" if " " in name else "##"
+        lines += [f"{level} lunarsim {name}", "", "```text", parser.format_help().rstrip(), "```", ""]
     return "\n".join(lines)
 
 

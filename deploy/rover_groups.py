@@ -10,7 +10,7 @@ from bus import process
 
 def external_ids(text: str | None, rovers: int) -> frozenset[int]:
     """``--external IDS`` checked against the scenario's rovers; a bad list is a usage error."""
-    from ros2_bridge.app import rover_ids
+    from ros2_bridge.commands.ros2 import rover_ids
 
     try:
         ids = rover_ids(text) if text else frozenset()

@@ -8,7 +8,7 @@ runs is refused with ``action_in_progress``, a cancel with nothing running with 
 may send on the radio's mission_direction and calibration channels. It also publishes the driver's own
 pose estimate on ``telemetry`` for the world's twin mode, and stops the rover when its agent's liveliness
 token goes away (the world's watchdog). Like ``RoverAgent`` it returns (key, message) pairs and does no I/O,
-so ``bridge_app`` only moves bytes.
+so its Zenoh loop (``hardware.runtime``) only moves bytes.
 
 A driver that fails (``DriverError``) is logged and counted, never fatal; an action whose status the driver
 cannot give for ``ACTION_LOST_S`` is cancelled and ended, so the agent never waits for nothing. Sensors are

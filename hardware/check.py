@@ -7,7 +7,7 @@ where odometry says; level 1 is slower than level 3; a rotate turns by what was 
 ``cancelled`` where its status and odometry agree; a move behind is refused; the radio echoes (with
 ``--radio-echo ID``); the camera gives a PNG. Every call must return within the driver's time bound.
 The rover walks about 5 m straight ahead and turns on the spot: give it clear ground.
-Each violated rule is printed with what was seen (``check_cli`` is the command line).
+Each violated rule is printed with what was seen (``hardware.commands.check_driver`` is the command line).
 """
 
 from __future__ import annotations

@@ -1,16 +1,14 @@
-"""An emulated rover base on a pseudo-terminal: ``lunarsim emulate-device`` (``python -m hardware.emulator``).
+"""An emulated rover base on a pseudo-terminal (``lunarsim emulate-device``).
 
-It opens a real pty, prints the path of its serial end, and answers the reference line protocol
-(``hardware.protocol``) for a ``DeviceModel`` simulated in real time, so the serial driver, the
-bridge and the checker are exercised through a real serial port opened by pyserial. Its radio links to the
-ids given by ``--partners``; each emulated partner echoes back every ``comm_in`` transmission it receives
-(a loopback for radio round trips). ``--garble-every N`` puts a garbage line before every Nth answer, to see
-a driver survive noise on the wire.
+It opens a real pty, and answers the reference line protocol (``hardware.protocol``) on it for a ``DeviceModel``
+simulated in real time, so the serial driver, the bridge and the checker are exercised through a real serial port
+opened by pyserial. Its radio links to the ids given as partners; each emulated partner echoes back every
+``comm_in`` transmission it receives (a loopback for radio round trips). ``garble_every`` N puts a garbage line
+before every Nth answer, to see a driver survive noise on the wire.
 """
 
 from __future__ import annotations
 
-import argparse
 import base64
 import binascii
 import os
@@ -22,7 +20,6 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from bus import process
 from hardware import protocol as p
 from hardware.device_model import BaseParams, DeviceModel, Refused, Rock
 from shared import png
@@ -220,7 +217,7 @@ class Emulator:
 
 
 def parse_rocks(text: str) -> tuple[Rock, ...]:
-    """``x,z,radius[,kind];...`` (kind: obstacle, rover or lander), or ``none``."""
+    """``x,z,radius[,kind];...`` (kind: obstacle, rover or lander), or ``none``; a ValueError names the bad item."""
     if text.strip() == "none":
         return ()
     rocks = []
@@ -229,53 +226,19 @@ def parse_rocks(text: str) -> tuple[Rock, ...]:
         try:
             x, z, radius = (float(v) for v in fields[:3])
         except ValueError:
-            raise process.UsageError(f"--rocks: {item!r} is not x,z,radius[,kind]") from None
+            raise ValueError(f"{item!r} is not x,z,radius[,kind]") from None
         kind = fields[3] if len(fields) > 3 else "obstacle"
         if len(fields) not in (3, 4) or radius <= 0 or kind not in ("obstacle", "rover", "lander"):
-            raise process.UsageError(f"--rocks: {item!r} is not x,z,radius[,kind] with radius > 0 and kind "
-                                     "obstacle, rover or lander")
+            raise ValueError(f"{item!r} is not x,z,radius[,kind] with radius > 0 and kind obstacle, rover or lander")
         rocks.append(Rock(x, z, radius, kind))
     return tuple(rocks)
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--rocks", default=None, metavar="X,Z,R;...",
-                        help="rocks around the start (x ahead-right frame, metres); 'none' for none; "
-                             "default: three rocks off the line ahead")
-    parser.add_argument("--slope", type=float, default=0.0, metavar="DEG",
-                        help="the ground rises towards the start heading at this angle (pitch follows heading)")
-    parser.add_argument("--partners", default="0", metavar="IDS",
-                        help="radio ids in range, comma separated (default 0, the lander); '-' for none")
-    parser.add_argument("--no-radio", action="store_true", help="a device without a radio")
-    parser.add_argument("--no-camera", action="store_true", help="a device without a camera")
-    parser.add_argument("--garble-every", type=int, default=0, metavar="N",
-                        help="send a garbage line before every Nth answer (noise on the wire)")
-
-
-def build(args: argparse.Namespace) -> Emulator:
-    rocks = parse_rocks(args.rocks) if args.rocks is not None else None
-    model = DeviceModel(BaseParams(slope_deg=args.slope)) if rocks is None else \
-        DeviceModel(BaseParams(slope_deg=args.slope), rocks)
-    try:
-        radio = None if args.no_radio else EmulatedRadio(p.parse_ids(args.partners))
-    except p.GarbledLine as exc:
-        raise process.UsageError(f"--partners: {exc}") from None
-    if args.garble_every < 0:
-        raise process.UsageError(f"--garble-every must be 0 or more, got {args.garble_every}")
-    return Emulator(DeviceServer(model, radio, camera=not args.no_camera, garble_every=args.garble_every))
-
-
-def run_from_args(args: argparse.Namespace) -> int:
-    emulator = build(args)
-    print(f"emulated device on {emulator.path}", flush=True)
-    with process.stop_on_signals() as stop:
-        emulator.start()
-        stop.wait()
-    emulator.close()
-    m = emulator.server.model
-    print(f"final pose x={m.x:.3f} z={m.z:.3f} heading={m.heading:.2f}", flush=True)
-    return 0
-
-
-if __name__ == "__main__":
-    process.main_for("emulate-device", "hardware.emulator")
+def build(rocks: tuple[Rock, ...] | None, slope_deg: float = 0.0, partners: list[int] | None = None,
+          camera: bool = True, garble_every: int = 0) -> Emulator:
+    """An emulated device, not yet serving: ``rocks`` around its start (None: the model's default three),
+    ``partners`` its radio links (None: no radio)."""
+    base = BaseParams(slope_deg=slope_deg)
+    model = DeviceModel(base) if rocks is None else DeviceModel(base, rocks)
+    radio = None if partners is None else EmulatedRadio(partners)
+    return Emulator(DeviceServer(model, radio, camera=camera, garble_every=garble_every))

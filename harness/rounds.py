@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from lander_agent.archive import PhotoArchive
+from lander_agent.lander import Lander
 from lander_agent.mission import MissionPlan
-from lander_agent.runtime import Lander
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m

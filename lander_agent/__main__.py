@@ -1,3 +1,3 @@
 from bus.process import main_for
 
-main_for("lander", "lander_agent.app")
+main_for("lander", "lander_agent.commands.lander")

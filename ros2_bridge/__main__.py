@@ -1,3 +1,3 @@
 from bus.process import main_for
 
-main_for("ros2", "ros2_bridge.app")
+main_for("ros2", "ros2_bridge.commands.ros2")

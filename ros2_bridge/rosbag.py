@@ -12,12 +12,35 @@ import shutil
 from collections import Counter
 from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ros2_bridge import ros_types
 from ros2_bridge.translator import Translator
 from sessions.format import Sample
 
+if TYPE_CHECKING:
+    from schemas.params import RoverParams
+    from sessions.recording import Recording
+
 BAG_VERSION = 9
+
+
+def export_recording(recording: Recording, params: RoverParams | None, truth: bool,
+                     target: Path) -> tuple[Counter[str], int]:
+    """``lunarsim export-rosbag``: the recording's samples as the bridge maps them, written by ``write_bag``; returns
+    the messages written per topic and how many samples could not be converted. ``params`` lay out the scan's rays
+    (None: the stock layout); ``truth`` adds ground truth."""
+    import logging
+
+    from bus.rejections import Rejections
+    from ros2_bridge.mapping import RayLayout
+    from schemas.keyspace import Keyspace
+
+    layout = RayLayout.of(params.perception) if params is not None else RayLayout()
+    rejected = Rejections(logging.getLogger("lunarsim.export"), "export-rosbag")
+    translator = Translator(Keyspace(recording.world or "default"), layout,
+                            params.perception.gyroscope_noise_std_deg if params else 0.0, truth, rejected)
+    return write_bag(recording.samples(), translator, target), rejected.total
 
 
 def write_bag(samples: Iterable[Sample], translator: Translator, target: Path) -> Counter[str]:

@@ -1,7 +1,7 @@
 """The rover agent: one rover's process. Light (no NumPy, no world service): it runs on the rover's flight computer.
 
 - ``agent``: ``RoverAgent``, the coordinator: one handler a topic, over parts that each own their state;
-  ``runtime`` is its Zenoh loop, ``app`` its command (``lunarsim rover``, ``python -m rover_agent``).
+  ``runtime`` is its Zenoh loop, ``commands.rover`` its command (``lunarsim rover``, ``python -m rover_agent``).
 - ``decisions``: what a behaviour sees and may decide (``BaseBehaviour``, the one class to subclass);
   ``behaviour``: the default behaviour; ``examples``: short ones; ``registry``: behaviours found by name.
 - ``actions/``: the action in flight; ``estimation/``: where the rover thinks it is; ``mission/``: its goals and

@@ -1,3 +1,3 @@
-from rover_agent.app import main
+from rover_agent.commands.rover import main
 
 main()

@@ -8,26 +8,40 @@ In snapshot mode the writer keeps only a rolling window of the last N seconds an
 What a recorder cut off from its router misses never reaches the queue, so it is counted apart: ``RouterWatch``
 polls the session for its router, and the writer thread shows every world clock (also one the filters leave out)
 to a ``GapTracker``, which says how long each outage lasted in wall and simulated seconds.
+
+``record`` is ``lunarsim record``: a recorder on a world's keys until stopped, with the metadata that says how to
+reproduce the session (``session_metadata``).
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import queue
+import shlex
+import signal
+import sys
 import threading
 import time
 from collections import Counter, deque
 from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import metadata
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import zenoh
 
+from bus import process
 from bus.bus import zenoh_callback
 from schemas import codec
 from schemas import messages as m
 from sessions.format import Sample, TopicFilter
 from sessions.gaps import ClockMark, Gap, GapTracker
-from sessions.writer import SessionWriter
+from sessions.writer import SessionWriter, SplittingWriter
+
+if TYPE_CHECKING:
+    from schemas.keyspace import Keyspace
 
 log = logging.getLogger("lunarsim.record")
 QUEUE_SAMPLES = 200_000
@@ -164,3 +178,94 @@ class RollingBuffer:
         writer.close(gaps=self.gaps.metadata(since) if self.gaps is not None else None)
         self.snapshots.append(path)
         return path
+
+
+@dataclass(frozen=True)
+class RecordSpec:
+    """What ``lunarsim record`` writes (its ``--help`` says what each option does)."""
+
+    output: Path
+    compression: str = "zstd"
+    topics: list[str] | None = None
+    exclude: list[str] | None = None
+    split_size: int | None = None
+    split_duration: float | None = None
+    snapshot: float | None = None
+    duration: float | None = None
+
+
+def session_metadata(world: str, scenario_file: Path | None) -> dict[str, str]:
+    """What a recording needs to say how to reproduce itself."""
+    info = {"world": world, "software": "lunarsim", "command_line": shlex.join(sys.argv),
+            "recorded_at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    try:
+        info["version"] = metadata.version("lunarsim")
+    except metadata.PackageNotFoundError:
+        info["version"] = "unknown"
+    if scenario_file is not None:
+        from schemas.scenario import load_scenario
+
+        scenario = load_scenario(scenario_file)  # validated: a broken scenario is named now, not at replay
+        info["scenario"] = scenario_file.read_text(encoding="utf-8")
+        info["scenario_name"] = scenario.name
+        info["seed"] = str(scenario.seed)
+        info["rover_params"] = json.dumps(scenario.rover_params.model_dump())
+    return info
+
+
+def record(session: zenoh.Session, keys: Keyspace, spec: RecordSpec, info: dict[str, str]) -> None:
+    """Record the world's keys until SIGINT or SIGTERM (or ``spec.duration``), then say what was written, dropped
+    and missed. In snapshot mode, SIGUSR1 or a ``snapshot`` ground command writes the last seconds."""
+    gaps = GapTracker()
+    if spec.snapshot is not None:
+        sink = RollingBuffer(spec.snapshot, spec.output, info, spec.compression, gaps)
+    else:
+        sink = SplittingWriter(spec.output, info, spec.compression, spec.split_size, spec.split_duration)
+    keep = TopicFilter(spec.topics, spec.exclude)
+    with process.stop_on_signals() as stop:
+        flush = sink.flush if isinstance(sink, SplittingWriter) else None
+        recorder = Recorder(session, keys.all, _with_triggers(sink, keys), keep, flush=flush, clock_key=keys.clock,
+                            gaps=gaps)
+        watch = RouterWatch(session, gaps)
+        watch.poll()
+        if isinstance(sink, RollingBuffer):
+            signal.signal(signal.SIGUSR1, lambda *_: _snapshot(sink))
+        print(f"recording {keys.all} to {spec.output}", flush=True)
+        deadline = time.monotonic() + spec.duration if spec.duration else None
+        while not stop.wait(0.2):
+            watch.poll()
+            if deadline is not None and time.monotonic() >= deadline:
+                break
+        recorder.stop()
+        gaps.close(time.time_ns())
+    if isinstance(sink, SplittingWriter):
+        sink.close(recorder.drops, gaps.metadata())
+        files = ", ".join(map(str, sink.files))
+        print(f"recorded {sink.count} samples to {files}; dropped {sum(recorder.drops.values())}"
+              + (f" ({dict(recorder.drops)})" if recorder.drops else "") + f"; {gaps.summary()}", flush=True)
+    else:
+        print(f"snapshots written: {len(sink.snapshots)}; {gaps.summary()}", flush=True)
+
+
+def _with_triggers(sink, keys):
+    """A sink that also watches ground commands for a ``snapshot`` trigger (snapshot mode only)."""
+    if not isinstance(sink, RollingBuffer):
+        return sink.write
+
+    def write(sample) -> None:
+        sink(sample)
+        if sample.key == keys.ground_command:
+            try:
+                command = codec.decode(m.GroundCommand, sample.payload)
+            except codec.DecodeError as exc:
+                print(f"ignored a malformed ground command: {exc}", file=sys.stderr, flush=True)
+                return
+            if command.command == "snapshot":
+                _snapshot(sink)
+
+    return write
+
+
+def _snapshot(sink) -> None:
+    path = sink.snapshot()
+    print(f"snapshot written to {path}", flush=True)

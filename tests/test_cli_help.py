@@ -4,30 +4,27 @@ markup; and a mission report rebuilt from a recording does not claim a wall time
 from __future__ import annotations
 
 import argparse
+import importlib
 
 import pytest
 
-from deploy.cli import COMMANDS, build_parser
+from deploy.cli import COMMANDS, build_parsers, command_module
 from schemas import messages as m
 from sessions.summary import summary_table
 
-
-def _commands() -> dict[str, argparse.ArgumentParser]:
-    parser = build_parser()
-    found: dict[str, argparse.ArgumentParser] = {}
-    for action in (a for a in parser._actions if isinstance(a, argparse._SubParsersAction)):
-        for name, sub in action.choices.items():
-            found[name] = sub
-            for nested in (a for a in sub._actions if isinstance(a, argparse._SubParsersAction)):
-                found.update({f"{name} {n}": s for n, s in nested.choices.items()})
-    return found
-
-
-COMMAND_PARSERS = _commands()
+COMMAND_PARSERS = build_parsers().commands
 
 
 def test_every_command_is_there():
     assert set(COMMANDS) <= set(COMMAND_PARSERS)
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_every_command_is_a_module_of_one_shape(name):
+    """``<package>/commands/<command>.py``: its docstring is the description, ``add_arguments`` and ``run``."""
+    module = importlib.import_module(command_module(name))
+    assert module.__name__.split(".")[1:] == ["commands", name.replace("-", "_")]
+    assert module.__doc__ and callable(module.add_arguments) and callable(module.run)
 
 
 @pytest.mark.parametrize("name", sorted(COMMAND_PARSERS))

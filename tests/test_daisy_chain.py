@@ -8,9 +8,9 @@ import pytest
 from procs import SCENARIOS
 
 from harness.loopback import run_mission
+from lander_agent.archive import PhotoArchive
 from lander_agent.daisy_chain import SPACING, in_radio_reach, plan_chain, relays_needed
 from lander_agent.mission import MissionPlan
-from lander_agent.runtime import PhotoArchive
 from rover_agent.agent import RoverAgent
 from schemas import codec, radio
 from schemas import keyspace as ks

@@ -59,7 +59,7 @@ def test_flight_code_imports_nothing_outside_the_wheel_and_its_dependencies():
 
 def test_the_flight_wheel_carries_the_agent_and_the_bridge_but_no_ground_code():
     modules = _flight_modules()
-    assert {"rover_agent.app", "hardware.bridge_app", "bus.zenoh_config", "schemas.messages"} <= modules
+    assert {"rover_agent.commands.rover", "hardware.commands.bridge", "bus.zenoh_config", "schemas.messages"} <= modules
     assert not any(m.split(".")[0] in ("world_service", "lander_agent") for m in modules)
     assert not any(m.startswith(("sessions", "deploy.launcher", "deploy.batch")) for m in modules)
 

@@ -8,8 +8,8 @@ import pytest
 from procs import SCENARIOS, lunarsim, module, stop, wait_for
 
 from harness.loopback import run_mission
+from lander_agent.lander import Lander
 from lander_agent.mission import MissionPlan
-from lander_agent.runtime import Lander
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.scenario import load_scenario

@@ -64,13 +64,14 @@ UNITS: dict[str, set[str]] = {
     "world_service.resume": {"world_service.sim"},
     "world_service.service": {"world_service.served", "world_service.lockstep", "world_service.presence",
                               "world_service.rover_ids", "world_service.camera"},
-    "world_service.app": {"world_service.served", "world_service.service", "world_service.resume", "world_service.sim",
-                          "world_service.twin"},
     "world_service.__main__": set(),
 }
 """Inside a package: each member's allowed imports among the package's own members. A rover agent's other
-top-level modules (its coordinator, its command) stand above every unit and may import them all; every member of
+top-level modules (its coordinator, its loop) stand above every unit and may import them all; every member of
 the world service has its place here, and its loop sees a world only through ``served``."""
+COMMANDS = "commands"
+"""Each package's commands (``<package>/commands/<command>.py``) stand above all its other members: they may import
+any of them, and inside the package only its ``__main__`` imports them."""
 LAYERED = ("rover_agent", "world_service")
 """Packages whose every subpackage is a unit of ``UNITS``."""
 EVERY_MEMBER = ("world_service",)
@@ -184,14 +185,26 @@ def test_the_units_stack_without_a_circle():
     assert set(stack) == set(UNITS)
 
 
+def _command(name: str) -> bool:
+    return name.split(".")[1:2] == [COMMANDS]
+
+
 @pytest.mark.parametrize("package", LAYERED)
 def test_every_subpackage_says_what_it_may_import(package):
     subpackages = {name for name, path in MODULES.items() if path.name == "__init__.py" and "." in name
-                   and name.split(".")[0] == package}
+                   and name.split(".")[0] == package and not _command(name)}
     assert subpackages <= set(UNITS), sorted(subpackages - set(UNITS))
 
 
 @pytest.mark.parametrize("package", EVERY_MEMBER)
 def test_every_member_has_its_place(package):
-    members = {".".join(name.split(".")[:2]) for name in MODULES if name.startswith(package + ".")}
+    members = {".".join(name.split(".")[:2]) for name in MODULES
+               if name.startswith(package + ".") and not _command(name)}
     assert members == {unit for unit in UNITS if unit.startswith(package + ".")}, "add new members, drop gone ones"
+
+
+def test_only_a_packages_main_imports_its_commands():
+    wrong = sorted(f"{name} imports {target}" for name, targets in GRAPH.items() for target in targets
+                   if _command(target) and target.split(".")[0] == name.split(".")[0] and not _command(name)
+                   and name.split(".")[1:] != ["__main__"])
+    assert not wrong, "\n".join(wrong)

@@ -18,7 +18,7 @@ def test_ruff_reports_nothing():
 
 def test_rover_agent_imports_stay_light():
     """The flight-computer agent must not pull in NumPy or the world service (design doc)."""
-    code = ("import sys, rover_agent.app, rover_agent.runtime, rover_agent.agent; "
+    code = ("import sys, rover_agent.commands.rover, rover_agent.runtime, rover_agent.agent; "
             "heavy = [m for m in ('numpy', 'numba', 'world_service', 'rich', 'yaml_world') if m in sys.modules]; "
             "print(','.join(heavy))")
     proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)

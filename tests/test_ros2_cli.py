@@ -9,7 +9,7 @@ from procs import SCENARIOS
 from bus.errors import UsageError
 from deploy import cli
 from deploy.rover_groups import external_ids, groups
-from ros2_bridge.app import domain_id
+from ros2_bridge.commands.ros2 import domain_id
 
 
 def test_the_domain_comes_from_the_flag_then_ros_domain_id_then_zero():

@@ -302,7 +302,7 @@ def test_plot_takes_samples_too(tmp_path: Path):
 def test_live_view_serves_and_stops(tmp_path: Path):
     import foxglove
 
-    from web.view_cli import LiveScene
+    from web.foxglove_live import LiveScene
 
     live = LiveScene(load_scenario(SCENARIO_FILE), terrain_cells=16)
     capture = tmp_path / "live.mcap"

@@ -16,7 +16,7 @@ from bus.zenoh_config import build_config
 from deploy.cli import main
 from schemas import codec
 from schemas import messages as m
-from sessions import replay_cli
+from sessions import playback
 from sessions.format import Sample, TopicFilter, read_samples
 from sessions.replay import CLOCK_GLOB, Player, world_remapper
 from sessions.writer import SessionWriter
@@ -213,9 +213,9 @@ def test_the_world_clock_is_left_out_unless_asked_for():
 # Command line: errors and controls.
 
 def test_keys_become_controls():
-    assert replay_cli.keys_to_controls(b" ") == ["toggle"]
-    assert replay_cli.keys_to_controls(b"S\x1b[Cq") == ["step", "step", "quit"]
-    assert replay_cli.keys_to_controls(b"x\x1b[A") == []
+    assert playback.keys_to_controls(b" ") == ["toggle"]
+    assert playback.keys_to_controls(b"S\x1b[Cq") == ["step", "step", "quit"]
+    assert playback.keys_to_controls(b"x\x1b[A") == []
 
 
 @pytest.mark.parametrize("case", ["missing", "not_mcap", "empty", "directory"])
@@ -247,8 +247,8 @@ def test_a_recording_of_only_the_clock_says_why_nothing_is_left(tmp_path, capsys
 def test_ground_commands_control_the_player_and_bad_ones_are_ignored(capsys):
     controls: list[tuple[str, float]] = []
     player = SimpleNamespace(control=lambda name, seconds=0.0: controls.append((name, seconds)))
-    own = replay_cli.OwnCommands("lunar/w2/ground/command")
-    handle = replay_cli._command_handler(player, own)
+    own = playback.OwnCommands("lunar/w2/ground/command")
+    handle = playback._command_handler(player, own)
 
     def send(payload: bytes) -> None:
         handle(SimpleNamespace(payload=SimpleNamespace(to_bytes=lambda: payload)))

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from lander_agent.lander import Lander
 from lander_agent.mission import MissionPlan
-from lander_agent.runtime import Lander
 from lander_agent.stations import WITHIN, fitted_offsets, pick_rim_station, pick_station, rim_offsets, station_offsets
 from schemas import codec, radio
 from schemas import keyspace as ks

@@ -66,7 +66,7 @@ def test_the_collect_pod_reads_the_jobs_folder_on_the_same_claim(shim):
     assert pod["kind"] == "Pod" and pod["spec"]["restartPolicy"] == "Never"
     args = manifests.parse(manifests.k8s_command(pod, container, shim), "collect pod")
     env = manifests.pod_env(pod, container, 0)
-    assert args.run.__module__ == "deploy.batch_collect" and args.runs == job["spec"]["completions"]
+    assert args.run.__module__ == "deploy.commands.collect_batch" and args.runs == job["spec"]["completions"]
     folder = PurePosixPath(args.folder)
     claim, mount = _claim_at(pod, container, folder)
     job_out = PurePosixPath(manifests.parse(manifests.k8s_command(job, job_container, shim, 0), "Job").out)

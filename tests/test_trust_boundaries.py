@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 from procs import SCENARIOS
 
 from lander_agent.archive import PhotoArchive
+from lander_agent.lander import Lander
 from lander_agent.mission import MissionPlan
-from lander_agent.runtime import Lander
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
 from schemas import codec, radio
 from schemas import keyspace as ks

@@ -14,7 +14,7 @@ from procs import REPO, free_port, processes_mentioning, wait_for
 
 from bus.process import EXIT_USAGE
 from deploy.children import Children, wait_for_port
-from rover_agent.app import PRELOAD
+from rover_agent.commands.rover import PRELOAD
 
 
 def _finished(children: Children, name: str, timeout_s: float = 30.0) -> int:
@@ -57,7 +57,7 @@ LAUNCHER = """
 import sys, time
 from pathlib import Path
 from deploy.children import Children, wait_for_port
-from rover_agent.app import PRELOAD
+from rover_agent.commands.rover import PRELOAD
 children = Children(Path(sys.argv[1]), preload=PRELOAD)
 proc = children.start("rover1", "rover_agent", "--id", "1", "--connect", sys.argv[2], warm=True)
 print(proc.pid, flush=True)
@@ -87,7 +87,7 @@ with open(sys.argv[1] + "/runs.txt", "a") as runs:  # each run of this script, u
     runs.write(__name__ + "\\n")
 if __name__ == "__main__":
     from deploy.children import Children
-    from rover_agent.app import PRELOAD
+    from rover_agent.commands.rover import PRELOAD
     children = Children(Path(sys.argv[1]), preload=PRELOAD)
     children.start("help", "rover_agent", "--help", warm=True)
     children.procs["help"].wait(30)

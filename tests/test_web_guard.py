@@ -21,7 +21,7 @@ from procs import free_port, lunarsim, stop, wait_for_output
 
 from schemas import messages as m
 from web import editor, guard, live
-from web.commands import Commands
+from web.page_commands import Commands
 from web.server import Viewer, build_app
 
 PAUSE = {"command": "pause"}

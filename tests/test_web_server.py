@@ -25,7 +25,7 @@ from schemas import messages as m
 from schemas.scenario import Scenario, load_scenario
 from schemas.scenario_limits import MAX_ROCK_FIELDS, MAX_ROCKS, MAX_SCENARIO_BYTES
 from web import editor, live
-from web.commands import CommandError, Commands, command_from_request
+from web.page_commands import CommandError, Commands, command_from_request
 from web.scene import scenario_scene
 from web.server import BUNDLE, Viewer, build_app
 from web.uploads import MAX_REQUEST_BYTES

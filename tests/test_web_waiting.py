@@ -23,7 +23,7 @@ from test_web_browser import page_value, positions, shot, start_view
 from bus.process import EXIT_NO_ROUTER
 from deploy.children import wait_for_port
 from web import editor, live
-from web.commands import Commands
+from web.page_commands import Commands
 from web.server import Viewer, build_app
 
 CRATER = str(SCENARIOS / "crater_observation.yaml")

@@ -17,7 +17,7 @@ from aiohttp import WSMsgType, web
 
 from schemas.scenario import Scenario, ScenarioError
 from web import editor, guard, live, uploads
-from web.commands import CommandError, Commands, command_from_request
+from web.page_commands import CommandError, Commands, command_from_request
 from web.scene import empty_scene, scenario_scene
 
 STATIC = Path(__file__).parent / "static"

@@ -1,3 +1,3 @@
 from bus.process import main_for
 
-main_for("world", "world_service.app")
+main_for("world", "world_service.commands.world")

@@ -30,7 +30,7 @@ FLIGHT_PACKAGES = ("schemas", "bus", "shared", "rover_agent", "hardware")
 (``tests/test_layout.py``)."""
 DEPENDENCIES = ("eclipse-zenoh>=1.10,<2", "msgpack>=1.0", "pydantic>=2.6,<3", "pyyaml>=6")
 EXTRAS = {"serial": ("pyserial>=3.5",)}
-SCRIPTS = {"lunarsim-rover": "rover_agent.app:main", "lunarsim-bridge": "hardware.bridge_app:main"}
+SCRIPTS = {"lunarsim-rover": "rover_agent.commands.rover:main", "lunarsim-bridge": "hardware.commands.bridge:main"}
 DATA = {"share/lunarsim": ("deploy/zenoh/client.json5",),
         "share/lunarsim/systemd": ("deploy/systemd/lunarsim-rover@.service", "deploy/systemd/lunarsim-bridge@.service")}
 """Installed under the environment's prefix: the client config and the systemd units to copy into place."""

@@ -15,9 +15,9 @@ from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_end
 if TYPE_CHECKING:
     from schemas import messages as m
 
-PRELOAD = ("rover_agent.app", "bus.bus", "rover_agent.identity", "rover_agent.runtime", "rover_agent.agent",
+PRELOAD = ("rover_agent.commands.rover", "bus.bus", "rover_agent.identity", "rover_agent.runtime", "rover_agent.agent",
            "rover_agent.registry", "schemas.keyspace", "schemas.scenario")
-"""What ``run_from_args`` imports: a launcher's warm server (``deploy.warm_start``) has it loaded before it
+"""What ``run`` imports: a launcher's warm server (``deploy.warm_start``) has it loaded before it
 forks the rover agents of a run, so none of them spends its start importing."""
 
 
@@ -45,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_zenoh_arguments(parser, agent=True)
 
 
-def run_from_args(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     from bus.bus import Bus
     from rover_agent import identity, runtime
     from rover_agent.agent import RoverAgent
@@ -118,4 +118,4 @@ def _state_file(args: argparse.Namespace, rover_id: int) -> Path | None:
 
 def main() -> None:
     """``lunarsim-rover``: the flight computer's entry (the wheel there has no ``lunarsim`` command)."""
-    process.main_for("rover", "rover_agent.app")
+    process.main_for("rover", "rover_agent.commands.rover")

@@ -18,7 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a radio partner that echoes comm_in transmissions back (the emulator's do)")
 
 
-def run_from_args(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     from hardware.check import Checker
     from hardware.driver import DriverError, InvalidCommand
     from hardware.drivers import UnknownDriver, load_driver
@@ -39,6 +39,3 @@ def run_from_args(args: argparse.Namespace) -> int:
           else f"driver contract: {len(violations)} violation(s), {checker.passed} rules kept")
     return 1 if violations else 0
 
-
-if __name__ == "__main__":
-    process.main_for("check-driver", "hardware.check_cli")

@@ -13,10 +13,11 @@ from pathlib import Path
 from bus import process
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    """The command's arguments; returns the parsers of its own subcommands, by name."""
     sub = parser.add_subparsers(dest="scenario_command", required=True,
                                 metavar="{list,import,export,check,generate}")
-    sub.add_parser("list", help="the scenarios that come with LunarSim, by the name any command takes")
+    listing = sub.add_parser("list", help="the scenarios that come with LunarSim, by the name any command takes")
     imp = sub.add_parser("import", help="scenario YAML from a LunarSim scenario-editor profile (JSON)")
     imp.add_argument("profile", type=Path, help="the editor profile (JSON)")
     imp.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.yaml", help="the scenario to write")
@@ -33,9 +34,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     gen.add_argument("--kind", help="the family: crater, traverse, maze or daisy (default: drawn from the seed "
                      "too); checked by the generator, which lists them")
     gen.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.yaml", help="the scenario to write")
+    return {"list": listing, "import": imp, "export": exp, "check": chk, "generate": gen}
 
 
-def run_from_args(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
+    from deploy.scenario_check import check_files
     from scenarios.profiles import load_profile, scenario_to_profile
     from schemas.scenario import dump_scenario, load_scenario
 
@@ -53,7 +56,7 @@ def run_from_args(args: argparse.Namespace) -> int:
         _generate(args)
     else:
         s = load_scenario(args.scenario)
-        _check_files(args.scenario, s)
+        check_files(args.scenario, s)
         print(f"{args.scenario}: ok: {s.name!r}, seed {s.seed}, {len(s.rovers)} rovers, {len(s.craters)} craters, "
               f"{len(s.obstacles.rocks) + sum(f.count for f in s.obstacles.rock_fields)} rocks, "
               f"{len(s.obstacles.walls)} walls, {len(s.mission)} goals")
@@ -67,27 +70,6 @@ def _list() -> None:
         s = load_scenario(path)
         kinds = ", ".join(dict.fromkeys(g.kind for g in s.mission))
         print(f"{name:<20} {len(s.rovers):>3} rover(s), {len(s.mission)} goal(s) ({kinds})   {path}")
-
-
-def _check_files(path: Path, scenario) -> None:
-    """What loading leaves to the processes that use a scenario, tried now: its terrain mesh is read and made
-    into triangles as the world will, its behaviour imported as each rover agent will (in a child process)."""
-    from deploy.behaviour_check import require_behaviour
-    from schemas.scenario import ScenarioError
-    from schemas.scenario_limits import clip
-
-    mesh = scenario.terrain.mesh if scenario.terrain is not None else None
-    if mesh is not None:
-        from world_service.terrain.mesh import load_vertices_faces
-
-        try:
-            load_vertices_faces(mesh, scenario.terrain.mesh_scale, scenario.terrain.mesh_offset)
-        except ScenarioError as exc:
-            raise ScenarioError(f"{path}: terrain.mesh: {exc}") from None
-        except Exception as exc:  # trimesh raises many kinds; all mean a file it cannot make triangles of
-            raise ScenarioError(f"{path}: terrain.mesh: {clip(mesh)}: not a mesh the world can load: "
-                                f"{clip(str(exc).removeprefix(f'{mesh}: ') or type(exc).__name__)}") from None
-    require_behaviour(scenario.behaviour, str(path))
 
 
 def _generate(args: argparse.Namespace) -> None:

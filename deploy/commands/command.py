@@ -20,7 +20,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from bus.ground_commands import RESEND_S, build_command
+from bus.ground_commands import build_command, send, send_and_wait
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
 
 EXIT_REFUSED = 1
@@ -42,36 +42,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_zenoh_arguments(parser)
 
 
-def run_from_args(args: argparse.Namespace) -> int:
-    import time
-
+def run(args: argparse.Namespace) -> int:
     from bus.bus import Bus
-    from schemas import codec
     from schemas import messages as m
     from schemas.keyspace import Keyspace
 
-    name = args.command.replace("-", "_")
     keys = Keyspace(args.world)
     command = build_command(args.command, args.rover, args.x, args.z, args.kind, args.seconds)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="command")
     with Bus(session) as bus:
-        bus.subscribe(keys.ground_command_result)
-        bus.publish(keys.ground_command, command)
-        if name not in m.MISSION_COMMANDS:
+        if command.command not in m.MISSION_COMMANDS:
+            send(bus, keys, command)
             print(f"sent {args.command} to world {args.world!r} (recorders and replays do not answer)")
             return 0
-        deadline = time.monotonic() + args.timeout
-        next_send = time.monotonic() + RESEND_S
-        while time.monotonic() < deadline:
-            item = bus.receive(timeout=0.2)
-            if time.monotonic() >= next_send:  # a lander that started after us, or a lost sample
-                bus.publish(keys.ground_command, command)
-                next_send += RESEND_S
-            if item is None:
-                continue
-            result = codec.decode(m.CommandResult, item.payload)
-            if result.request_id == command.request_id:
-                print(("accepted: " if result.accepted else "refused: ") + result.detail)
-                return 0 if result.accepted else EXIT_REFUSED
-    print(f"no lander answered within {args.timeout:g} s (is one running in world {args.world!r}?)", file=sys.stderr)
-    return EXIT_NO_ANSWER
+        result = send_and_wait(bus, keys, command, args.timeout)
+    if result is None:
+        print(f"no lander answered within {args.timeout:g} s (is one running in world {args.world!r}?)",
+              file=sys.stderr)
+        return EXIT_NO_ANSWER
+    print(("accepted: " if result.accepted else "refused: ") + result.detail)
+    return 0 if result.accepted else EXIT_REFUSED

@@ -26,14 +26,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--truth", action="store_true", help="also write ground truth (/tf, /rover_<id>/truth/odom)")
 
 
-def run_from_args(args: argparse.Namespace) -> int:
-    import logging
-
-    from bus.rejections import Rejections
-    from ros2_bridge.mapping import RayLayout
-    from ros2_bridge.rosbag import write_bag
-    from ros2_bridge.translator import Translator
-    from schemas.keyspace import Keyspace
+def run(args: argparse.Namespace) -> int:
+    from ros2_bridge.rosbag import export_recording
     from schemas.scenario import load_scenario
     from sessions.format import embedded_scenario
     from sessions.recording import check_recording
@@ -49,12 +43,8 @@ def run_from_args(args: argparse.Namespace) -> int:
     for note in (recording.foreign_note(), recording.gap_note()):
         if note:
             print(f"warning: {note}", file=sys.stderr)
-    params = scenario.rover_params if scenario is not None else None
-    layout = RayLayout.of(params.perception) if params is not None else RayLayout()
-    rejected = Rejections(logging.getLogger("lunarsim.export"), "export-rosbag")
-    translator = Translator(Keyspace(recording.world or "default"), layout,
-                            params.perception.gyroscope_noise_std_deg if params else 0.0, args.truth, rejected)
-    counts = write_bag(recording.samples(), translator, args.output)
+    counts, skipped = export_recording(recording, scenario.rover_params if scenario is not None else None,
+                                       args.truth, args.output)
     print(f"wrote {args.output}: {sum(counts.values())} messages on {len(counts)} topics"
-          + (f"; skipped {rejected.total} sample(s) it could not convert" if rejected.total else ""), flush=True)
+          + (f"; skipped {skipped} sample(s) it could not convert" if skipped else ""), flush=True)
     return 0

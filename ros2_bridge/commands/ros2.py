@@ -15,13 +15,10 @@ bridge refuses (a malformed sample, an unknown rover, a goal out of bounds) it c
 from __future__ import annotations
 
 import argparse
-import logging
 import os
 
 from bus import process
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
-
-log = logging.getLogger("lunarsim.ros2")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -65,7 +62,8 @@ def domain_id(given: int | None, environ: dict[str, str]) -> int:
     return given
 
 
-def run_from_args(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
+    from ros2_bridge.runtime import serve
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_rover_params
 
@@ -76,35 +74,3 @@ def run_from_args(args: argparse.Namespace) -> int:
     session = open_session(conf, describe_endpoints(args), args.router_timeout, who="ros2 bridge")
     serve(session, Keyspace(args.world), domain, params, args.truth, args.drive)
     return 0
-
-
-def serve(session, keys, domain: int, params, truth: bool, drive: frozenset[int] = frozenset()) -> None:
-    from bus.bus import Bus
-    from ros2_bridge.mapping import RayLayout
-    from ros2_bridge.node import BridgeLoop, RosNode
-    from ros2_bridge.translator import Translator
-
-    layout = RayLayout.of(params.perception) if params is not None else RayLayout()
-    pitch_std = params.perception.gyroscope_noise_std_deg if params is not None else 0.0
-    translator = Translator(keys, layout, pitch_std, truth)
-    translator.driven = drive
-    with Bus(session) as bus, process.stop_on_signals() as stop:
-        node = RosNode(session, domain)
-        loop = BridgeLoop(bus, node, translator)
-        try:
-            loop.start()
-            log.info("ROS 2 bridge for world %s on domain %d%s: node /%s", keys.world, domain,
-                     " with ground truth" if truth else "", node.node.name)
-            loop.run(stop)
-        finally:
-            node.close()
-            refused = ", ".join(f"{n} on {t}" for t, n in translator.rejected.by_topic.most_common())
-            log.info("ROS 2 bridge stopped: served %d rover(s); refused %s", len(loop.served), refused or "nothing")
-
-
-def main() -> None:
-    process.main_for("ros2", "ros2_bridge.app")
-
-
-if __name__ == "__main__":
-    main()

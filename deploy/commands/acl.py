@@ -17,7 +17,6 @@ role (``world``, ``lander``, ``ground``, ``recorder``, ``rover-<id>``, ``bridge-
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from bus import process
@@ -83,16 +82,9 @@ def _endpoints(given: list[str] | None, default: str, flag: str) -> list[str]:
     return endpoints
 
 
-def _write(path: Path, text: str, secret: bool) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
-    if secret:
-        os.chmod(path, 0o600)
-    print(f"wrote {path}")
-
-
-def run_from_args(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     from deploy.security import acl, configs
+    from deploy.security.secured import write_secured
     from schemas.keyspace import Keyspace
 
     try:
@@ -113,8 +105,7 @@ def run_from_args(args: argparse.Namespace) -> int:
         roles = acl.roles(keys, rover_ids, bridged, args.bridge_clock)
     except ValueError as exc:
         raise process.UsageError(f"--bridges: {exc}") from None
-    names = [r.name for r in roles]
-    missing = configs.missing_cert_files(certs, [configs.ROUTER, *names])
+    missing = configs.missing_cert_files(certs, [configs.ROUTER, *(r.name for r in roles)])
     if missing:
         bridges = f"--bridges {args.bridges} " if bridged else ""
         raise process.UsageError(f"{len(missing)} certificate file(s) missing in {certs}, first {missing[0]}: make "
@@ -123,14 +114,8 @@ def run_from_args(args: argparse.Namespace) -> int:
         existing = configs.parse_credentials(credentials.read_text(encoding="utf-8")) if credentials.exists() else {}
     except ValueError as exc:
         raise process.UsageError(f"{credentials}: {exc}") from None
-    passwords = configs.passwords_for(names, existing)
     real = f", real rovers behind bridges: {', '.join(map(str, bridged))}" if bridged else ""
     header = f"Written by: lunarsim acl {args.scenario} (world {args.world!r}, {len(rover_ids)} rovers{real})"
-    router = configs.router_config(certs, credentials, listen, acl.access_control(roles, keys))
-    _write(args.output, configs.json5_text(router, header), secret=False)
-    _write(credentials, configs.credentials_text(passwords), secret=True)
-    for name in names:
-        client = configs.client_config(name, passwords[name], certs, connect)
-        _write(clients / f"{name}.json5", configs.json5_text(client, f"{header}\nRole: {name}"), secret=True)
+    names = write_secured(args.output, certs, credentials, clients, roles, keys, existing, listen, connect, header)
     print(f"roles: {', '.join(names)}; start the router with: lunarsim router --config {args.output}")
     return 0

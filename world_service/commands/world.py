@@ -56,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      "hop less each way than through a router process (what 'lunarsim run' does).")
 
 
-def run_from_args(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     from bus.bus import Bus
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario

@@ -23,12 +23,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_zenoh_arguments(parser, agent=True)
 
 
-def run_from_args(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     from bus.bus import Bus
     from lander_agent.archive import PhotoArchive
+    from lander_agent.lander import Lander
     from lander_agent.mission import MissionPlan
     from lander_agent.resume import FILE_NAME, LanderMemory
-    from lander_agent.runtime import Lander, run
+    from lander_agent.runtime import run
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario
 

@@ -1,56 +1,47 @@
-"""``lunarsim replay``: publish a recorded session onto Zenoh again, with its original timing.
+"""A recording published onto Zenoh again with its original timing, and its controls (``lunarsim replay``).
 
-    lunarsim replay run.mcap                       # as recorded, same world
-    lunarsim replay run.mcap --remap-world review --rate 4 --loop
-    lunarsim replay run.mcap --topics 'lunar/*/rover/1/*' --start-offset 30 --start-paused
-
-The recorded world clock is left out unless ``--clock``: a replay beside a live world must not drive its
-agents. Controls: on a terminal, space pauses/resumes, ``s`` or the right arrow steps one sample, ``q``
-quits; from anywhere, ``pause``/``resume``/``step``/``seek`` ground commands on the target world's keyspace.
-With no ``--connect`` and nothing listening on the default endpoint (the run that served as router has ended),
-the replay serves as the router there. The file is checked before anything is published: only LunarSim keys of a
-valid world go out (other channels are skipped and counted), and a file cut short is refused with the
-``lunarsim recover`` command that mends it.
+``replay`` checks that something is left to play, plays on a worker thread (``sessions.replay.Player``), and keeps
+the main thread for signals, the progress bar and the terminal's keys (space pauses and resumes, ``s`` or the right
+arrow steps, ``q`` quits); ``pause``/``resume``/``step``/``seek`` ground commands on the target world control it
+too, except those the replay itself publishes from the recording. Its liveliness token says whether it plays.
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import os
 import select
 import sys
 import threading
 import time
-from collections.abc import Iterator
-from dataclasses import replace
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from bus import process
-from bus.zenoh_config import add_zenoh_arguments
 
 if TYPE_CHECKING:
+    import zenoh
+
     from sessions.recording import Recording
 
 ESC_RIGHT = b"\x1b[C"
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", type=Path, metavar="FILE.mcap", help="a recording made by 'lunarsim record'")
-    parser.add_argument("--rate", type=float, default=1.0, metavar="R", help="playback speed (default 1: as "
-                        "recorded; 2: twice as fast)")
-    parser.add_argument("--loop", action="store_true", help="start again at the end, until stopped")
-    parser.add_argument("--topics", nargs="+", metavar="GLOB", help="replay only keys matching these globs")
-    parser.add_argument("--exclude", nargs="+", metavar="GLOB", help="leave out keys matching these globs")
-    parser.add_argument("--start-offset", type=float, default=0.0, metavar="S",
-                        help="start S seconds into the recording")
-    parser.add_argument("--remap-world", metavar="NAME", help="publish into world NAME instead of the recorded one")
-    parser.add_argument("--clock", action="store_true", help="also replay the recorded world clock (left out by "
-                        "default so a replay beside a live world does not drive its agents)")
-    parser.add_argument("--start-paused", action="store_true", help="wait for resume/step before publishing")
-    parser.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
-    add_zenoh_arguments(parser)
+@dataclass(frozen=True)
+class ReplaySpec:
+    """How to play a recording: the options of ``lunarsim replay`` (its ``--help`` says what each does)."""
+
+    rate: float = 1.0
+    loop: bool = False
+    topics: list[str] | None = None
+    exclude: list[str] | None = None
+    start_offset: float = 0.0
+    remap_world: str | None = None
+    clock: bool = False
+    start_paused: bool = False
+    quiet: bool = False
 
 
 def open_recording(path: Path) -> Recording:
@@ -71,63 +62,35 @@ def open_recording(path: Path) -> Recording:
     return recording
 
 
-def run_from_args(args: argparse.Namespace) -> int:
-    from schemas.keyspace import check_world_name
+def replay(recording: Recording, spec: ReplaySpec, open_zenoh: Callable[[], zenoh.Session]) -> int:
+    """Play ``recording`` as ``spec`` says on the session ``open_zenoh`` opens; the exit code (130 if stopped)."""
     from sessions.format import TopicFilter
     from sessions.replay import CLOCK_GLOB, Player, prefetch, world_remapper
 
-    if args.rate <= 0:
-        raise process.UsageError(f"--rate must be positive, got {args.rate:g}")
-    if args.start_offset < 0:
-        raise process.UsageError(f"--start-offset must not be negative, got {args.start_offset:g}")
-    try:
-        target = check_world_name(args.remap_world) if args.remap_world else None
-    except ValueError as exc:
-        raise process.UsageError(f"--remap-world: {exc}") from None
-    recording = open_recording(args.file)
-    keep = TopicFilter(args.topics, [*(args.exclude or []), *([] if args.clock else [CLOCK_GLOB])])
+    keep = TopicFilter(spec.topics, [*(spec.exclude or []), *([] if spec.clock else [CLOCK_GLOB])])
     if next(recording.samples(keep), None) is None:
-        raise process.UsageError(f"{args.file}: no samples left after --topics/--exclude"
-                                 + ("" if args.clock else " (the world clock is left out without --clock)"))
+        raise process.UsageError(f"{recording.path}: no samples left after --topics/--exclude"
+                                 + ("" if spec.clock else " (the world clock is left out without --clock)"))
+    target = spec.remap_world
     if target and recording.world is None:
-        raise process.UsageError(f"{args.file}: cannot tell which world was recorded, so cannot --remap-world")
+        raise process.UsageError(f"{recording.path}: cannot tell which world was recorded, so cannot --remap-world")
     world = target or recording.world or "default"
     remap = world_remapper(recording.world, target) if target and recording.world else None
-    return _play(args, recording, world, lambda publish: Player(
-        lambda start_ns: prefetch(recording.samples(keep, start_ns)), publish, rate=args.rate,
-        loop=args.loop, start_offset_s=args.start_offset, paused=args.start_paused, remap=remap,
+    return _play(spec, recording, world, open_zenoh, lambda publish: Player(
+        lambda start_ns: prefetch(recording.samples(keep, start_ns)), publish, rate=spec.rate,
+        loop=spec.loop, start_offset_s=spec.start_offset, paused=spec.start_paused, remap=remap,
         first_ns=recording.first_ns, last_ns=recording.last_ns))
 
 
-def _open(args: argparse.Namespace):
-    """The run's router, or, when none was named and none listens on the default endpoint (the run that served
-    as router has ended), a router of its own there: viewers left open on the default find the replay."""
-    from bus.zenoh_config import (
-        DEFAULT_ENDPOINT,
-        build_config,
-        config_from_args,
-        default_router_missing,
-        describe_endpoints,
-        open_router,
-        open_session,
-    )
-
-    if default_router_missing(args):
-        print(f"lunarsim replay: no router at {DEFAULT_ENDPOINT}; serving as the router there", file=sys.stderr,
-              flush=True)
-        return open_router(build_config("router", listen=[DEFAULT_ENDPOINT]), [DEFAULT_ENDPOINT])
-    return open_session(config_from_args(args), describe_endpoints(args), args.router_timeout,
-                        who="lunarsim replay")
-
-
-def _play(args: argparse.Namespace, recording: Recording, world: str, make_player) -> int:
+def _play(spec: ReplaySpec, recording: Recording, world: str, open_zenoh: Callable[[], zenoh.Session],
+          make_player) -> int:
     """Open Zenoh, play on a worker thread, and keep the main thread for signals and the progress bar."""
     from bus.bus import Bus
     from schemas.keyspace import Keyspace
     from sessions.replay import ReplayToken
 
     keys = Keyspace(world)
-    session = _open(args)
+    session = open_zenoh()
     with Bus(session, lossless=True) as bus:
         own = OwnCommands(keys.ground_command)
         player = make_player(own.wrap(bus.put))
@@ -135,10 +98,10 @@ def _play(args: argparse.Namespace, recording: Recording, world: str, make_playe
         token = ReplayToken(session.liveliness().declare_token, keys)
         token.show(player.paused)
         print(f"replaying {recording.path} ({player.duration_s:.1f} s, world {recording.world} -> {world}) "
-              f"at rate {args.rate:g}" + (" - paused" if args.start_paused else ""), flush=True)
+              f"at rate {spec.rate:g}" + (" - paused" if spec.start_paused else ""), flush=True)
         started = time.monotonic()
         try:
-            interrupted = _run_with_controls(player, args.quiet, token)
+            interrupted = _run_with_controls(player, spec.quiet, token)
         finally:
             commands.undeclare()
             token.close()

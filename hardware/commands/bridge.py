@@ -9,14 +9,10 @@ for the reference serial driver, or ``package.module:Class?key=value``.
 from __future__ import annotations
 
 import argparse
-import logging
 import sys
-import threading
 
 from bus import process
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
-
-log = logging.getLogger("lunarsim.bridge")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -29,9 +25,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_zenoh_arguments(parser, agent=True)
 
 
-def run_from_args(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     from hardware.driver import DriverError
     from hardware.drivers import UnknownDriver, load_driver
+    from hardware.runtime import serve
     from schemas.keyspace import Keyspace
 
     if args.id < 1:
@@ -56,48 +53,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     return 0
 
 
-def serve(driver, keys, rover_id: int, own_clock: bool, session) -> None:
-    from bus.bus import Bus
-    from hardware.bridge import Bridge
-    from hardware.clock import MissionClock
-
-    bridge = Bridge(driver, keys, rover_id, MissionClock(own_clock))
-    with Bus(session) as bus, process.stop_on_signals() as stop:
-        log.info("bridge for rover %d connected (driver %s)", rover_id, type(driver).__name__)
-        run(bridge, bus, stop)
-
-
-def run(bridge, bus, stop: threading.Event) -> None:
-    """Subscribe to the agent's keys (and the world clock), then alternate between the inbox and the driver."""
-    from schemas import codec
-    from schemas import messages as m
-
-    prefix = bridge.key("")
-    for topic in bridge.input_topics:
-        bus.subscribe(bridge.key(topic))
-    if not bridge.clock.own:
-        bus.subscribe(bridge.keys.clock)
-    bus.watch_liveliness(bridge.keys.alive_rover(bridge.id))
-    while not stop.is_set():
-        item = bus.receive(timeout=min(0.05, bridge.seconds_to_next()))
-        out = []
-        if item is not None and item.alive is not None:
-            bridge.agent_alive(item.alive)
-        elif item is not None and item.key == bridge.keys.clock:
-            try:
-                bridge.clock.on_clock(codec.decode(m.Clock, item.payload))
-            except codec.DecodeError as exc:
-                log.warning("rejected clock sample: %s", exc)
-        elif item is not None:
-            out = bridge.handle(item.key[len(prefix):], item.payload)
-        for key, message in out + bridge.poll():
-            bus.publish(key, message)
-
-
 def main() -> None:
     """``lunarsim-bridge``: the flight computer's entry (the wheel there has no ``lunarsim`` command)."""
-    process.main_for("bridge", "hardware.bridge_app")
+    process.main_for("bridge", "hardware.commands.bridge")
 
-
-if __name__ == "__main__":
-    main()

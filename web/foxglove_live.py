@@ -1,54 +1,58 @@
-"""``lunarsim view``: a live world (or a replay) in the browser; ``--foxglove``: served to the Foxglove app.
-
-Plain ``lunarsim view`` serves the web digital twin (``web``) at http://127.0.0.1:8080/: 3D view,
-statistics, ground commands and the scenario editor. With ``--foxglove`` it serves Foxglove instead:
-
-Subscribes to the world state, the rover photos and the lander's map of ``--world`` and serves the same channels as
-``lunarsim export-foxglove`` (``/scene``, ``/tf``, ``/rover_<id>/photo``, ``/map``), so a live run and a recording
-look alike. Open the Foxglove app, "Open connection", ``ws://localhost:8765``, and add a 3D panel.
-The static scene (terrain, obstacles, lander, goals) is drawn from ``--scenario`` and sent again to
-each client that subscribes, since a WebSocket server keeps no history for late joiners.
+"""A live world served to the Foxglove app (``lunarsim view --foxglove``): the world state, the rover photos and the
+lander's map of one world as the same channels ``lunarsim export-foxglove`` writes, so a live run and a recording
+look alike. The static scene is sent again to each client that subscribes, since a WebSocket server keeps no
+history for late joiners.
 """
 
 from __future__ import annotations
 
-import argparse
 import queue
 import threading
 import time
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from bus import process
-from bus.zenoh_config import add_zenoh_arguments
 
 if TYPE_CHECKING:
     import foxglove
+    import zenoh
 
+    from schemas.keyspace import Keyspace
     from schemas.scenario import Scenario
     from sessions.format import Sample
 
-ROUTER_TIMEOUT_HELP = ("exit (code 3) if no router has been reachable S seconds after starting (default: wait for "
-                       "one, however long, serving the page meanwhile; a router lost later is waited for again)")
 QUEUE_SAMPLES = 256
 """Samples waiting to be converted; a viewer that falls behind drops the oldest, live is what matters."""
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--foxglove", action="store_true",
-                        help="serve the Foxglove WebSocket protocol instead of the web page")
-    parser.add_argument("--scenario", type=Path, metavar="FILE", help="the scenario the world runs: terrain, "
-                        "obstacles, lander and goals (needed with --foxglove; the web page also shows what it "
-                        "launches)")
-    parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
-    parser.add_argument("--port", type=int, help="port (default 8080 for the web page, 8765 for --foxglove)")
-    parser.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; "
-                        "0.0.0.0 for other machines: the web page then asks for a token)")
-    parser.add_argument("--no-trails", action="store_true", help="do not draw the rovers' recent paths")
-    add_zenoh_arguments(parser, agent=True, timeout_help=ROUTER_TIMEOUT_HELP)
-    from web.view import add_web_arguments
+def serve_foxglove(scenario: Scenario, keys: Keyspace, host: str, port: int, trail_points: int,
+                   conf: zenoh.Config, endpoints: str, router_timeout: float | None) -> int:
+    """Serve on ``host:port`` until SIGINT or SIGTERM, following the world through a router as it comes and goes."""
+    from bus.bus import zenoh_callback
+    from schemas.keyspace import MAP, PHOTO
+    from web.link import RouterLink
+    from web.live import Source
 
-    add_web_arguments(parser)
+    live = LiveScene(scenario, trail_points=trail_points)
+    link = RouterLink(conf, Source(endpoints, connected=False), router_timeout)
+    feed = Feed()
+    try:
+        server = live.serve(host, port)
+    except Exception as exc:  # the SDK raises its own error types for a port in use or a bad address
+        raise process.UsageError(f"cannot serve on {host}:{port}: {exc}") from None
+    print(f"serving world {keys.world!r} to Foxglove at ws://{host}:{server.port} (Ctrl-C stops)", flush=True)
+    with process.stop_on_signals() as stop:
+        link.when_failed(stop.set)
+        link.start(lambda session: [session.declare_subscriber(key, zenoh_callback(feed))
+                                    for key in (keys.state, keys.rovers(PHOTO), keys.lander(MAP))])
+        try:
+            _pump(live, feed, stop)
+        finally:
+            link.close()
+            server.stop()
+            live.close()
+    link.raise_failure()
+    return 0
 
 
 class LiveScene:
@@ -166,52 +170,6 @@ class Feed:
                     self.dropped += 1
                 except queue.Empty:
                     pass
-
-
-def run_from_args(args: argparse.Namespace) -> int:
-    from bus.bus import zenoh_callback
-    from bus.zenoh_config import config_from_args, describe_endpoints
-    from schemas.keyspace import MAP, PHOTO, Keyspace, check_world_name
-    from schemas.scenario import load_scenario
-    from web.link import RouterLink
-    from web.live import Source
-
-    try:
-        check_world_name(args.world)
-    except ValueError as exc:
-        raise process.UsageError(str(exc)) from None
-    if args.port is None:
-        args.port = 8765 if args.foxglove else 8080
-    if not 0 < args.port < 65536:
-        raise process.UsageError(f"--port must be between 1 and 65535, got {args.port}")
-    if not args.foxglove:
-        from web.view import run_web
-
-        return run_web(args)
-    if args.scenario is None:
-        raise process.UsageError("--foxglove needs --scenario FILE (the terrain, obstacles, lander and goals)")
-    scenario = load_scenario(args.scenario)
-    keys = Keyspace(args.world)
-    live = LiveScene(scenario, trail_points=0 if args.no_trails else 300)
-    link = RouterLink(config_from_args(args), Source(describe_endpoints(args), connected=False), args.router_timeout)
-    feed = Feed()
-    try:
-        server = live.serve(args.host, args.port)
-    except Exception as exc:  # the SDK raises its own error types for a port in use or a bad address
-        raise process.UsageError(f"cannot serve on {args.host}:{args.port}: {exc}") from None
-    print(f"serving world {args.world!r} to Foxglove at ws://{args.host}:{server.port} (Ctrl-C stops)", flush=True)
-    with process.stop_on_signals() as stop:
-        link.when_failed(stop.set)
-        link.start(lambda session: [session.declare_subscriber(key, zenoh_callback(feed))
-                                    for key in (keys.state, keys.rovers(PHOTO), keys.lander(MAP))])
-        try:
-            _pump(live, feed, stop)
-        finally:
-            link.close()
-            server.stop()
-            live.close()
-    link.raise_failure()
-    return 0
 
 
 def _pump(live: LiveScene, feed: Feed, stop: threading.Event) -> None:

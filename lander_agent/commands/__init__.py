@@ -1,0 +1,1 @@
+"""The lander agent's command, ``lunarsim lander`` (``python -m lander_agent``)."""

@@ -1,0 +1,2 @@
+"""The rover agent's command, ``lunarsim rover`` (``python -m rover_agent``, ``lunarsim-rover`` on a flight
+computer)."""

@@ -1,0 +1,1 @@
+"""The recording commands: ``lunarsim record``, ``replay``, ``recover``, ``report`` and ``export-foxglove``."""

@@ -1,0 +1,1 @@
+"""The world service's command, ``lunarsim world`` (``python -m world_service``)."""
