@@ -6,7 +6,9 @@ its Zenoh loop is ``lander_agent.runtime``, the in-process harness drives it wit
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from bus.rejections import Rejections
 from lander_agent.archive import PhotoArchive
@@ -29,6 +31,9 @@ MAP_SAVE_PERIOD_S = 30.0
 
 
 class Lander:
+    """The lander's pure core: ``handle(key, payload)`` looks the key up in ``handlers`` and returns what to publish;
+    it opens no session and reads no clock but the world's."""
+
     def __init__(self, plan: MissionPlan, keys: ks.Keyspace, archive: PhotoArchive | None = None,
                  map_folder: Path | None = None, memory: LanderMemory | None = None) -> None:
         self.plan = plan
@@ -46,6 +51,11 @@ class Lander:
         self.run: str | None = None  # the world's run, once heard
         self.map_lost = False  # joined this run under way without a saved state: the map began again
         self.reports_heard: set[tuple[int, int, str]] = set()  # (rover, goal, outcome), for the log
+        self.handlers: dict[str, tuple[type[m.Message], Callable[[Any], list[Out]]]] = {
+            keys.clock: (m.Clock, self.on_clock), keys.lander(ks.COMM_IN): (m.InboundComm, self.on_comm_in),
+            keys.lander(ks.COMM_PARTNERS): (m.CommPartners, self.on_comm_partners),
+            keys.ground_command: (m.GroundCommand, self.on_ground_command)}
+        """The keys the lander follows, each with its message and its handler: the loop subscribes to these."""
 
     def _transmit(self, targets: list[int], message: m.Message, channel: str) -> Out:
         out = m.OutboundComm(targets=targets, payload=codec.encode(message), channel=channel)
@@ -145,17 +155,17 @@ class Lander:
         return self.keys.ground_command_result, m.CommandResult(request_id=command.request_id, accepted=accepted,
                                                                 detail=detail)
 
+    def on_comm_partners(self, msg: m.CommPartners) -> list[Out]:
+        self.partners = msg.ids
+        return []
+
     def handle(self, key: str, payload: bytes) -> list[Out]:
-        try:
-            if key == self.keys.ground_command:
-                return self.on_ground_command(codec.decode(m.GroundCommand, payload))
-            if key == self.keys.clock:
-                return self.on_clock(codec.decode(m.Clock, payload))
-            if key == self.keys.lander(ks.COMM_IN):
-                return self.on_comm_in(codec.decode(m.InboundComm, payload))
-            if key == self.keys.lander(ks.COMM_PARTNERS):
-                self.partners = codec.decode(m.CommPartners, payload).ids
+        entry = self.handlers.get(key)
+        if entry is None:
             return []
+        model, handler = entry
+        try:
+            return handler(codec.decode(model, payload))
         except (codec.DecodeError, ValueError) as exc:  # ValueError: a valid sample no plan can follow
             self.rejected.count(key.rsplit("/", 1)[-1], exc, key)
             return []

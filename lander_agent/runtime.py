@@ -9,14 +9,13 @@ from bus.bus import Bus
 from bus.process import freeze_start_up_heap
 from bus.world_watch import ClockWatch
 from lander_agent.lander import Lander
-from schemas import keyspace as ks
 
 log = logging.getLogger("lunarsim.lander")
 
 
 def run(lander: Lander, bus: Bus, stop: threading.Event) -> None:
     keys = lander.keys
-    for key in (keys.clock, keys.lander(ks.COMM_IN), keys.lander(ks.COMM_PARTNERS), keys.ground_command):
+    for key in lander.handlers:
         bus.subscribe(key)
     bus.declare_token(keys.alive_lander)
     watch = ClockWatch("lander", keys.clock)

@@ -72,6 +72,16 @@ the world service has its place here, and its loop sees a world only through ``s
 COMMANDS = "commands"
 """Each package's commands (``<package>/commands/<command>.py``) stand above all its other members: they may import
 any of them, and inside the package only its ``__main__`` imports them."""
+ZENOH_IO: dict[str, set[str]] = {
+    "world_service": {"world_service.service"},
+    "rover_agent": {"rover_agent.runtime", "rover_agent.identity"},
+    "lander_agent": {"lander_agent.runtime"},
+    "hardware": {"hardware.runtime"},
+}
+"""Each process's modules that speak Zenoh: its loop (and the rover's id asked of the world). Everything else in the
+process, its pure core first, and the in-process harness that drives those cores, imports no ``zenoh``."""
+PURE = ("schemas", "shared", "world_service", "rover_agent", "lander_agent", "hardware", "harness")
+"""Packages whose modules are pure apart from ``ZENOH_IO``, their commands and ``__main__``."""
 LAYERED = ("rover_agent", "world_service")
 """Packages whose every subpackage is a unit of ``UNITS``."""
 EVERY_MEMBER = ("world_service",)
@@ -113,6 +123,26 @@ def _imports(name: str, path: Path) -> set[str]:
 
 
 GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
+
+
+def _imports_zenoh(path: Path) -> bool:
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import) and any(alias.name.split(".")[0] == "zenoh" for alias in node.names):
+            return True
+        if isinstance(node, ast.ImportFrom) and not node.level and (node.module or "").split(".")[0] == "zenoh":
+            return True
+    return False
+
+
+def _reach(name: str) -> set[str]:
+    """Every LunarSim module ``name`` imports, directly or through others."""
+    seen: set[str] = set()
+    todo = [name]
+    while todo:
+        for target in GRAPH[todo.pop()] - seen:
+            seen.add(target)
+            todo.append(target)
+    return seen
 
 
 def _unit(name: str) -> str | None:
@@ -208,3 +238,27 @@ def test_only_a_packages_main_imports_its_commands():
                    if _command(target) and target.split(".")[0] == name.split(".")[0] and not _command(name)
                    and name.split(".")[1:] != ["__main__"])
     assert not wrong, "\n".join(wrong)
+
+
+@pytest.mark.parametrize("package", PURE)
+def test_pure_modules_import_no_zenoh(package):
+    """A core is tested without a router, and the harness runs the processes' cores in one process: neither may
+    reach a Zenoh loop, however deep the import."""
+    speaks = {name for name, path in MODULES.items() if _imports_zenoh(path)}
+    io = set().union(*ZENOH_IO.values())
+    pure = [name for name in MODULES if name.split(".")[0] == package and name not in io and not _command(name)
+            and name.split(".")[-1] != "__main__"]
+    wrong = sorted(f"{name} reaches {sorted((_reach(name) | {name}) & speaks)}" for name in pure
+                   if (_reach(name) | {name}) & speaks)
+    assert not wrong, "\n".join(wrong)
+
+
+def test_each_process_speaks_zenoh_only_in_its_loop():
+    """The list of Zenoh modules is the code's: one no longer speaking Zenoh leaves it."""
+    for modules in ZENOH_IO.values():
+        assert all(_imports_zenoh(MODULES[name]) or GRAPH[name] & {"bus.bus", "bus.zenoh_config"} for name in modules)
+
+
+def test_the_harness_drives_the_lander_core_not_its_loop():
+    harness = set().union(*(_reach(name) for name in MODULES if name.split(".")[0] == "harness"))
+    assert "lander_agent.lander" in harness and not harness & set().union(*ZENOH_IO.values())
