@@ -6,6 +6,7 @@ flight wheel carries is ``tests/test_flight.py``'s)."""
 from __future__ import annotations
 
 import ast
+import importlib
 from pathlib import Path
 
 import pytest
@@ -82,6 +83,8 @@ ZENOH_IO: dict[str, set[str]] = {
 process, its pure core first, and the in-process harness that drives those cores, imports no ``zenoh``."""
 PURE = ("schemas", "shared", "world_service", "rover_agent", "lander_agent", "hardware", "harness")
 """Packages whose modules are pure apart from ``ZENOH_IO``, their commands and ``__main__``."""
+FACADES = ("rover_agent", "hardware", "harness", "rover_env")
+"""Packages whose ``__init__`` declares their public surface (``__all__``): what users import by the package's name."""
 LAYERED = ("rover_agent", "world_service")
 """Packages whose every subpackage is a unit of ``UNITS``."""
 EVERY_MEMBER = ("world_service",)
@@ -105,7 +108,8 @@ MODULES = _modules()
 
 
 def _imports(name: str, path: Path) -> set[str]:
-    """The LunarSim modules ``name`` imports, at any depth of the file, resolved to module names."""
+    """The LunarSim modules ``name`` imports, at any depth of the file, resolved to module names: ``from p import m``
+    is module ``p.m``, ``from p import Name`` is ``p`` itself (its ``__init__``, a facade)."""
     tree = ast.parse(path.read_text(), str(path))
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     targets: set[str] = set()
@@ -117,8 +121,10 @@ def _imports(name: str, path: Path) -> set[str]:
             if node.level:
                 base = ".".join(package.split(".")[: len(package.split(".")) - node.level + 1] + ([base] if base
                                                                                                     else []))
-            targets.add(base)
-            targets.update(f"{base}.{alias.name}" for alias in node.names)
+            modules = {f"{base}.{alias.name}" for alias in node.names} & MODULES.keys()
+            targets.update(modules)
+            if len(modules) < len(node.names):  # a name the package defines: its __init__ (a facade)
+                targets.add(base)
     return {t for t in targets if t in MODULES and t != name}
 
 
@@ -262,3 +268,10 @@ def test_each_process_speaks_zenoh_only_in_its_loop():
 def test_the_harness_drives_the_lander_core_not_its_loop():
     harness = set().union(*(_reach(name) for name in MODULES if name.split(".")[0] == "harness"))
     assert "lander_agent.lander" in harness and not harness & set().union(*ZENOH_IO.values())
+
+
+@pytest.mark.parametrize("package", FACADES)
+def test_a_facade_gives_every_name_it_declares(package):
+    module = importlib.import_module(package)
+    assert module.__all__ and [name for name in module.__all__ if not hasattr(module, name)] == []
+
