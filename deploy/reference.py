@@ -1,9 +1,10 @@
 """The documentation's generated pages, so they cannot drift from what they describe: the home page from the
 README, and references from the code: every key and the message it carries (``schemas``), every scenario field
-with its default and bounds (the pydantic models, also as a JSON Schema for editors), and every command's help
-(the argparse parsers). ``tests/test_docs.py`` fails when the checked-in pages differ from what this writes.
+with its default and bounds (the pydantic models, also as a JSON Schema for editors), every command's help (the
+argparse parsers), and the packages' diagram from their imports. ``tests/test_docs.py`` fails when the checked-in
+pages differ from what this writes.
 
-    python -m deploy.reference docs      # after changing a message, a scenario field or a flag
+    python -m deploy.reference docs      # after changing a message, a scenario field, a flag or an import
 """
 
 from __future__ import annotations
@@ -27,7 +28,25 @@ def pages(docs: Path) -> dict[str, str]:
     """File name (under the ``docs`` folder, beside the README) -> content."""
     return {"index.md": index_page(docs.parent / "README.md"), "reference/keyspace.md": keyspace_page(),
             "reference/scenario.md": scenario_page(), "reference/cli.md": cli_page(), "reference/ros2.md": ros2_page(),
-            "scenario.schema.json": scenario_schema()}
+            "scenario.schema.json": scenario_schema(),
+            ARCHITECTURE: architecture_page(docs / ARCHITECTURE, docs.parent)}
+
+
+ARCHITECTURE = "concepts/architecture.md"
+GENERATED = ("<!-- generated: python -m deploy.reference docs -->", "<!-- end generated -->")
+"""The part of a written page this module draws, between these two lines; the rest is prose kept in the page."""
+
+
+def architecture_page(page: Path, repo: Path) -> str:
+    """The page as written, its diagram and table of the packages drawn again from the imports in the source."""
+    from deploy import package_graph as g
+
+    text = page.read_text()
+    head, rest = text.split(GENERATED[0] + "\n", 1)
+    tail = rest.split(GENERATED[1], 1)[1]
+    graph = g.package_imports(repo)
+    drawn = ["```text", g.diagram(graph), "```", "", *g.table(graph)]
+    return "\n".join([head + GENERATED[0], *drawn, GENERATED[1]]) + tail
 
 
 def ros2_page() -> str:

@@ -275,3 +275,11 @@ def test_a_facade_gives_every_name_it_declares(package):
     module = importlib.import_module(package)
     assert module.__all__ and [name for name in module.__all__ if not hasattr(module, name)] == []
 
+
+def test_the_architecture_diagram_reads_the_imports_this_test_checks():
+    """docs/concepts/architecture.md draws the packages from ``deploy.package_graph``: it sees what this test sees."""
+    from deploy.package_graph import package_imports
+
+    ours = {package: {target.split(".")[0] for name, targets in GRAPH.items() if name.split(".")[0] == package
+                      for target in targets} - {package} for package in MAY_IMPORT}
+    assert package_imports(REPO) == ours
