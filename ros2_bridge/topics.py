@@ -45,11 +45,11 @@ SCAN = Topic(f"{ROVER}/scan", "sensor_msgs/msg/LaserScan", "out", "rover/<id>/pe
 IMU = Topic(f"{ROVER}/imu", "sensor_msgs/msg/Imu", "out", "rover/<id>/gyroscope", "rover_<id>/base_link",
             "orientation from the pitch (nose up is negative about y); roll and yaw unmeasured (variance pi^2); "
             "angular velocity and acceleration not measured (covariance[0] = -1, REP 145)")
-ODOM = Topic(f"{ROVER}/odom", "nav_msgs/msg/Odometry", "out",
-             "rover/<id>/calibration, move_action, rotate_action, navigation_status, cancel_result",
+ODOM = Topic(f"{ROVER}/odom", "nav_msgs/msg/Odometry", "out", "rover/<id>/pose_estimate",
              "rover_<id>/odom -> rover_<id>/base_link",
-             "dead reckoning from the rover's own actions and the world's answers, as a wheel odometer gives it; "
-             "no covariance or velocity (covariance[0] = -1)")
+             "the rover's own pose estimate (its agent's localisation, or for a --drive rover the same filter kept "
+             "by the bridge from its actions) with its covariance; height, roll and pitch unobserved (variance "
+             "1e6); no velocity (twist covariance[0] = -1). Never ground truth")
 BATTERY = Topic(f"{ROVER}/battery", "sensor_msgs/msg/BatteryState", "out", "rover/<id>/battery",
                 "rover_<id>/base_link", "percentage and charging state; volts, amperes and Ah are NaN (not modelled); "
                 "only in scenarios with a sun")
@@ -94,8 +94,6 @@ NOT_BRIDGED: tuple[tuple[str, str], ...] = (
     ("rover/<id>/temperature, sun", "no standard type for a survival temperature or a sun sensor's lit flag"),
     ("world/state, world/stats (without --truth)",
      "ground truth and the mission statistics: no real rover knows them (report 9.1)"),
-    ("the agent's corrected pose estimate", "the rover agent keeps it to itself; odom is the dead reckoning of what "
-     "the rover did"),
     ("rover/<id>/ack, the lockstep", "an outside node does not acknowledge ticks; a ROS-driven rover runs in real "
      "time"),
 )

@@ -23,7 +23,7 @@ MAY_IMPORT: dict[str, set[str]] = {
     "sessions": {"schemas", "bus", "world_service", "lander_agent"},
     "hardware": {"schemas", "bus"},
     "web": {"schemas", "bus", "sessions", "world_service", "lander_agent"},
-    "ros2_bridge": {"schemas", "bus", "sessions", "world_service", "lander_agent"},
+    "ros2_bridge": {"schemas", "bus", "sessions", "world_service", "rover_agent", "lander_agent"},
     "deploy": {"schemas", "bus", "world_service", "rover_agent", "lander_agent", "scenarios", "harness", "rover_env",
                "sessions", "hardware", "web", "ros2_bridge"},
 }

@@ -6,8 +6,9 @@ publishes, subscribes to, holds liveliness tokens on, watches tokens on, answers
 taken from what the programs do:
 
 - a rover agent publishes only its own inputs to the world (``World.INPUT_TOPICS``: actions, radio output,
-  status) and its lockstep ``ack``, and subscribes only to its own sensors and radio input (the agent's
-  ``SUBSCRIBED_TOPICS``) and the clock; it holds ``alive/rover/<id>`` and may ask the world for a free id;
+  status), its lockstep ``ack`` and its ``pose_estimate`` (which the ground may read, the world not), and
+  subscribes only to its own sensors and radio input (the agent's ``SUBSCRIBED_TOPICS``) and the clock; it holds
+  ``alive/rover/<id>`` and may ask the world for a free id;
 - the world publishes the sensors of the simulated rovers (every rover's ``SUBSCRIBED_TOPICS``, the lander's
   radio input), the clock, ``world/state`` and ``world/stats``;
 - a real rover's bridge (``hardware.bridge``) takes the world's place for that rover only: it alone
@@ -136,7 +137,8 @@ def lander_role(keys: ks.Keyspace) -> Role:
 
 def ground_role(keys: ks.Keyspace) -> Role:
     return Role(GROUND, publishes=(keys.ground_command,),
-                subscribes=(keys.ground_command_result, keys.lander(ks.STATUS)), watches=(keys.alive_replays,))
+                subscribes=(keys.ground_command_result, keys.lander(ks.STATUS), keys.rovers(ks.POSE_ESTIMATE)),
+                watches=(keys.alive_replays,))
 
 
 def recorder_role(keys: ks.Keyspace) -> Role:
@@ -146,7 +148,7 @@ def recorder_role(keys: ks.Keyspace) -> Role:
 def rover_agent_role(keys: ks.Keyspace, rover_id: int) -> Role:
     return Role(
         rover_role(rover_id),
-        publishes=tuple(keys.rover(rover_id, t) for t in _rover_inputs()),
+        publishes=tuple(keys.rover(rover_id, t) for t in (*_rover_inputs(), ks.POSE_ESTIMATE)),
         subscribes=(*(keys.rover(rover_id, t) for t in _rover_sensors()), keys.clock),
         tokens=(keys.alive_rover(rover_id),),
         queries=(keys.rover_ids,),
