@@ -9,7 +9,6 @@ odometry's twist, which no estimate gives.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -17,7 +16,7 @@ import numpy as np
 from ros2_bridge import frames as fr
 from schemas import messages as m
 from schemas.base import HIT_KINDS
-from schemas.params import PerceptionParams
+from sessions.rays import RayLayout
 
 Fields = dict[str, Any]
 NAN = float("nan")
@@ -37,36 +36,6 @@ LEVELS = {"running": 0, "completed": 0, "cancelled": 1, "collided": 2}
 """``DiagnosticStatus`` level (OK, WARN, ERROR) of a navigation outcome; a refused action is an ERROR."""
 STATUS_CHARGING, STATUS_DISCHARGING, STATUS_NOT_CHARGING = 1, 2, 3
 HEALTH_GOOD, HEALTH_DEAD = 1, 3
-
-
-@dataclass(frozen=True)
-class RayLayout:
-    """Where perception's rays point (``schemas.params.PerceptionParams``): a scan reports hits only, so the rays
-    with none are found from the layout."""
-
-    fov_deg: float = 210.0
-    rays: int = 50
-    radius_m: float = 10.0
-    period_s: float = 0.2
-
-    @classmethod
-    def of(cls, p: PerceptionParams) -> RayLayout:
-        return cls(p.field_of_view_degrees, p.perception_granularity, p.perception_radius, 1.0 / p.publish_frequency)
-
-    @property
-    def step_rad(self) -> float:
-        return math.radians(self.fov_deg) / (self.rays - 1)
-
-    def indices(self, angles_deg: list[float]) -> list[int]:
-        """The ``LaserScan`` index of each hit's ray; ValueError when no ray of this layout points there."""
-        place = (np.radians(-np.asarray(angles_deg, float)) + math.radians(self.fov_deg) / 2) / self.step_rad
-        index = np.rint(place)
-        off = (np.abs(place - index) > 0.25) | (index < 0) | (index >= self.rays)
-        if off.any():
-            angle = float(np.asarray(angles_deg)[off][0])
-            raise ValueError(f"a hit at {angle:g} deg is on no ray of a {self.fov_deg:g} deg, {self.rays}-ray "
-                             "scan (is the bridge's --params the world's?)")
-        return index.astype(int).tolist()
 
 
 def scan(msg: m.Perception, rover_id: int, layout: RayLayout) -> Fields:
