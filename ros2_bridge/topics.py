@@ -25,6 +25,9 @@ class Topic:
     note: str
     truth: bool = False
     """Ground truth: only with ``--truth``."""
+    latched: bool = False
+    """Transient local (keep last 1): a subscription that joins late, with that durability, gets the last sample
+    from the bridge's publication cache, as from an rmw_zenoh publisher of that QoS."""
 
     @property
     def per_rover(self) -> bool:
@@ -62,7 +65,8 @@ NAVIGATION = Topic(f"{ROVER}/navigation_status", "diagnostic_msgs/msg/Diagnostic
 MISSION_GOAL = Topic(f"{ROVER}/mission_goal", "geometry_msgs/msg/PointStamped", "out", "rover/<id>/mission_direction",
                      "rover_<id>/odom", "the goal the lander sends the rover to (over the radio: only while in reach)")
 MAP = Topic("/lander/map", "nav_msgs/msg/OccupancyGrid", "out", "lander/map", "map",
-            "the lander's traverse map: -1 unknown, 0 free (or a rover seen), 50 crater terrain, 100 obstacle")
+            "the lander's traverse map: -1 unknown, 0 free (or a rover seen), 50 crater terrain, 100 obstacle; "
+            "transient local, keep last 1 (a late transient-local subscription gets the last map)", latched=True)
 CLOCK = Topic("/clock", "rosgraph_msgs/msg/Clock", "out", "world/clock", "-",
               "simulated time, for nodes with use_sim_time (every stamp the bridge writes is simulated time)")
 TF = Topic("/tf", "tf2_msgs/msg/TFMessage", "out", "world/state", "map -> rover_<id>/base_link",

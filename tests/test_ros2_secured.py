@@ -68,6 +68,12 @@ def test_ros2_nodes_reach_their_domains_topics_and_graph_and_no_lunarsim_key():
         assert allowed(control, role, "put", "ingress", scan) and _reads(control, role, scan), role
         assert allowed(control, role, "liveliness_token", "ingress", f"@ros2_lv/{DOMAIN}/abc/0/0/NN/%/%/node")
         assert allowed(control, role, "declare_liveliness_subscriber", "ingress", f"@ros2_lv/{DOMAIN}/**")
+    cache = rmw.topic_key(DOMAIN, "/lander/map", "nav_msgs/msg/OccupancyGrid",
+                          ros_types.type_hash("nav_msgs/msg/OccupancyGrid")) + "/@adv/pub/abc/1/_/_"
+    assert allowed(control, "ros2", "declare_queryable", "ingress", cache)  # the map's cache, for late joiners
+    assert allowed(control, "ros2-nodes", "query", "ingress", cache)
+    assert allowed(control, "ros2-nodes", "reply", "egress", cache)
+    assert not allowed(control, "ros2-nodes", "query", "ingress", f"{KEYS.prefix}/@adv/x")
     other_domain = scan.replace(f"{DOMAIN}/", "8/", 1)
     assert not allowed(control, "ros2-nodes", "put", "ingress", other_domain)
     for key in (KEYS.ground_command, KEYS.rover(1, ks.MOVE_ACTION), KEYS.clock):

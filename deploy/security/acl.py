@@ -184,31 +184,35 @@ class Ros2Access:
     driven: tuple[int, ...] = ()
 
 
-def ros2_graph(domain: int) -> tuple[str, str]:
-    """The ROS 2 domain's data keys and its graph tokens (rmw_zenoh: ``<domain>/...``, ``@ros2_lv/<domain>/...``)."""
-    return f"{domain}/**", f"@ros2_lv/{domain}/**"
+def ros2_graph(domain: int) -> tuple[str, str, str]:
+    """The ROS 2 domain's data keys, its graph tokens (rmw_zenoh: ``<domain>/...``, ``@ros2_lv/<domain>/...``) and
+    the keys of its transient-local publishers' caches (``<topic key>/@adv/...``: a verbatim chunk, which ``**``
+    does not cross)."""
+    return f"{domain}/**", f"@ros2_lv/{domain}/**", f"{domain}/**/@adv/**"
 
 
 def ros2_bridge_role(keys: ks.Keyspace, access: Ros2Access) -> Role:
     from ros2_bridge.translator import ROVER_SOURCES
 
-    data, graph = ros2_graph(access.domain)
+    data, graph, cache = ros2_graph(access.domain)
     driven = sorted(set(access.driven))
     return Role(
         ROS2,
         publishes=(keys.ground_command, *(keys.rover(rid, t) for rid in driven
-                                          for t in (*_rover_inputs(), ks.POSE_ESTIMATE)), data),
+                                          for t in (*_rover_inputs(), ks.POSE_ESTIMATE)), data, cache),
         subscribes=(*(keys.rovers(t) for t in ROVER_SOURCES), keys.clock, keys.lander(ks.MAP),
                     *((keys.state,) if access.truth else ()), data),
-        tokens=(*(keys.alive_rover(rid) for rid in driven), graph),
+        tokens=(*(keys.alive_rover(rid) for rid in driven), graph, cache),
         watches=(keys.alive_rovers, graph),
+        serves=(cache,),
     )
 
 
 def ros2_nodes_role(access: Ros2Access) -> Role:
     """ROS 2 nodes on rmw_zenoh: their domain's topics and graph, and no LunarSim key."""
-    data, graph = ros2_graph(access.domain)
-    return Role(ROS2_NODES, publishes=(data,), subscribes=(data,), tokens=(graph,), watches=(graph,))
+    data, graph, cache = ros2_graph(access.domain)
+    return Role(ROS2_NODES, publishes=(data, cache), subscribes=(data, cache), tokens=(graph, cache),
+                watches=(graph, cache), serves=(cache,), queries=(cache,))
 
 
 def roles(keys: ks.Keyspace, rover_ids: Iterable[int], bridged: Iterable[int] = (),
