@@ -129,18 +129,18 @@ class Translator:
             return [(tp.SCAN.for_rover(rid), tp.SCAN.ros_type, mapping.scan(msg, rid, self.layout))]
         if isinstance(msg, m.Gyroscope):
             return [(tp.IMU.for_rover(rid), tp.IMU.ros_type, mapping.imu(msg, rid, self.pitch_std_deg))]
-        if isinstance(msg, m.EstimatedPose):
-            return [(tp.ODOM.for_rover(rid), tp.ODOM.ros_type, mapping.odometry(msg, rid))]
+        if isinstance(msg, m.EstimatedPose):  # a driven rover's is the bridge's own, made odom as it was published
+            return [] if side.estimate is not None else [self._odom(rid, msg)]
         if isinstance(msg, m.Battery):
             return [(tp.BATTERY.for_rover(rid), tp.BATTERY.ros_type, mapping.battery(msg, rid))]
         if isinstance(msg, m.Photo):
             return [(tp.PHOTO.for_rover(rid), tp.PHOTO.ros_type, mapping.photo(msg, rid))]
         if isinstance(msg, m.NavigationStatus):
-            self._estimate(rid, side, lambda e: e.status(msg))
+            odom = self._estimate(rid, side, lambda e: e.status(msg))
             self._rotation_due(rid, side, msg)
             if msg.outcome != "running":
                 self._heard(rid, side, msg.action_id)
-            return [(tp.NAVIGATION.for_rover(rid), tp.NAVIGATION.ros_type, mapping.navigation(msg, rid))]
+            return [*odom, (tp.NAVIGATION.for_rover(rid), tp.NAVIGATION.ros_type, mapping.navigation(msg, rid))]
         if isinstance(msg, m.ActionRejected):
             self._forget_rotation(side, msg.action_id)
             self._heard(rid, side, msg.action_id)
@@ -150,17 +150,23 @@ class Translator:
             return [(tp.MISSION_GOAL.for_rover(rid), tp.MISSION_GOAL.ros_type,
                      mapping.mission_goal(msg, rid, self.sim_time))]
         if isinstance(msg, m.Calibration):
-            self._estimate(rid, side, lambda e: e.calibration(msg, self.sim_time))
-        elif isinstance(msg, m.CancelResult):
-            self._estimate(rid, side, lambda e: e.cancel_result(msg, self.sim_time))
+            return self._estimate(rid, side, lambda e: e.calibration(msg, self.sim_time))
+        if isinstance(msg, m.CancelResult):
             self._forget_rotation(side, msg.action_id)
+            return self._estimate(rid, side, lambda e: e.cancel_result(msg, self.sim_time))
         return []
 
-    def _estimate(self, rid: int, side: RoverSide, update) -> None:
-        """A driven rover's estimate, updated; published on its ``pose_estimate`` key as its agent would (the
-        bridge's ``odom`` for it comes back from there, as every rover's does)."""
-        if side.estimate is not None and (estimate := update(side.estimate)) is not None:
-            self.requests.append((self.keys.rover(rid, ks.POSE_ESTIMATE), estimate))
+    def _estimate(self, rid: int, side: RoverSide, update) -> list[RosOut]:
+        """A driven rover's estimate, updated: published on its ``pose_estimate`` key as its agent would, and its
+        ``odom`` at once (the sample the key brings back is not made odom twice)."""
+        if side.estimate is None or (estimate := update(side.estimate)) is None:
+            return []
+        self.requests.append((self.keys.rover(rid, ks.POSE_ESTIMATE), estimate))
+        return [self._odom(rid, estimate)]
+
+    @staticmethod
+    def _odom(rid: int, estimate: m.EstimatedPose) -> RosOut:
+        return tp.ODOM.for_rover(rid), tp.ODOM.ros_type, mapping.odometry(estimate, rid)
 
     def _clock(self, payload: bytes) -> list[RosOut]:
         msg = codec.decode(m.Clock, payload)

