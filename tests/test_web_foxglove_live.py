@@ -47,6 +47,7 @@ class Client:
         self.ws = ws
         self.channels: dict[str, dict] = {}
         self.binary: list[bytes] = []
+        self.statuses: list[dict] = []
 
     async def pump(self, until, timeout: float = 10.0, meanwhile=None) -> None:
         """Read until ``until()`` holds, calling ``meanwhile()`` each time nothing came for a while."""
@@ -63,6 +64,8 @@ class Client:
                 data = json.loads(msg.data)
                 if data["op"] == "advertise":
                     self.channels.update({c["topic"]: c for c in data["channels"]})
+                elif data["op"] == "status":
+                    self.statuses.append(data)
             elif msg.type == aiohttp.WSMsgType.BINARY:
                 self.binary.append(msg.data)
 
@@ -155,12 +158,21 @@ def test_a_client_publishes_ground_commands_and_controls_playback_and_what_it_ma
         await client.ws.send_bytes(_playback(0, None, b"req-2"))
         await client.pump(lambda: len(client.of(PLAYBACK_STATE)) >= 2)
         seen["commands"] = live.take_commands()
+        target = seen["commands"][0].request_id
+        assert not live.handle(_sample(KEYS.ground_command_result, m.CommandResult(request_id="someone-else",
+                                                                                   accepted=True)))
+        assert live.handle(_sample(KEYS.ground_command_result, m.CommandResult(
+            request_id=target, accepted=False, detail="no goal there")))
+        await client.pump(lambda: any("set_target" in st["message"] for st in client.statuses))
+        seen["status"] = next(st for st in client.statuses if "set_target" in st["message"])
 
     live = _served(steps)
     commands = [(c.command, c.x, c.z, c.seconds) for c in seen["commands"]]
     assert commands == [("set_target", 30.0, 40.0, None), ("seek", None, None, 5.0), ("pause", None, None, None),
                         ("resume", None, None, None)]
     assert b"req-1" in seen["state"] and seen["state"][0] == 1  # paused
+    assert seen["status"]["message"] == "set_target refused by the lander: no goal there"
+    assert seen["status"]["level"] == 1  # a warning
     refused = live.ground.rejected.by_topic
     assert refused["/ground/command"] == 4 and refused["advertise"] == 1 and refused["client message"] == 1
 

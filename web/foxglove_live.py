@@ -7,7 +7,8 @@ ground's say from the Foxglove app.
   nothing was hit), ``/rover_<id>/imu`` (JSON: the gyroscope's pitch) and ``/rover_<id>/battery`` (JSON).
 - **Ground commands**: a client may publish JSON on ``/ground/command`` (ClientPublish), in the web page's words
   (``web.commands``): ``{"command": "set-target", "x": 30, "z": 40}``, ``stop``/``return`` with ``rover_id``,
-  ``pause``, ``resume``, ``step``. They go out once on ``ground/command``.
+  ``pause``, ``resume``, ``step``. They go out once on ``ground/command``; the lander's answer to one comes back
+  to the app as a status message.
 - **Playback**: Foxglove's play, pause and seek (PlaybackControl) become the ground's ``resume``, ``pause`` and
   ``seek`` (seconds of simulated time from the start), which a replay (and, but for seek, a live world) carries out.
 
@@ -20,6 +21,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import foxglove.messages as fm
@@ -32,6 +34,8 @@ from sessions.rays import RayLayout
 
 log = logging.getLogger("lunarsim.view")
 
+REMEMBERED_REQUESTS = 256
+"""Commands sent whose answer the view waits for: a lander that never answers cannot grow the table."""
 COMMAND_TOPIC = "/ground/command"
 """The one topic a Foxglove client may publish on."""
 MAX_CLIENT_MESSAGE_BYTES = 4096
@@ -76,6 +80,8 @@ class GroundInput:
     channels: dict[tuple[int, int], str] = field(default_factory=dict)
     """(client, client channel) -> topic, of the channels clients advertised."""
     outbox: list[m.GroundCommand] = field(default_factory=list)
+    sent: OrderedDict[str, str] = field(default_factory=OrderedDict)
+    """Request id -> command, of the mission commands sent, until the lander answers."""
 
     def advertised(self, client: int, channel: int, topic: str, encoding: str) -> None:
         if topic != COMMAND_TOPIC or encoding != "json":
@@ -103,7 +109,19 @@ class GroundInput:
             self.rejected.count(COMMAND_TOPIC, str(exc)[:160])
             return None
         self.outbox.append(command)
+        if command.command in m.MISSION_COMMANDS:
+            self.sent[command.request_id] = command.command
+            while len(self.sent) > REMEMBERED_REQUESTS:
+                self.sent.popitem(last=False)
         return command
+
+    def answer(self, result: m.CommandResult) -> str | None:
+        """The status line of the lander's answer to a command this view sent; None for anyone else's."""
+        name = self.sent.pop(result.request_id, None)
+        if name is None:
+            return None
+        return f"{name} {'accepted' if result.accepted else 'refused'} by the lander" + (
+            f": {result.detail}" if result.detail else "")
 
     def playback(self, play: bool, seek_ns: int | None, paused: bool) -> list[m.GroundCommand]:
         """Foxglove's play, pause and seek as the ground's commands: a seek first, then play or pause when it

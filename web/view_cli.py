@@ -100,7 +100,7 @@ class LiveScene:
     def handle(self, sample: Sample) -> bool:
         """Convert and log one sample at its simulated time; False if it is none the view serves (or malformed)."""
         from schemas.codec import DecodeError
-        from schemas.messages import Clock, LanderMap, Photo, WorldState
+        from schemas.messages import Clock, CommandResult, LanderMap, Photo, WorldState
         from sessions.format import decode
         from web.foxglove_live import sim_ns
 
@@ -117,6 +117,8 @@ class LiveScene:
         if self.static_wanted.is_set():
             self.static_wanted.clear()
             self.send_static(ns)
+        if isinstance(message, CommandResult):
+            return self._answered(message)
         if isinstance(message, Clock):
             self.now_ns = ns
             if self.server is not None:
@@ -142,6 +144,15 @@ class LiveScene:
             self.map.log(grid, log_time=ns)
             return True
         return self._sense(sample.key, message, ns)
+
+    def _answered(self, result) -> bool:
+        """The lander's answer to a command a client sent, as a status message in the app."""
+        from foxglove import StatusLevel
+
+        text = self.ground.answer(result)
+        if text is not None and self.server is not None:
+            self.server.publish_status(text, StatusLevel.Info if result.accepted else StatusLevel.Warning)
+        return text is not None
 
     def _sense(self, key: str, message: object, ns: int) -> bool:
         """A rover's scan, pitch or battery on its channel."""
@@ -300,8 +311,8 @@ def run_from_args(args: argparse.Namespace) -> int:
     print(f"serving world {args.world!r} to Foxglove at ws://{args.host}:{server.port} (Ctrl-C stops)", flush=True)
     with process.stop_on_signals() as stop:
         link.when_failed(stop.set)
-        served = (keys.state, keys.clock, keys.lander(MAP), *(keys.rovers(t) for t in (PHOTO, PERCEPTION, GYROSCOPE,
-                                                                                        BATTERY)))
+        senses = (keys.rovers(t) for t in (PHOTO, PERCEPTION, GYROSCOPE, BATTERY))
+        served = (keys.state, keys.clock, keys.lander(MAP), keys.ground_command_result, *senses)
         link.start(lambda session: [session.declare_subscriber(key, zenoh_callback(feed)) for key in served])
         try:
             _pump(live, feed, stop, lambda cmd: link.put(keys.ground_command, codec.encode(cmd)))
