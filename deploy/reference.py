@@ -76,7 +76,8 @@ def keyspace_page() -> str:
              "| key | payload | from | to |", "|---|---|---|---|"]
     # keys the two subscription lists do not tell: the world's service and twin subscribe to these
     elsewhere = {ks.STATUS: ("rover agent", "world, ground, recorder"), ks.ACK: ("rover agent", "world (lockstep)"),
-                 ks.TELEMETRY: ("hardware bridge", "world (twin mode)")}
+                 ks.TELEMETRY: ("hardware bridge", "world (twin mode)"),
+                 ks.POSE_ESTIMATE: ("rover agent", "ground, ROS 2 bridge, recorder")}
     for topic, model in m.TOPIC_MODELS.items():
         sender = "rover agent" if topic in World.INPUT_TOPICS else "world"
         receiver = ", ".join(who for who, yes in (("world", topic in World.INPUT_TOPICS),

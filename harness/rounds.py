@@ -124,8 +124,12 @@ class Rounds:
         for key, message in said:
             if self.drop is not None and self.drop(key, message):
                 continue
-            if key in self._world_inputs or key.startswith(self._rover_head):
+            if key in self._world_inputs or (key.startswith(self._rover_head) and self._for_world(key)):
                 self.tick.answer(key, codec.encode(message))
+
+    def _for_world(self, key: str) -> bool:
+        """A rover's sample the world subscribes to (its actions, radio, status, acks), not one for the ground."""
+        return key.rsplit("/", 1)[-1] in (*World.INPUT_TOPICS, ks.ACK)
 
     def _route(self, samples: list[Out], late: bool = False) -> Heard:
         """Hand samples the world published to the rovers (returned) and the lander (answered here)."""

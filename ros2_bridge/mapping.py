@@ -3,13 +3,12 @@
 Standard types only (``common_interfaces``, and ``rosgraph_msgs/Clock`` for simulated time), in the frames of
 ``ros2_bridge.frames``. What LunarSim does not know is marked as ROS says: an unmeasured battery value is NaN
 (``BatteryState``), an IMU field with no data has -1 as its covariance's first element (REP 145), and so has
-odometry's covariance, which dead reckoning does not estimate.
+odometry's twist, which no estimate gives.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -17,8 +16,7 @@ import numpy as np
 from ros2_bridge import frames as fr
 from schemas import messages as m
 from schemas.base import HIT_KINDS
-from schemas.params import PerceptionParams
-from shared.pose import Pose
+from sessions.rays import RayLayout
 
 Fields = dict[str, Any]
 NAN = float("nan")
@@ -26,6 +24,9 @@ UNKNOWN = [-1.0] + [0.0] * 8
 """A 3x3 covariance of a field with no data (REP 145)."""
 UNKNOWN_6 = [-1.0] + [0.0] * 35
 """A 6x6 covariance LunarSim does not estimate."""
+UNOBSERVED_VARIANCE = 1e6
+"""The variance of a pose coordinate a planar estimate does not observe (height, roll, pitch): a 1-sigma of a
+kilometre or a thousand radians, as planar odometry in ROS marks what it leaves out."""
 ANY_ANGLE_VARIANCE = math.pi ** 2
 """The variance of an angle the gyroscope does not measure (roll, yaw): a 1-sigma of half a turn, anything."""
 OCCUPANCY = {"unknown": -1, "free": 0, "rover": 0, "crater": 50, "obstacle": 100}
@@ -35,36 +36,6 @@ LEVELS = {"running": 0, "completed": 0, "cancelled": 1, "collided": 2}
 """``DiagnosticStatus`` level (OK, WARN, ERROR) of a navigation outcome; a refused action is an ERROR."""
 STATUS_CHARGING, STATUS_DISCHARGING, STATUS_NOT_CHARGING = 1, 2, 3
 HEALTH_GOOD, HEALTH_DEAD = 1, 3
-
-
-@dataclass(frozen=True)
-class RayLayout:
-    """Where perception's rays point (``schemas.params.PerceptionParams``): a scan reports hits only, so the rays
-    with none are found from the layout."""
-
-    fov_deg: float = 210.0
-    rays: int = 50
-    radius_m: float = 10.0
-    period_s: float = 0.2
-
-    @classmethod
-    def of(cls, p: PerceptionParams) -> RayLayout:
-        return cls(p.field_of_view_degrees, p.perception_granularity, p.perception_radius, 1.0 / p.publish_frequency)
-
-    @property
-    def step_rad(self) -> float:
-        return math.radians(self.fov_deg) / (self.rays - 1)
-
-    def indices(self, angles_deg: list[float]) -> list[int]:
-        """The ``LaserScan`` index of each hit's ray; ValueError when no ray of this layout points there."""
-        place = (np.radians(-np.asarray(angles_deg, float)) + math.radians(self.fov_deg) / 2) / self.step_rad
-        index = np.rint(place)
-        off = (np.abs(place - index) > 0.25) | (index < 0) | (index >= self.rays)
-        if off.any():
-            angle = float(np.asarray(angles_deg)[off][0])
-            raise ValueError(f"a hit at {angle:g} deg is on no ray of a {self.fov_deg:g} deg, {self.rays}-ray "
-                             "scan (is the bridge's --params the world's?)")
-        return index.astype(int).tolist()
 
 
 def scan(msg: m.Perception, rover_id: int, layout: RayLayout) -> Fields:
@@ -95,11 +66,25 @@ def _pose(x: float, z: float, heading_deg: float) -> Fields:
     return {"position": {"x": x, "y": z, "z": 0.0}, "orientation": fr.quaternion(yaw=fr.yaw_of_heading(heading_deg))}
 
 
-def odometry(pose: Pose, stamp: float, rover_id: int) -> Fields:
-    """Dead-reckoned odometry (``ros2_bridge.odometry``) in ``rover_<id>/odom``: no covariance, no velocity."""
-    return {"header": fr.header(stamp, fr.odom_frame(rover_id)), "child_frame_id": fr.base_link(rover_id),
-            "pose": {"pose": _pose(pose.x, pose.z, pose.heading), "covariance": UNKNOWN_6},
+def odometry(msg: m.EstimatedPose, rover_id: int) -> Fields:
+    """The rover's own estimate in ``rover_<id>/odom`` with its covariance (``pose_covariance``); no velocity."""
+    return {"header": fr.header(msg.stamp, fr.odom_frame(rover_id)), "child_frame_id": fr.base_link(rover_id),
+            "pose": {"pose": _pose(msg.x, msg.z, msg.heading_deg), "covariance": pose_covariance(msg)},
             "twist": {"covariance": UNKNOWN_6}}
+
+
+def pose_covariance(msg: m.EstimatedPose) -> list[float]:
+    """The 6x6 row-major covariance of ``PoseWithCovariance`` (x, y, z, roll, pitch, yaw): LunarSim's x and z are
+    ROS x and y, and yaw = 90 deg - heading turns the opposite way, so the heading's covariances with x and z change
+    sign and its variance stays. Height, roll and pitch are not estimated: ``UNOBSERVED_VARIANCE``."""
+    out = [0.0] * 36
+    planar = {(0, 0): msg.cov_xx, (0, 1): msg.cov_xz, (1, 1): msg.cov_zz, (0, 5): -msg.cov_xh,
+              (1, 5): -msg.cov_zh, (5, 5): msg.cov_hh}
+    for (i, j), value in planar.items():
+        out[i * 6 + j] = out[j * 6 + i] = value
+    for i in (2, 3, 4):
+        out[i * 6 + i] = UNOBSERVED_VARIANCE
+    return out
 
 
 def battery(msg: m.Battery, rover_id: int) -> Fields:

@@ -14,6 +14,7 @@ import time
 from dataclasses import dataclass
 
 import zenoh
+import zenoh.ext
 
 from bus.bus import Bus
 from ros2_bridge import rmw, ros_types
@@ -23,13 +24,18 @@ from ros2_bridge.translator import Translator
 log = logging.getLogger("lunarsim.ros2")
 NODE_NAME = "lunarsim_bridge"
 IDLE_WAIT_S = 0.1
+LATCHED_QOS = rmw.Qos(depth=1, transient_local=True)
+"""A latched topic's QoS (``Topic.latched``): reliable, transient local, keep last 1."""
+HEARTBEAT_S = 0.5
+"""How often, at most, a latched publication tells late subscribers it has a sample they may have missed (rmw_zenoh
+sets a sporadic heartbeat on reliable transient-local publishers, so subscribers recover from its cache)."""
 
 
 @dataclass
 class Publication:
     """One ROS publisher: its Zenoh publisher, the GID its samples carry and the next sequence number."""
 
-    publisher: zenoh.Publisher
+    publisher: zenoh.Publisher | zenoh.ext.AdvancedPublisher
     ros_type: str
     gid: bytes
     sequence: int = 1
@@ -52,18 +58,28 @@ class RosNode:
         self.subscribed: set[str] = set()
         self._next_entity = 1
 
-    def _token(self, kind: rmw.Kind, topic: str, ros_type: str) -> str:
-        token = self.node.endpoint_token(self._next_entity, kind, topic, ros_type, ros_types.type_hash(ros_type))
+    def _token(self, kind: rmw.Kind, topic: str, ros_type: str, qos: rmw.Qos = rmw.DEFAULT_QOS) -> str:
+        token = self.node.endpoint_token(self._next_entity, kind, topic, ros_type, ros_types.type_hash(ros_type),
+                                         qos)
         self._next_entity += 1
         self.tokens.append(self.session.liveliness().declare_token(token))
         return token
 
-    def advertise(self, topic: str, ros_type: str) -> None:
+    def advertise(self, topic: str, ros_type: str, latched: bool = False) -> None:
+        """A publisher of ``topic``; ``latched``: transient local, as rmw_zenoh makes one (an advanced publisher
+        with a one-sample cache that late subscribers query, found through its liveliness)."""
         if topic in self.publications:
             return
-        token = self._token("MP", topic, ros_type)
+        token = self._token("MP", topic, ros_type, LATCHED_QOS if latched else rmw.DEFAULT_QOS)
         key = rmw.topic_key(self.domain_id, topic, ros_type, ros_types.type_hash(ros_type))
-        publisher = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP)
+        drop = zenoh.CongestionControl.DROP
+        if latched:
+            publisher = zenoh.ext.declare_advanced_publisher(
+                self.session, key, congestion_control=drop, cache=zenoh.ext.CacheConfig(max_samples=1),
+                publisher_detection=True,
+                sample_miss_detection=zenoh.ext.MissDetectionConfig(sporadic_heartbeat=HEARTBEAT_S))
+        else:
+            publisher = self.session.declare_publisher(key, congestion_control=drop)
         self.publications[topic] = Publication(publisher, ros_type, rmw.gid(token))
 
     def announce_subscription(self, topic: str, ros_type: str) -> None:
@@ -119,7 +135,7 @@ class BridgeLoop:
                 if not topic.per_rover:
                     self.node.announce_subscription(topic.name, topic.ros_type)
             elif not topic.per_rover:
-                self.node.advertise(topic.name, topic.ros_type)
+                self.node.advertise(topic.name, topic.ros_type, topic.latched)
 
     def serve(self, rover_id: int) -> None:
         """Declare a rover's publishers and subscription tokens: ROS graph tools list them from now on."""

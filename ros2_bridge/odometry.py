@@ -1,28 +1,25 @@
-"""A rover's odometry from what the rover itself knows: where the lander set it down (its calibration), the moves
-and rotations it sent, and the world's answers to them (navigation status, where a cancelled move stopped).
+"""The pose estimate of a rover a ROS 2 node drives (``--drive``): with no LunarSim agent on board, the bridge holds
+the rover's place as its flight software (its liveliness token, its status) and keeps the estimate an agent would
+keep from the same actions, with the agent's own filter (``rover_agent.estimation.pose_filter``): where the lander
+set it down, each action's end as the world reports it, the covariance its navigation noise gives. It publishes it
+on ``rover/<id>/pose_estimate`` as an agent does, so ``odom`` is made from that key for every rover alike.
 
-It is the dead reckoning a wheel odometer gives, with the rule the agent's own dead reckoning applies: a completed
-move ends on its goal facing along it, a rotation adds its angle, a move that ended early ends where its
-CancelResult says; while an action runs, the status's remaining metres or degrees place the rover along it. It is
-not ground truth, and not the agent's corrected estimate (which the agent does not publish).
-
-The lander re-sends the calibration every second; like the agent, the odometry takes the first one, and only
-before it has seen the rover act: a bridge that joins a rover already under way cannot know where it is, and counts
-from where it joined (the origin, facing +z) instead of jumping back to where the rover was set down.
+It has no landmarks to correct itself with (a ROS node that localises publishes its own estimate), and takes the
+lander's calibration only before the rover has acted: joined while the rover is under way, it counts from where it
+joined (the origin, facing +z) rather than jump back to where the rover was set down.
 """
 
 from __future__ import annotations
 
-import math
 from collections import OrderedDict
 from dataclasses import dataclass
 
+from rover_agent.estimation.pose_filter import Localisation, NoiseModel
 from schemas import messages as m
-from schemas.frames import bearing_deg, to_world
 from shared.pose import Pose
 
 REMEMBERED_ACTIONS = 16
-"""Actions sent and not yet answered that the odometry keeps: an agent has one running and perhaps one re-sent."""
+"""Actions sent and not yet answered that the estimate keeps: one running and perhaps one re-sent."""
 
 
 @dataclass(frozen=True)
@@ -33,64 +30,61 @@ class _Sent:
     degrees: float = 0.0
 
 
-class Odometry:
-    """Dead reckoning of one rover. ``stamp`` is the simulated time of the last change."""
+class DrivenEstimate:
+    """One driven rover's estimate; each method returns the ``EstimatedPose`` to publish, or None (no news)."""
 
-    def __init__(self) -> None:
-        self.pose = Pose(0.0, 0.0, 0.0)
+    def __init__(self, noise: NoiseModel) -> None:
+        self.localisation = Localisation(Pose(0.0, 0.0, 0.0), noise)
         self.calibrated = False
         self.acted = False
-        self.stamp = 0.0
         self._sent: OrderedDict[int, _Sent] = OrderedDict()
         self._running: tuple[int, _Sent, Pose] | None = None
 
-    def calibration(self, msg: m.Calibration) -> bool:
-        """Place the rover where the lander set it down; False when that is no news (see the module's docstring)."""
+    def calibration(self, msg: m.Calibration, now: float) -> m.EstimatedPose | None:
         if self.calibrated or self.acted:
-            return False
-        self.pose = Pose(msg.x, msg.z, msg.heading_deg % 360.0)
+            return None
+        self.localisation = Localisation(Pose(msg.x, msg.z, msg.heading_deg % 360.0), self.localisation.noise)
         self.calibrated = True
-        return True
+        return self._report(now)
 
-    def sent_move(self, msg: m.MoveAction) -> None:
-        self._remember(msg.action_id, _Sent("move", msg.x, msg.z))
-
-    def sent_rotate(self, msg: m.RotateAction) -> None:
-        self._remember(msg.action_id, _Sent("rotate", degrees=msg.degrees))
-
-    def _remember(self, action_id: int, sent: _Sent) -> None:
+    def sent(self, action_id: int, msg: m.MoveAction | m.RotateAction) -> None:
+        """An action the bridge sent for the ROS node."""
+        sent = _Sent("move", msg.x, msg.z) if isinstance(msg, m.MoveAction) else _Sent("rotate", degrees=msg.degrees)
         self._sent[action_id] = sent
         self._sent.move_to_end(action_id)
         while len(self._sent) > REMEMBERED_ACTIONS:
             self._sent.popitem(last=False)
 
-    def status(self, msg: m.NavigationStatus) -> bool:
-        """Moves the pose along the action the status is about; False when it is about none the rover sent (or
-        one already ended)."""
+    def status(self, msg: m.NavigationStatus) -> m.EstimatedPose | None:
         running = self._start(msg.action_id, msg.action)
         if running is None:
-            return False
+            return None
         action_id, sent, start = running
-        self.stamp, self.acted = msg.stamp, True
-        if msg.outcome == "completed":
-            self.pose = _after(start, sent, 1.0)
-            self._end(action_id)
-        elif msg.outcome == "running":
-            self.pose = _after(start, sent, _share(sent, msg.remaining))
-        return True
-
-    def cancel_result(self, msg: m.CancelResult) -> bool:
-        """Where the move (or rotation) that ended early stopped, relative to its start."""
-        running = self._running
-        if running is None or running[0] != msg.action_id:
-            running = self._start(msg.action_id, None)
-        if running is None:
-            return False
-        _, _, start = running
         self.acted = True
-        self.pose = start.after_partial(msg.x, msg.z, msg.angle_deg)
+        loc = self.localisation
+        if msg.outcome == "running":
+            if sent.kind != "move":
+                return self._report(msg.stamp, start, moving=True)
+            walked = max(0.0, (sent.x ** 2 + sent.z ** 2) ** 0.5 - abs(msg.remaining))
+            pose, cov = loc.part_way(start, sent.x, sent.z, walked)
+            return self._report(msg.stamp, pose, cov, moving=True)
+        if msg.outcome == "completed":
+            if sent.kind == "move":
+                loc.moved(start, sent.x, sent.z)
+            else:
+                loc.rotated(start, sent.degrees)
+            self._end(action_id)
+            return self._report(msg.stamp)
+        return None  # ended early: the CancelResult that follows says where
+
+    def cancel_result(self, msg: m.CancelResult, now: float) -> m.EstimatedPose | None:
+        running = self._start(msg.action_id, None)
+        if running is None:
+            return None
+        self.acted = True
+        self.localisation.stopped_early(running[2], msg.x, msg.z, msg.angle_deg)
         self._end(msg.action_id)
-        return True
+        return self._report(now)
 
     def _start(self, action_id: int, kind: str | None) -> tuple[int, _Sent, Pose] | None:
         """The running action ``action_id`` names: the one under way, or one sent that starts now from here."""
@@ -99,25 +93,17 @@ class Odometry:
         sent = self._sent.get(action_id)
         if sent is None or (kind is not None and sent.kind != kind):
             return None
-        self._running = (action_id, sent, self.pose)
+        self._running = (action_id, sent, self.localisation.pose)
         return self._running
 
     def _end(self, action_id: int) -> None:
         self._sent.pop(action_id, None)
         self._running = None
 
-
-def _share(sent: _Sent, remaining: float) -> float:
-    total = math.hypot(sent.x, sent.z) if sent.kind == "move" else abs(sent.degrees)
-    if total <= 1e-9:
-        return 1.0
-    return min(1.0, max(0.0, 1.0 - abs(remaining) / total))
-
-
-def _after(start: Pose, sent: _Sent, share: float) -> Pose:
-    if sent.kind == "rotate":
-        return Pose(start.x, start.z, (start.heading + share * sent.degrees) % 360.0)
-    if math.hypot(sent.x, sent.z) <= 1e-9:
-        return start
-    x, z = to_world(start.x, start.z, start.heading, share * sent.x, share * sent.z)
-    return Pose(x, z, bearing_deg(x - start.x, z - start.z) if share > 0 else start.heading)
+    def _report(self, stamp: float, pose: Pose | None = None, cov: list[list[float]] | None = None,
+                moving: bool = False) -> m.EstimatedPose:
+        pose = pose or self.localisation.pose
+        c = cov or self.localisation.cov
+        return m.EstimatedPose(stamp=max(0.0, stamp), x=pose.x, z=pose.z, heading_deg=pose.heading % 360.0,
+                               cov_xx=c[0][0], cov_xz=c[0][1], cov_zz=c[1][1], cov_xh=c[0][2], cov_zh=c[1][2],
+                               cov_hh=c[2][2], moving=moving)

@@ -12,6 +12,7 @@ from bus.bus import Bus
 from ros2_bridge.mapping import RayLayout
 from ros2_bridge.node import BridgeLoop, RosNode
 from ros2_bridge.translator import Translator
+from rover_agent.estimation.pose_filter import NoiseModel
 from schemas.keyspace import Keyspace
 from schemas.params import RoverParams
 
@@ -24,7 +25,8 @@ def serve(session: zenoh.Session, keys: Keyspace, domain: int, params: RoverPara
     (None: the stock layout), ``truth`` adds ground truth, ``drive`` are the rovers a ROS 2 node drives."""
     layout = RayLayout.of(params.perception) if params is not None else RayLayout()
     pitch_std = params.perception.gyroscope_noise_std_deg if params is not None else 0.0
-    translator = Translator(keys, layout, pitch_std, truth)
+    noise = NoiseModel.of(params.navigation) if params is not None else None
+    translator = Translator(keys, layout, pitch_std, truth, noise=noise)
     translator.driven = drive
     with Bus(session) as bus, process.stop_on_signals() as stop:
         node = RosNode(session, domain)

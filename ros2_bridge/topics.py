@@ -25,6 +25,9 @@ class Topic:
     note: str
     truth: bool = False
     """Ground truth: only with ``--truth``."""
+    latched: bool = False
+    """Transient local (keep last 1): a subscription that joins late, with that durability, gets the last sample
+    from the bridge's publication cache, as from an rmw_zenoh publisher of that QoS."""
 
     @property
     def per_rover(self) -> bool:
@@ -45,11 +48,11 @@ SCAN = Topic(f"{ROVER}/scan", "sensor_msgs/msg/LaserScan", "out", "rover/<id>/pe
 IMU = Topic(f"{ROVER}/imu", "sensor_msgs/msg/Imu", "out", "rover/<id>/gyroscope", "rover_<id>/base_link",
             "orientation from the pitch (nose up is negative about y); roll and yaw unmeasured (variance pi^2); "
             "angular velocity and acceleration not measured (covariance[0] = -1, REP 145)")
-ODOM = Topic(f"{ROVER}/odom", "nav_msgs/msg/Odometry", "out",
-             "rover/<id>/calibration, move_action, rotate_action, navigation_status, cancel_result",
+ODOM = Topic(f"{ROVER}/odom", "nav_msgs/msg/Odometry", "out", "rover/<id>/pose_estimate",
              "rover_<id>/odom -> rover_<id>/base_link",
-             "dead reckoning from the rover's own actions and the world's answers, as a wheel odometer gives it; "
-             "no covariance or velocity (covariance[0] = -1)")
+             "the rover's own pose estimate (its agent's localisation, or for a --drive rover the same filter kept "
+             "by the bridge from its actions) with its covariance; height, roll and pitch unobserved (variance "
+             "1e6); no velocity (twist covariance[0] = -1). Never ground truth")
 BATTERY = Topic(f"{ROVER}/battery", "sensor_msgs/msg/BatteryState", "out", "rover/<id>/battery",
                 "rover_<id>/base_link", "percentage and charging state; volts, amperes and Ah are NaN (not modelled); "
                 "only in scenarios with a sun")
@@ -62,7 +65,8 @@ NAVIGATION = Topic(f"{ROVER}/navigation_status", "diagnostic_msgs/msg/Diagnostic
 MISSION_GOAL = Topic(f"{ROVER}/mission_goal", "geometry_msgs/msg/PointStamped", "out", "rover/<id>/mission_direction",
                      "rover_<id>/odom", "the goal the lander sends the rover to (over the radio: only while in reach)")
 MAP = Topic("/lander/map", "nav_msgs/msg/OccupancyGrid", "out", "lander/map", "map",
-            "the lander's traverse map: -1 unknown, 0 free (or a rover seen), 50 crater terrain, 100 obstacle")
+            "the lander's traverse map: -1 unknown, 0 free (or a rover seen), 50 crater terrain, 100 obstacle; "
+            "transient local, keep last 1 (a late transient-local subscription gets the last map)", latched=True)
 CLOCK = Topic("/clock", "rosgraph_msgs/msg/Clock", "out", "world/clock", "-",
               "simulated time, for nodes with use_sim_time (every stamp the bridge writes is simulated time)")
 TF = Topic("/tf", "tf2_msgs/msg/TFMessage", "out", "world/state", "map -> rover_<id>/base_link",
@@ -94,8 +98,6 @@ NOT_BRIDGED: tuple[tuple[str, str], ...] = (
     ("rover/<id>/temperature, sun", "no standard type for a survival temperature or a sun sensor's lit flag"),
     ("world/state, world/stats (without --truth)",
      "ground truth and the mission statistics: no real rover knows them (report 9.1)"),
-    ("the agent's corrected pose estimate", "the rover agent keeps it to itself; odom is the dead reckoning of what "
-     "the rover did"),
     ("rover/<id>/ack, the lockstep", "an outside node does not acknowledge ticks; a ROS-driven rover runs in real "
      "time"),
 )

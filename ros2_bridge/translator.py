@@ -15,7 +15,8 @@ from typing import Any
 from bus.rejections import Rejections
 from ros2_bridge import inbound, mapping, ros_types
 from ros2_bridge import topics as tp
-from ros2_bridge.odometry import Odometry
+from ros2_bridge.odometry import DrivenEstimate
+from rover_agent.estimation.pose_filter import NoiseModel
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -29,7 +30,7 @@ RosOut = tuple[str, str, dict[str, Any]]
 ROVER_SOURCES = {ks.PERCEPTION: m.Perception, ks.GYROSCOPE: m.Gyroscope, ks.BATTERY: m.Battery, ks.PHOTO: m.Photo,
                  ks.NAVIGATION_STATUS: m.NavigationStatus, ks.ACTION_REJECTED: m.ActionRejected,
                  ks.MISSION_DIRECTION: m.MissionDirection, ks.CALIBRATION: m.Calibration,
-                 ks.MOVE_ACTION: m.MoveAction, ks.ROTATE_ACTION: m.RotateAction, ks.CANCEL_RESULT: m.CancelResult}
+                 ks.CANCEL_RESULT: m.CancelResult, ks.POSE_ESTIMATE: m.EstimatedPose}
 """The rover keys the bridge reads, and their models."""
 WORLD_SENSES = frozenset({ks.PERCEPTION, ks.GYROSCOPE})
 """A rover is served once the world has sent it one of these: the world has it."""
@@ -52,7 +53,8 @@ class ActionIds:
 
 @dataclass
 class RoverSide:
-    odometry: Odometry = field(default_factory=Odometry)
+    estimate: DrivenEstimate | None = None
+    """A driven rover's pose estimate, which the bridge keeps in its agent's place (``ros2_bridge.odometry``)."""
     ids: ActionIds = field(default_factory=ActionIds)
     then_rotate: tuple[int, float] | None = None
     """A move goal's rotation, sent once its move (this id) has completed."""
@@ -67,8 +69,10 @@ class RoverSide:
 
 class Translator:
     def __init__(self, keys: ks.Keyspace, layout: mapping.RayLayout | None = None, pitch_std_deg: float = 0.0,
-                 truth: bool = False, rejected: Rejections | None = None) -> None:
+                 truth: bool = False, rejected: Rejections | None = None, noise: NoiseModel | None = None) -> None:
         self.keys = keys
+        self.noise = noise or NoiseModel()
+        """The navigation noise a driven rover's estimate assumes (the scenario's, as its agent would)."""
         self.layout = layout or mapping.RayLayout()
         self.pitch_std_deg = pitch_std_deg
         self.truth = truth
@@ -116,27 +120,27 @@ class Translator:
         if rover_id not in self.rovers:
             if topic not in WORLD_SENSES:
                 return []
-            self.rovers[rover_id] = RoverSide()
+            driven = rover_id in self.driven
+            self.rovers[rover_id] = RoverSide(DrivenEstimate(self.noise) if driven else None)
         return self._for_rover(rover_id, self.rovers[rover_id], msg)
 
     def _for_rover(self, rid: int, side: RoverSide, msg: m.Message) -> list[RosOut]:
-        odo = side.odometry
         if isinstance(msg, m.Perception):
-            return [(tp.SCAN.for_rover(rid), tp.SCAN.ros_type, mapping.scan(msg, rid, self.layout)),
-                    self._odom(rid, odo, msg.stamp)]
+            return [(tp.SCAN.for_rover(rid), tp.SCAN.ros_type, mapping.scan(msg, rid, self.layout))]
         if isinstance(msg, m.Gyroscope):
             return [(tp.IMU.for_rover(rid), tp.IMU.ros_type, mapping.imu(msg, rid, self.pitch_std_deg))]
+        if isinstance(msg, m.EstimatedPose):  # a driven rover's is the bridge's own, made odom as it was published
+            return [] if side.estimate is not None else [self._odom(rid, msg)]
         if isinstance(msg, m.Battery):
             return [(tp.BATTERY.for_rover(rid), tp.BATTERY.ros_type, mapping.battery(msg, rid))]
         if isinstance(msg, m.Photo):
             return [(tp.PHOTO.for_rover(rid), tp.PHOTO.ros_type, mapping.photo(msg, rid))]
         if isinstance(msg, m.NavigationStatus):
-            moved = odo.status(msg)
+            odom = self._estimate(rid, side, lambda e: e.status(msg))
             self._rotation_due(rid, side, msg)
             if msg.outcome != "running":
                 self._heard(rid, side, msg.action_id)
-            out = [(tp.NAVIGATION.for_rover(rid), tp.NAVIGATION.ros_type, mapping.navigation(msg, rid))]
-            return out + ([self._odom(rid, odo, msg.stamp)] if moved else [])
+            return [*odom, (tp.NAVIGATION.for_rover(rid), tp.NAVIGATION.ros_type, mapping.navigation(msg, rid))]
         if isinstance(msg, m.ActionRejected):
             self._forget_rotation(side, msg.action_id)
             self._heard(rid, side, msg.action_id)
@@ -146,19 +150,23 @@ class Translator:
             return [(tp.MISSION_GOAL.for_rover(rid), tp.MISSION_GOAL.ros_type,
                      mapping.mission_goal(msg, rid, self.sim_time))]
         if isinstance(msg, m.Calibration):
-            return [self._odom(rid, odo, self.sim_time)] if odo.calibration(msg) else []
-        if isinstance(msg, m.MoveAction):
-            odo.sent_move(msg)
-        elif isinstance(msg, m.RotateAction):
-            odo.sent_rotate(msg)
-        elif isinstance(msg, m.CancelResult) and odo.cancel_result(msg):
+            return self._estimate(rid, side, lambda e: e.calibration(msg, self.sim_time))
+        if isinstance(msg, m.CancelResult):
             self._forget_rotation(side, msg.action_id)
-            return [self._odom(rid, odo, self.sim_time)]
+            return self._estimate(rid, side, lambda e: e.cancel_result(msg, self.sim_time))
         return []
 
+    def _estimate(self, rid: int, side: RoverSide, update) -> list[RosOut]:
+        """A driven rover's estimate, updated: published on its ``pose_estimate`` key as its agent would, and its
+        ``odom`` at once (the sample the key brings back is not made odom twice)."""
+        if side.estimate is None or (estimate := update(side.estimate)) is None:
+            return []
+        self.requests.append((self.keys.rover(rid, ks.POSE_ESTIMATE), estimate))
+        return [self._odom(rid, estimate)]
+
     @staticmethod
-    def _odom(rid: int, odo: Odometry, stamp: float) -> RosOut:
-        return tp.ODOM.for_rover(rid), tp.ODOM.ros_type, mapping.odometry(odo.pose, stamp, rid)
+    def _odom(rid: int, estimate: m.EstimatedPose) -> RosOut:
+        return tp.ODOM.for_rover(rid), tp.ODOM.ros_type, mapping.odometry(estimate, rid)
 
     def _clock(self, payload: bytes) -> list[RosOut]:
         msg = codec.decode(m.Clock, payload)
@@ -231,8 +239,14 @@ class Translator:
             return [self._rotate(rid, side, goal.rotate_deg or 0.0)]
         action_id = self._id(side)
         side.then_rotate = (action_id, goal.rotate_deg) if goal.rotate_deg is not None else None
-        return [(self.keys.rover(rid, ks.MOVE_ACTION), m.MoveAction(x=goal.move[0], z=goal.move[1],
-                                                                     action_id=action_id))]
+        return [self._sent(rid, side, ks.MOVE_ACTION, m.MoveAction(x=goal.move[0], z=goal.move[1],
+                                                                    action_id=action_id))]
+
+    def _sent(self, rid: int, side: RoverSide, topic: str, msg: m.MoveAction | m.RotateAction) -> Out:
+        """An action for the rover, which a driven rover's estimate follows."""
+        if side.estimate is not None:
+            side.estimate.sent(msg.action_id, msg)
+        return self.keys.rover(rid, topic), msg
 
     def _heard(self, rid: int, side: RoverSide, action_id: int) -> None:
         if rid in self.driven and action_id > side.heard:
@@ -249,7 +263,7 @@ class Translator:
 
     def _rotate(self, rid: int, side: RoverSide, degrees: float) -> Out:
         side.then_rotate = None
-        return self.keys.rover(rid, ks.ROTATE_ACTION), m.RotateAction(degrees=degrees, action_id=self._id(side))
+        return self._sent(rid, side, ks.ROTATE_ACTION, m.RotateAction(degrees=degrees, action_id=self._id(side)))
 
     def _rotation_due(self, rid: int, side: RoverSide, msg: m.NavigationStatus) -> None:
         """A move goal's rotation goes out once the world says its move completed; any other end drops it."""

@@ -107,7 +107,7 @@ class RoverAgent:
         if self.mission.report_due(self.now):
             out += self._report_goal()
         if self.now - self.status_at >= STATUS_PERIOD_S:
-            out.append(self.status())
+            out += [self.status(), *self._report_estimate()]
         if self.actions.photo_overdue(self.now):
             self._settle(self.now)
         if self.photos.due(self.now):
@@ -375,6 +375,11 @@ class RoverAgent:
         else:
             self._fix_over()
         return [self.status()]
+
+    def _report_estimate(self) -> list[Out]:
+        """The estimate on the rover's own key, with the periodic status (``Estimator.report``)."""
+        own = None if self.restarts.lost else self.estimator.report(self.now, self.actions.in_flight)
+        return [] if own is None else [(self.send.key(ks.POSE_ESTIMATE), own)]
 
     def _report_goal(self) -> list[Out]:
         return [self.send.radio([ks.LANDER_ID], self.mission.goal_report(self.now, self.photos.pending))]

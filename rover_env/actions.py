@@ -21,8 +21,8 @@ from schemas.errors import LunarSimError
 from schemas.messages import Out
 
 PUBLISHED_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.SPEED_ACTION, ks.PHOTO_ACTION,
-                              ks.COMM_OUT, ks.STATUS, ks.ACK})
-"""What a rover agent publishes (the world's inputs, its status and its lockstep ack)."""
+                              ks.COMM_OUT, ks.STATUS, ks.ACK, ks.POSE_ESTIMATE})
+"""What a rover agent publishes (the world's inputs, its status, its lockstep ack and its pose estimate)."""
 
 
 

@@ -15,6 +15,7 @@ from pydantic import Field, model_validator
 
 from schemas import keyspace as ks
 from schemas.base import HIT_KINDS, DirectionKind, GoalKind, HitKind, Message, RoverState
+from schemas.estimate import EstimatedPose
 from schemas.ground import (
     MISSION_COMMANDS,
     PLAYBACK_COMMANDS,
@@ -48,8 +49,8 @@ from schemas.wire_limits import (
 )
 
 __all__ = ["HIT_KINDS", "MISSION_COMMANDS", "PLAYBACK_COMMANDS", "RECORDER_COMMANDS", "CommandResult", "DirectionKind",
-           "GoalKind", "GroundCommand", "HitKind", "LanderMap", "LanderStatus", "Message", "MissionReport",
-           "RoverState", "RoverTruth", "WorldCounters", "WorldState", "WorldStats"]
+           "EstimatedPose", "GoalKind", "GroundCommand", "HitKind", "LanderMap", "LanderStatus", "Message",
+           "MissionReport", "RoverState", "RoverTruth", "WorldCounters", "WorldState", "WorldStats"]
 """Re-exported: every payload is ``schemas.messages.X`` to its users, wherever it is defined."""
 
 Out = tuple[str, Message]
@@ -331,6 +332,7 @@ TOPIC_MODELS: dict[str, type[Message]] = {
     ks.STATUS: RoverStatus,
     ks.ACK: Ack,
     ks.TELEMETRY: Telemetry,
+    ks.POSE_ESTIMATE: EstimatedPose,
     ks.BATTERY: Battery,
     ks.TEMPERATURE: Temperature,
     ks.SUN: Sunlight,

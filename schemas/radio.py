@@ -15,13 +15,15 @@ from pydantic import Field, model_validator
 
 from schemas import codec
 from schemas.messages import Message
-from schemas.scenario_limits import COORDINATE_LIMIT_M, Coordinate
+from schemas.scenario_limits import Coordinate
 from schemas.wire_limits import (
+    COV_ROUNDING_M2,
     MAX_ACKED_SEQS,
     MAX_CELL_M,
     MAX_LABELS,
     MAX_MAP_REPORT_CELLS,
     MAX_PNG_BYTES,
+    MAX_VARIANCE_M2,
     Count,
     GoalIndex,
     Label,
@@ -122,10 +124,6 @@ class StationRequest(Message):
     z: Coordinate
 
 
-MAX_VARIANCE_M2 = COORDINATE_LIMIT_M ** 2
-"""The largest position variance a PoseEstimate may carry: a 1-sigma error as wide as the frame itself."""
-COV_ROUNDING_M2 = 5e-7
-"""A sender rounds each covariance entry to 6 decimals (``rover_agent.estimation.estimator``)."""
 
 
 class PoseEstimate(Message):

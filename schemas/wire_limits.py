@@ -63,6 +63,15 @@ ANGLE_LIMIT_DEG = 3600.0
 DISTANCE_LIMIT_M = 4 * COORDINATE_LIMIT_M
 """A distance or relative offset: across the whole frame and back."""
 
+MAX_VARIANCE_M2 = COORDINATE_LIMIT_M ** 2
+"""A position variance (square metres): an estimate unsure by the whole frame carries nothing more."""
+COV_ROUNDING_M2 = 5e-7
+"""A sender rounds each covariance entry to 6 decimals (``rover_agent.estimation.estimator``): a receiver's check
+that the entries make a covariance allows for it."""
+MAX_HEADING_VARIANCE_RAD2 = 1e4
+"""A heading variance (square radians): past a turn's square the heading is anything; the bound leaves room for a
+long mission's rotations to add up without the estimate failing to travel."""
+
 _NO_CONTROL = r"^[^\x00-\x1f\x7f]*$"
 """Printable text: no newline, escape or other control character that would forge a log line or a table row."""
 

@@ -83,6 +83,7 @@ def main() -> int:
             "scan_rays": len(scan.ranges) if scan is not None else 0,
             "scan_misses_inf": bool(scan is not None and any(math.isinf(r) for r in scan.ranges)),
             "odom_frames": [odom.header.frame_id, odom.child_frame_id] if odom is not None else None,
+            "odom": [_odom(o) for o in got.get(f"/rover_{args.listen_rover}/odom", [])],
             "clock_s": [c.clock.sec + c.clock.nanosec * 1e-9 for c in got.get("/clock", [])][-3:],
             "goals_sent": sent,
             "completed": completed,
@@ -93,6 +94,14 @@ def main() -> int:
     goal.close()
     print(json.dumps(summary), flush=True)
     return 0
+
+
+def _odom(msg) -> dict:
+    """What the test compares with the agent's estimate: stamp, position, heading's yaw and the covariance."""
+    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    return {"stamp": msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, "x": p.x, "y": p.y,
+            "yaw": math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)),
+            "covariance": [float(v) for v in msg.pose.covariance]}
 
 
 if __name__ == "__main__":

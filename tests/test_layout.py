@@ -25,7 +25,7 @@ MAY_IMPORT: dict[str, set[str]] = {
     "sessions": {"schemas", "bus", "shared", "world_service", "lander_agent"},
     "hardware": {"schemas", "bus", "shared"},
     "web": {"schemas", "bus", "shared", "scenarios", "sessions", "world_service", "lander_agent"},
-    "ros2_bridge": {"schemas", "bus", "shared", "sessions", "world_service", "lander_agent"},
+    "ros2_bridge": {"schemas", "bus", "shared", "sessions", "world_service", "rover_agent", "lander_agent"},
     "deploy": {"schemas", "bus", "shared", "world_service", "rover_agent", "lander_agent", "scenarios", "harness",
                "rover_env", "sessions", "hardware", "web", "ros2_bridge"},
 }

@@ -371,3 +371,34 @@ def test_a_goal_any_distance_off_is_decided_at_once():
     agent = _unsure_with_a_return(DISTANCE_LIMIT_M)
     _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[]))
     assert not agent.estimator.fix.active
+
+
+def _clock(agent: RoverAgent, t: float) -> list:
+    return agent.on_clock(m.Clock(tick=int(t * 10), sim_time=t, time_scale=1.0, run=agent.restarts.run))
+
+
+def _reported(out: list) -> list[m.EstimatedPose]:
+    return [msg for key, msg in out if key == KEYS.rover(1, ks.POSE_ESTIMATE)]
+
+
+def test_the_agent_reports_its_own_estimate_and_covariance_with_its_status():
+    agent = _walked(NOISY)
+    out = _clock(agent, 3.2)
+    (report,) = _reported(out)
+    assert KEYS.rover(1, ks.STATUS) in [key for key, _ in out], "the estimate goes with the periodic status"
+    loc = agent.estimator.localisation
+    assert (report.x, report.z, report.heading_deg) == (loc.pose.x, loc.pose.z, loc.pose.heading)
+    assert report.matrix() == loc.cov and report.cov_xx > 0 and not report.moving
+    assert _reported(_clock(agent, 3.6)) == [], "no more often than the status"
+    # walking: where the move has got to, as sure as that is
+    _feed(agent, m.Perception(stamp=4.3, angles_deg=[], distances_m=[], kinds=[]))
+    flight = agent.actions.in_flight
+    _feed(agent, m.NavigationStatus(stamp=4.5, action="move", remaining=1.0, action_id=flight.action_id))
+    (walking,) = _reported(_clock(agent, 4.6))
+    expected, _ = loc.part_way(flight.start, flight.decision.x, flight.decision.z, flight.walked)
+    assert walking.moving and (walking.x, walking.z) == pytest.approx((expected.x, expected.z))
+
+
+def test_an_agent_that_does_not_know_where_it_is_reports_no_estimate():
+    agent = joined_agent(1, KEYS, NOISY)
+    assert _reported(_clock(agent, 1.5)) == []

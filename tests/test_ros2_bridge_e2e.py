@@ -5,6 +5,7 @@ publisher drives a rover, ROS 2's graph lists the bridge's topics, and nothing a
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 
@@ -47,10 +48,13 @@ def test_ros2_nodes_read_a_mission_drive_a_rover_and_list_the_bridge(router, tmp
     rover = module("rover_agent", "--id", "1", "--params", str(scenario), *common)
     bridge = module("ros2_bridge", *common, "--params", str(scenario), "--domain-id", str(DOMAIN))
     states: list[m.WorldState] = []
+    estimates: list[m.EstimatedPose] = []
     try:
         with zenoh.open(build_config(connect=[router])) as session:
             session.declare_subscriber(keys.state, lambda s: states.append(codec.decode(m.WorldState,
                                                                                        s.payload.to_bytes())))
+            session.declare_subscriber(keys.rover(1, "pose_estimate"), lambda s: estimates.append(
+                codec.decode(m.EstimatedPose, s.payload.to_bytes())))
             wait_for(lambda: states, 60, "the world's state")
             start = next(r for r in states[-1].rovers if r.id == 2).distance_covered_m
             port = router.rsplit(":", 1)[1]
@@ -80,6 +84,7 @@ def test_ros2_nodes_read_a_mission_drive_a_rover_and_list_the_bridge(router, tmp
         assert seen["counts"][name] >= 3, seen["counts"]
     assert seen["scan_frame"] == "rover_1/base_link" and seen["scan_rays"] == 50 and seen["scan_misses_inf"]
     assert seen["odom_frames"] == ["rover_1/odom", "rover_1/base_link"]
+    _odom_is_the_agents_estimate(seen["odom"], estimates)
     assert seen["clock_s"] == sorted(seen["clock_s"]) and seen["clock_s"][-1] > 0
     assert seen["completed"] is not None, seen["statuses"]
     assert moved > 2.0, f"rover 2 covered {moved:.2f} m"
@@ -94,6 +99,21 @@ def test_ros2_nodes_read_a_mission_drive_a_rover_and_list_the_bridge(router, tmp
     assert any("/NN/%/%/lunarsim_bridge" in t for t in tokens_running) and tokens_after == ["gone"]
     log = bridge.stdout.read()
     assert "no rover 99" in log and "not CDR" in log and "move_goal" in log
+
+
+def _odom_is_the_agents_estimate(odom: list[dict], estimates: list[m.EstimatedPose]) -> None:
+    """Each odometry the ROS node got is one estimate the rover's agent published, in ROS axes, covariance and all.
+    (This test's own subscriber may miss a sample on a loaded machine, as any Zenoh subscriber may: the odometry
+    it has no estimate for is left unchecked, and most must have one.)"""
+    by_stamp = {round(e.stamp, 6): e for e in estimates}
+    matched = [(got, by_stamp[round(got["stamp"], 6)]) for got in odom if round(got["stamp"], 6) in by_stamp]
+    assert len(matched) >= 3 and len(matched) >= 0.8 * len(odom), (len(odom), len(matched), len(estimates))
+    for got, e in matched:
+        assert (got["x"], got["y"]) == pytest.approx((e.x, e.z), abs=1e-9)
+        assert math.cos(got["yaw"] - math.radians(90 - e.heading_deg)) == pytest.approx(1.0)
+        cov = got["covariance"]
+        assert (cov[0], cov[1], cov[7], cov[35], cov[5]) == pytest.approx((e.cov_xx, e.cov_xz, e.cov_zz, e.cov_hh,
+                                                                            -e.cov_xh))
 
 
 def test_a_rover_driven_from_ros2_reaches_its_crater_and_the_mission_completes(tmp_path):

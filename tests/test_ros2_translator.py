@@ -1,5 +1,6 @@
 """The bridge's core without Zenoh: LunarSim samples to ROS 2 messages (frames, +inf misses, REP 145 marks,
-dead-reckoned odometry) and ROS 2 requests to LunarSim actions, with everything refused counted, never raised."""
+odometry from the rover's own estimate) and ROS 2 requests to LunarSim actions, with everything refused counted,
+never raised."""
 
 from __future__ import annotations
 
@@ -66,41 +67,91 @@ def test_the_imu_carries_the_pitch_and_marks_what_the_gyroscope_does_not_measure
     assert imu["orientation_covariance"][0] == imu["orientation_covariance"][8] == pytest.approx(math.pi ** 2)
 
 
-def test_odometry_dead_reckons_the_rovers_own_actions_from_its_calibration():
+def test_odometry_is_the_rovers_own_estimate_with_its_covariance_in_ros_axes():
     tr = _bridge()
-    out = _feed(tr, 1, "calibration", m.Calibration(x=10.0, z=20.0, heading_deg=90.0))
-    pose = out["/rover_1/odom"]["pose"]["pose"]
+    estimate = m.EstimatedPose(stamp=3.5, x=10.0, z=20.0, heading_deg=90.0, cov_xx=0.4, cov_xz=0.1, cov_zz=0.9,
+                               cov_xh=0.02, cov_zh=-0.03, cov_hh=0.01, moving=True)
+    odom = _feed(tr, 1, "pose_estimate", estimate)["/rover_1/odom"]
+    pose = odom["pose"]["pose"]
     assert pose["position"] == {"x": 10.0, "y": 20.0, "z": 0.0} and _yaw(pose["orientation"]) == pytest.approx(0.0)
-    _feed(tr, 1, "move_action", m.MoveAction(x=0.0, z=4.0, action_id=7))
-    half = _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=1, action="move", remaining=2.0, action_id=7))
-    assert half["/rover_1/odom"]["pose"]["pose"]["position"]["x"] == pytest.approx(12.0)
-    done = _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=2, action="move", remaining=0.0,
-                                                                 outcome="completed", action_id=7))
-    odom = done["/rover_1/odom"]
-    assert odom["pose"]["pose"]["position"]["x"] == pytest.approx(14.0)
-    assert odom["header"]["frame_id"] == "rover_1/odom" and odom["child_frame_id"] == "rover_1/base_link"
-    assert odom["pose"]["covariance"][0] == -1  # not estimated
-    again = _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=2.2, action="move", remaining=0.0,
-                                                                  outcome="completed", action_id=7))
-    assert "/rover_1/odom" not in again, "an end the world re-sends must not move the rover twice"
-    _feed(tr, 1, "rotate_action", m.RotateAction(degrees=90.0, action_id=8))
-    turned = _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=3, action="rotate", remaining=0.0,
-                                                                   outcome="completed", action_id=8))
-    assert _yaw(turned["/rover_1/odom"]["pose"]["pose"]["orientation"]) == pytest.approx(-math.pi / 2)
-    _feed(tr, 1, "move_action", m.MoveAction(x=0.0, z=10.0, action_id=9))
-    _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=4, action="move", remaining=10.0, action_id=9))
-    stopped = _feed(tr, 1, "cancel_result", m.CancelResult(x=0.0, z=3.0, angle_deg=0.0, action_id=9))
-    assert stopped["/rover_1/odom"]["pose"]["pose"]["position"]["y"] == pytest.approx(17.0)
-    again = _feed(tr, 1, "calibration", m.Calibration(x=10.0, z=20.0, heading_deg=90.0))
-    assert again == {}, "the lander's calibration, sent again every second, must not set the rover back"
+    assert odom["header"] == {"stamp": {"sec": 3, "nanosec": 500_000_000}, "frame_id": "rover_1/odom"}
+    assert odom["child_frame_id"] == "rover_1/base_link"
+    cov = odom["pose"]["covariance"]
+    assert (cov[0], cov[1], cov[6], cov[7]) == (0.4, 0.1, 0.1, 0.9)
+    # yaw = 90 deg - heading: the heading's covariances with x and z change sign, its variance stays
+    assert (cov[5], cov[30], cov[11], cov[31], cov[35]) == (-0.02, -0.02, 0.03, 0.03, 0.01)
+    assert cov[14] == cov[21] == cov[28] == 1e6  # height, roll, pitch: not observed
+    assert odom["twist"]["covariance"][0] == -1
+    # the ROS type takes it as it is: the covariance survives CDR
+    decoded = ros_types.decode("nav_msgs/msg/Odometry", ros_types.encode("nav_msgs/msg/Odometry", odom))
+    assert decoded["pose"]["covariance"][:2] == [0.4, 0.1]
 
 
-def test_a_bridge_that_joins_a_rover_under_way_does_not_take_its_calibration():
+def test_no_odometry_from_what_the_rover_did_only_from_what_it_estimates():
     tr = _bridge()
-    _feed(tr, 1, "rotate_action", m.RotateAction(degrees=90.0, action_id=3))
-    _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=9, action="rotate", remaining=0.0,
-                                                         outcome="completed", action_id=3))
-    assert _feed(tr, 1, "calibration", m.Calibration(x=10.0, z=20.0, heading_deg=0.0)) == {}
+    said = [_feed(tr, 1, "calibration", m.Calibration(x=10.0, z=20.0, heading_deg=90.0)),
+            _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=2, action="move", remaining=0.0,
+                                                                 outcome="completed", action_id=7))]
+    assert all("/rover_1/odom" not in out for out in said) and tr.requests == []
+    assert "move_action" not in " ".join(tr.lunarsim_keys()) and KEYS.rovers("pose_estimate") in tr.lunarsim_keys()
+
+
+def test_an_estimate_that_is_no_covariance_is_refused_and_counted():
+    tr = _bridge()
+    payload = codec.encode(m.EstimatedPose.model_construct(stamp=1.0, x=0.0, z=0.0, heading_deg=0.0, cov_xx=1.0,
+                                                           cov_xz=5.0, cov_zz=1.0, cov_xh=0.0, cov_zh=0.0,
+                                                           cov_hh=0.0, moving=False))
+    assert tr.outbound(KEYS.rover(1, "pose_estimate"), payload) == []
+    assert tr.rejected.by_topic["pose_estimate"] == 1
+
+
+def _driven(noise) -> Translator:
+    tr = Translator(KEYS, LAYOUT, truth=False, noise=noise)
+    tr.driven = frozenset({1})
+    _feed(tr, 1, "gyroscope", m.Gyroscope(stamp=0.0, pitch_deg=0.0))
+    return tr
+
+
+def _published(tr: Translator) -> list[m.EstimatedPose]:
+    out, tr.requests = tr.requests, []
+    return [msg for key, msg in out if key == KEYS.rover(1, "pose_estimate")]
+
+
+def test_a_driven_rovers_estimate_is_kept_by_the_agents_filter_and_published_as_its_agent_would():
+    from rover_agent.estimation.pose_filter import NoiseModel
+
+    tr = _driven(NoiseModel(slip_std=0.05, heading_std_rad=0.02))
+    placed_odom = _feed(tr, 1, "calibration", m.Calibration(x=10.0, z=20.0, heading_deg=90.0))["/rover_1/odom"]
+    (placed,) = _published(tr)
+    assert placed_odom["pose"]["pose"]["position"] == {"x": 10.0, "y": 20.0, "z": 0.0}
+    assert (placed.x, placed.z, placed.heading_deg, placed.cov_xx) == (10.0, 20.0, 90.0, 0.0)
+    goal = {"header": {"frame_id": "rover_1/base_link"},
+            "pose": {"position": {"x": 4.0, "y": 0.0}, "orientation": {"x": 0, "y": 0, "z": 0, "w": 0}}}
+    ((_, move),) = tr.inbound("/rover_1/move_goal", ros_types.encode("geometry_msgs/msg/PoseStamped", goal))
+    _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=1, action="move", remaining=2.0,
+                                                         action_id=move.action_id))
+    (half,) = _published(tr)
+    assert half.x == pytest.approx(12.0) and half.moving and 0 < half.cov_zz < half.cov_xx + 1
+    ended = _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=2, action="move", remaining=0.0,
+                                                                 outcome="completed", action_id=move.action_id))
+    (done,) = _published(tr)
+    assert list(ended) == ["/rover_1/odom", "/rover_1/navigation_status"], "the node sees where it is, then the end"
+    assert ended["/rover_1/odom"]["pose"]["pose"]["position"]["x"] == pytest.approx(14.0)
+    assert done.x == pytest.approx(14.0) and not done.moving and done.cov_hh == pytest.approx(0.02 ** 2)
+    assert done.cov_xx + done.cov_zz > half.cov_xx + half.cov_zz, "a whole move's slip is more than half of one"
+    _feed(tr, 1, "navigation_status", m.NavigationStatus(stamp=2.2, action="move", remaining=0.0,
+                                                         outcome="completed", action_id=move.action_id))
+    assert _published(tr) == [], "an end the world re-sends must not move the rover twice"
+    _feed(tr, 1, "calibration", m.Calibration(x=10.0, z=20.0, heading_deg=90.0))
+    assert _published(tr) == [], "the lander's calibration, sent again every second, must not set the rover back"
+    # the published estimate comes back from the key: already made odom, it is not made odom twice
+    assert _feed(tr, 1, "pose_estimate", done) == {}
+
+
+def test_a_rover_its_agent_drives_gets_no_estimate_from_the_bridge():
+    tr = _bridge()
+    _feed(tr, 1, "calibration", m.Calibration(x=10.0, z=20.0, heading_deg=90.0))
+    assert tr.requests == [] and tr.rovers[1].estimate is None
 
 
 def test_clock_and_map_frames():

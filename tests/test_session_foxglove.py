@@ -316,8 +316,8 @@ def test_live_view_serves_and_stops(tmp_path: Path):
         assert live.handle(Sample(STATE_KEY, codec.encode(state(1)), T0, T0))
         assert live.handle(Sample(PHOTO_KEY, codec.encode(m.Photo(stamp=1.0, png=PNG)), T0 + 1, T0 + 1))
         assert live.handle(Sample(MAP_KEY, codec.encode(lander_map()), T0 + 3, T0 + 3))
-        assert not live.handle(Sample("lunar/test/rover/1/gyroscope",
-                                      codec.encode(m.Gyroscope(stamp=1, pitch_deg=0.0)), T0 + 2, T0 + 2))
+        assert not live.handle(Sample("lunar/test/rover/1/status",
+                                      codec.encode(m.RoverStatus(stamp=1, state="done")), T0 + 2, T0 + 2))
     finally:
         server.stop()
         sink.close()

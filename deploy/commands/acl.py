@@ -7,6 +7,8 @@
 
 Real rovers: ``make-dev-certs.sh --bridges all ...`` and ``lunarsim acl ... --bridges all`` (or ids, ``1,3``)
 add a ``bridge-<id>`` role per real rover, for ``lunarsim bridge --id <id> --config clients/bridge-<id>.json5``.
+ROS 2: ``make-dev-certs.sh --ros2 ...`` and ``lunarsim acl ... --ros2 [DOMAIN]`` add ``ros2`` (``lunarsim ros2``)
+and ``ros2-nodes`` (the ROS 2 nodes on rmw_zenoh).
 
 Writes the router config (TLS with mutual authentication, user/password auth, and an ``access_control``
 section that gives each role only its own keys: see ``deploy.security.acl``), the router's user/password
@@ -38,6 +40,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bridge-clock", action="store_true",
                         help="the one bridge publishes the clock (lunarsim bridge --clock: a bench, no world) "
                              "instead of the world")
+    parser.add_argument("--ros2", type=int, nargs="?", const=0, default=None, metavar="DOMAIN",
+                        help="a ROS 2 bridge joins (lunarsim ros2) on this ROS domain (default 0): roles ros2, with "
+                             "the ground's say and read access to what it bridges, and ros2-nodes, the ROS 2 nodes, "
+                             "which may touch only their domain's topics")
+    parser.add_argument("--ros2-truth", action="store_true",
+                        help="the ROS 2 bridge may read ground truth (for lunarsim ros2 --truth); off by default")
+    parser.add_argument("--ros2-drive", metavar="IDS",
+                        help="rovers ROS 2 nodes drive through the bridge (lunarsim ros2 --drive, run --external), "
+                             "e.g. 1 or 1,3: the bridge may act for them as their agent")
     parser.add_argument("--certs", type=Path, metavar="DIR",
                         help="folder made by make-dev-certs.sh (default: certs/ beside the output)")
     parser.add_argument("--credentials", type=Path, metavar="FILE",
@@ -74,6 +85,26 @@ def _bridged(given: str | None, rover_ids: list[int]) -> list[int]:
         raise process.UsageError(f"--bridges {given}: expected 'all' or rover ids separated by commas (1,3)") from None
 
 
+def _ros2_access(args: argparse.Namespace):
+    """What ``--ros2``, ``--ros2-truth`` and ``--ros2-drive`` grant, or None without ``--ros2``."""
+    from deploy.security.acl import Ros2Access
+    from ros2_bridge.rmw import DOMAIN_ID_LIMIT
+
+    if args.ros2 is None:
+        if args.ros2_truth or args.ros2_drive:
+            raise process.UsageError("--ros2-truth and --ros2-drive need --ros2")
+        return None
+    if not 0 <= args.ros2 <= DOMAIN_ID_LIMIT:
+        raise process.UsageError(f"--ros2: the ROS 2 domain id must be 0 to {DOMAIN_ID_LIMIT}, got {args.ros2}")
+    driven: tuple[int, ...] = ()
+    if args.ros2_drive:
+        try:
+            driven = tuple(int(part) for part in args.ros2_drive.split(","))
+        except ValueError:
+            raise process.UsageError(f"--ros2-drive {args.ros2_drive[:40]}: expected rover ids such as 1,3") from None
+    return Ros2Access(args.ros2, args.ros2_truth, driven)
+
+
 def _endpoints(given: list[str] | None, default: str, flag: str) -> list[str]:
     endpoints = given or [default]
     for endpoint in endpoints:
@@ -101,13 +132,15 @@ def run(args: argparse.Namespace) -> int:
     if args.bridge_clock and len(bridged) != 1:
         raise process.UsageError(f"--bridge-clock needs exactly one bridge (--bridges ID: one rover on a bench), got "
                                  f"{len(bridged)}")
+    ros2 = _ros2_access(args)
     try:
-        roles = acl.roles(keys, rover_ids, bridged, args.bridge_clock)
+        roles = acl.roles(keys, rover_ids, bridged, args.bridge_clock, ros2)
     except ValueError as exc:
-        raise process.UsageError(f"--bridges: {exc}") from None
-    missing = configs.missing_cert_files(certs, [configs.ROUTER, *(r.name for r in roles)])
+        raise process.UsageError(f"--bridges or --ros2-drive: {exc}") from None
+    names = [r.name for r in roles]
+    missing = configs.missing_cert_files(certs, [configs.ROUTER, *names])
     if missing:
-        bridges = f"--bridges {args.bridges} " if bridged else ""
+        bridges = (f"--bridges {args.bridges} " if bridged else "") + ("--ros2 " if ros2 is not None else "")
         raise process.UsageError(f"{len(missing)} certificate file(s) missing in {certs}, first {missing[0]}: make "
                                  f"them with deploy/security/make-dev-certs.sh {bridges}{certs} {len(rover_ids)}")
     try:

@@ -6,8 +6,9 @@ publishes, subscribes to, holds liveliness tokens on, watches tokens on, answers
 taken from what the programs do:
 
 - a rover agent publishes only its own inputs to the world (``World.INPUT_TOPICS``: actions, radio output,
-  status) and its lockstep ``ack``, and subscribes only to its own sensors and radio input (the agent's
-  ``SUBSCRIBED_TOPICS``) and the clock; it holds ``alive/rover/<id>`` and may ask the world for a free id;
+  status), its lockstep ``ack`` and its ``pose_estimate`` (which the ground may read, the world not), and
+  subscribes only to its own sensors and radio input (the agent's ``SUBSCRIBED_TOPICS``) and the clock; it holds
+  ``alive/rover/<id>`` and may ask the world for a free id;
 - the world publishes the sensors of the simulated rovers (every rover's ``SUBSCRIBED_TOPICS``, the lander's
   radio input), the clock, ``world/state`` and ``world/stats``;
 - a real rover's bridge (``hardware.bridge``) takes the world's place for that rover only: it alone
@@ -18,7 +19,13 @@ taken from what the programs do:
   bridge may be the clock (``bridge_clock``);
 - the ground alone publishes ``ground/command``; the lander answers it on ``ground/command_result``;
 - the recorder reads the whole world and writes nothing; it and the ground watch a replay's token (``alive/replay``),
-  which tells a viewer that what it shows is a recording.
+  which tells a viewer that what it shows is a recording;
+- the ROS 2 bridge (``ros2``, ``lunarsim ros2``) has the ground's say and reads what it bridges: it publishes only
+  ground commands, and reads the rovers' sensors, the world's answers to their actions, their radio deliveries and
+  pose estimates, the clock and the lander's map; ``world/state`` only when the deployment grants it ground truth.
+  For the rovers ROS 2 drives (``--drive``) it takes their agent's place (their actions, status, estimate and
+  liveliness token). On the ROS side it owns its domain's data keys and graph tokens (``@ros2_lv/<domain>``),
+  which the ROS 2 nodes (``ros2-nodes``) share, and where those nodes may do nothing else: no LunarSim key.
 
 Everything else is denied (``default_permission: deny``). Two Zenoh facts shape the rules (checked on a
 real router, see tests/test_security.py): a declared publisher sends only when it has learnt of a matching
@@ -35,6 +42,7 @@ from dataclasses import dataclass
 from schemas import keyspace as ks
 
 WORLD, LANDER, GROUND, RECORDER = "world", "lander", "ground", "recorder"
+ROS2, ROS2_NODES = "ros2", "ros2-nodes"
 PUBLICATION = ("put", "delete")
 
 
@@ -128,7 +136,8 @@ def world_role(keys: ks.Keyspace, simulated: Iterable[int] | None = None, bridge
 def lander_role(keys: ks.Keyspace) -> Role:
     return Role(
         LANDER,
-        publishes=(keys.lander(ks.COMM_OUT), keys.lander(ks.STATUS), keys.lander(ks.ACK), keys.ground_command_result),
+        publishes=(keys.lander(ks.COMM_OUT), keys.lander(ks.STATUS), keys.lander(ks.ACK), keys.ground_command_result,
+                   keys.lander(ks.MAP)),
         subscribes=(keys.clock, keys.lander(ks.COMM_IN), keys.lander(ks.COMM_PARTNERS), keys.ground_command),
         tokens=(keys.alive_lander,),
     )
@@ -136,7 +145,8 @@ def lander_role(keys: ks.Keyspace) -> Role:
 
 def ground_role(keys: ks.Keyspace) -> Role:
     return Role(GROUND, publishes=(keys.ground_command,),
-                subscribes=(keys.ground_command_result, keys.lander(ks.STATUS)), watches=(keys.alive_replays,))
+                subscribes=(keys.ground_command_result, keys.lander(ks.STATUS), keys.rovers(ks.POSE_ESTIMATE)),
+                watches=(keys.alive_replays,))
 
 
 def recorder_role(keys: ks.Keyspace) -> Role:
@@ -146,7 +156,7 @@ def recorder_role(keys: ks.Keyspace) -> Role:
 def rover_agent_role(keys: ks.Keyspace, rover_id: int) -> Role:
     return Role(
         rover_role(rover_id),
-        publishes=tuple(keys.rover(rover_id, t) for t in _rover_inputs()),
+        publishes=tuple(keys.rover(rover_id, t) for t in (*_rover_inputs(), ks.POSE_ESTIMATE)),
         subscribes=(*(keys.rover(rover_id, t) for t in _rover_sensors()), keys.clock),
         tokens=(keys.alive_rover(rover_id),),
         queries=(keys.rover_ids,),
@@ -164,12 +174,53 @@ def driver_bridge_role(keys: ks.Keyspace, rover_id: int, clock: bool = False) ->
     )
 
 
+@dataclass(frozen=True)
+class Ros2Access:
+    """What a deployment grants the ROS 2 bridge: its ROS domain, ground truth (``lunarsim ros2 --truth``) and the
+    rovers ROS 2 nodes drive in their agent's place (``--drive``)."""
+
+    domain: int = 0
+    truth: bool = False
+    driven: tuple[int, ...] = ()
+
+
+def ros2_graph(domain: int) -> tuple[str, str, str]:
+    """The ROS 2 domain's data keys, its graph tokens (rmw_zenoh: ``<domain>/...``, ``@ros2_lv/<domain>/...``) and
+    the keys of its transient-local publishers' caches (``<topic key>/@adv/...``: a verbatim chunk, which ``**``
+    does not cross)."""
+    return f"{domain}/**", f"@ros2_lv/{domain}/**", f"{domain}/**/@adv/**"
+
+
+def ros2_bridge_role(keys: ks.Keyspace, access: Ros2Access) -> Role:
+    from ros2_bridge.translator import ROVER_SOURCES
+
+    data, graph, cache = ros2_graph(access.domain)
+    driven = sorted(set(access.driven))
+    return Role(
+        ROS2,
+        publishes=(keys.ground_command, *(keys.rover(rid, t) for rid in driven
+                                          for t in (*_rover_inputs(), ks.POSE_ESTIMATE)), data, cache),
+        subscribes=(*(keys.rovers(t) for t in ROVER_SOURCES), keys.clock, keys.lander(ks.MAP),
+                    *((keys.state,) if access.truth else ()), data),
+        tokens=(*(keys.alive_rover(rid) for rid in driven), graph, cache),
+        watches=(keys.alive_rovers, graph),
+        serves=(cache,),
+    )
+
+
+def ros2_nodes_role(access: Ros2Access) -> Role:
+    """ROS 2 nodes on rmw_zenoh: their domain's topics and graph, and no LunarSim key."""
+    data, graph, cache = ros2_graph(access.domain)
+    return Role(ROS2_NODES, publishes=(data, cache), subscribes=(data, cache), tokens=(graph, cache),
+                watches=(graph, cache), serves=(cache,), queries=(cache,))
+
+
 def roles(keys: ks.Keyspace, rover_ids: Iterable[int], bridged: Iterable[int] = (),
-          bridge_clock: bool = False) -> list[Role]:
+          bridge_clock: bool = False, ros2: Ros2Access | None = None) -> list[Role]:
     """Every role of a world with these rovers, of which ``bridged`` are real ones behind a driver bridge.
 
     ``bridge_clock``: the one bridge publishes the clock (``lunarsim bridge --clock``, a bench without a world)
-    and the world may not.
+    and the world may not. ``ros2``: a ROS 2 bridge and its nodes join, with what it grants them.
     """
     ids = sorted(set(rover_ids))
     if not ids or ids[0] < 1:
@@ -184,8 +235,11 @@ def roles(keys: ks.Keyspace, rover_ids: Iterable[int], bridged: Iterable[int] = 
     simulated = None if not real else [rid for rid in ids if rid not in real]
     fixed = [world_role(keys, simulated, real, clock=not bridge_clock), lander_role(keys), ground_role(keys),
              recorder_role(keys)]
+    if ros2 is not None and (strangers := [rid for rid in ros2.driven if rid not in ids]):
+        raise ValueError(f"rovers {strangers} driven from ROS 2 are not rovers of this world")
+    extra = [] if ros2 is None else [ros2_bridge_role(keys, ros2), ros2_nodes_role(ros2)]
     return (fixed + [rover_agent_role(keys, rid) for rid in ids]
-            + [driver_bridge_role(keys, rid, bridge_clock) for rid in real])
+            + [driver_bridge_role(keys, rid, bridge_clock) for rid in real] + extra)
 
 
 def _rule(rule_id: str, messages: Iterable[str], flow: str, key_exprs: Iterable[str]) -> dict:
@@ -198,7 +252,7 @@ def rules_of(role: Role, keys: ks.Keyspace) -> list[dict]:
     n = role.name
     wanted = [
         (f"{n} publish", PUBLICATION, "ingress", role.publishes),
-        (f"{n} sees subscribers", ["declare_subscriber"], "egress", (keys.all,) if role.publishes else ()),
+        (f"{n} sees subscribers", ["declare_subscriber"], "egress", _seen(role, keys)),
         (f"{n} subscribe", ["declare_subscriber"], "ingress", role.subscribes),
         (f"{n} receive", PUBLICATION, "egress", role.subscribes),
         (f"{n} hold token", ["liveliness_token"], "ingress", role.tokens),
@@ -210,6 +264,13 @@ def rules_of(role: Role, keys: ks.Keyspace) -> list[dict]:
         (f"{n} get replies", ["reply", "declare_queryable"], "egress", role.queries),
     ]
     return [_rule(rule_id, messages, flow, key_exprs) for rule_id, messages, flow, key_exprs in wanted if key_exprs]
+
+
+def _seen(role: Role, keys: ks.Keyspace) -> tuple[str, ...]:
+    """Where a publishing role sees subscribers: the world's keys, and any others it publishes on (ROS 2's)."""
+    if not role.publishes:
+        return ()
+    return (keys.all, *(k for k in role.publishes if not k.startswith(keys.prefix + "/")))
 
 
 def access_control(all_roles: Iterable[Role], keys: ks.Keyspace) -> dict:

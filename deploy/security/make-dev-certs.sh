@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Development certificates for a LunarSim deployment over Zenoh TLS with mutual authentication.
 #
-#   deploy/security/make-dev-certs.sh [--bridges all|ID,ID...] OUT_DIR ROVERS [ROUTER_HOST ...]
+#   deploy/security/make-dev-certs.sh [--bridges all|ID,ID...] [--ros2] OUT_DIR ROVERS [ROUTER_HOST ...]
 #
 # Makes, in OUT_DIR: a development CA (ca.pem, ca.key) and, signed by it, a key and certificate per
 # role: router, world, lander, ground, recorder and rover-1 .. rover-ROVERS (<role>.key, <role>.pem),
-# and with --bridges a bridge-<id> for each real rover's driver bridge (all: bridge-1 .. bridge-ROVERS).
+# and with --bridges a bridge-<id> for each real rover's driver bridge (all: bridge-1 .. bridge-ROVERS),
+# with --ros2 ros2 (the ROS 2 bridge) and ros2-nodes (the ROS 2 nodes on rmw_zenoh).
 # Each certificate's common name is its role: the router's access control matches clients by it.
 # The router's certificate names localhost, 127.0.0.1 and every ROUTER_HOST (a host name or an IP
 # address) as subject alternative names: clients check the name they connect to against them.
@@ -18,17 +19,23 @@ DAYS=825
 OPENSSL=${OPENSSL:-openssl}
 
 usage() {
-    echo "usage: $0 [--bridges all|ID,ID...] OUT_DIR ROVERS [ROUTER_HOST ...]   (ROVERS: number of rover" \
-        "certificates, 1 or more; --bridges: real rovers whose driver bridge gets a bridge-<id> certificate)" >&2
+    echo "usage: $0 [--bridges all|ID,ID...] [--ros2] OUT_DIR ROVERS [ROUTER_HOST ...]   (ROVERS: number of" \
+        "rover certificates, 1 or more; --bridges: real rovers whose driver bridge gets a bridge-<id> certificate;" \
+        "--ros2: ros2 and ros2-nodes certificates)" >&2
     exit 2
 }
 
 BRIDGES=""
-case "${1:-}" in
-    --bridges) [ $# -ge 2 ] || usage; BRIDGES=$2; shift 2 ;;
-    --bridges=*) BRIDGES=${1#--bridges=}; shift ;;
-    -*) echo "error: unknown option '$1'" >&2; usage ;;
-esac
+ROS2=""
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --bridges) [ $# -ge 2 ] || usage; BRIDGES=$2; shift 2 ;;
+        --bridges=*) BRIDGES=${1#--bridges=}; shift ;;
+        --ros2) ROS2=yes; shift ;;
+        -*) echo "error: unknown option '$1'" >&2; usage ;;
+        *) break ;;
+    esac
+done
 [ $# -ge 2 ] || usage
 OUT=$1
 ROVERS=$2
@@ -113,5 +120,9 @@ done
 for id in ${BRIDGE_IDS[@]+"${BRIDGE_IDS[@]}"}; do
     make_cert "bridge-$((10#$id))"
 done
+if [ -n "$ROS2" ]; then
+    make_cert ros2
+    make_cert ros2-nodes
+fi
 chmod 644 "$OUT"/*.pem
 echo "certificates in $OUT: give each process its <role>.pem and <role>.key, and ca.pem to all"

@@ -12,6 +12,10 @@ When the rover corrects itself and talks:
   sees it walking more often than standing: walking, it tells where its move has got to and when);
 - it does either only once its estimate is uncertain at all: a rover without noise, or one just calibrated, has
   nothing to correct and nothing to tell, so noise-free missions send nothing new.
+
+Apart from the radio, it reports its estimate on its own key (``EstimatedPose``) with the agent's periodic status,
+for the ground and ROS 2's ``odom``: a few numbers a second, however sure it is, and no tick more for a lockstep
+world to wait for.
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ from rover_agent.estimation.sightings import (
     teammate_landmark,
 )
 from schemas import keyspace as ks
+from schemas import messages as m
 from schemas import radio
 from schemas.params import RoverParams
 from schemas.scenario_limits import MAX_ROVERS
@@ -167,6 +172,22 @@ class Estimator:
             log.warning("rover %d: pose estimate not told: %s", self.rover_id, exc)
             return None
         return rovers, estimate
+
+    def report(self, now: float, flight: InFlight | None) -> m.EstimatedPose | None:
+        """The estimate for the rover's own key (see the module's docstring); during a move, where it has got to."""
+        loc = self.localisation
+        if loc is None:
+            return None
+        pose, cov = loc.pose, loc.cov
+        if flight is not None and isinstance(flight.decision, MoveTo):
+            pose, cov = loc.part_way(flight.start, flight.decision.x, flight.decision.z, flight.walked)
+        try:
+            return m.EstimatedPose(stamp=max(0.0, now), x=pose.x, z=pose.z, heading_deg=pose.heading % 360.0,
+                                   cov_xx=cov[0][0], cov_xz=cov[0][1], cov_zz=cov[1][1], cov_xh=cov[0][2],
+                                   cov_zh=cov[1][2], cov_hh=cov[2][2], moving=flight is not None)
+        except ValueError as exc:  # past what the message carries: unreported, rather than a crash
+            log.warning("rover %d: pose estimate not reported: %s", self.rover_id, exc)
+            return None
 
     # ---- the way by the lander ----
 

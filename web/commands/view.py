@@ -5,7 +5,9 @@ statistics, ground commands and the scenario editor. With ``--foxglove`` it serv
 
 Subscribes to the world state, the rover photos and the lander's map of ``--world`` and serves the same channels as
 ``lunarsim export-foxglove`` (``/scene``, ``/tf``, ``/rover_<id>/photo``, ``/map``), so a live run and a recording
-look alike. Open the Foxglove app, "Open connection", ``ws://localhost:8765``, and add a 3D panel.
+look alike, and beyond them the world's clock as Foxglove's time, the rovers' scan, IMU and battery, ground commands
+from the app and its playback controls (``web.foxglove_extras``). Open the Foxglove app, "Open connection",
+``ws://localhost:8765``, and add a 3D panel.
 The static scene (terrain, obstacles, lander, goals) is drawn from ``--scenario`` and sent again to
 each client that subscribes, since a WebSocket server keeps no history for late joiners.
 """
@@ -36,6 +38,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; "
                         "0.0.0.0 for other machines: the web page then asks for a token)")
     parser.add_argument("--no-trails", action="store_true", help="do not draw the rovers' recent paths")
+    parser.add_argument("--timeline", type=float, default=3600.0, metavar="S",
+                        help="--foxglove: simulated seconds Foxglove's playback bar spans, for seeking a replay "
+                        "(default 3600)")
     add_zenoh_arguments(parser, agent=True, timeout_help=ROUTER_TIMEOUT_HELP)
     _add_web_arguments(parser)
 
@@ -102,4 +107,4 @@ def run(args: argparse.Namespace) -> int:
         raise process.UsageError("--foxglove needs --scenario FILE (the terrain, obstacles, lander and goals)")
     scenario = load_scenario(args.scenario)
     return serve_foxglove(scenario, Keyspace(args.world), args.host, args.port, 0 if args.no_trails else 300,
-                          config_from_args(args), describe_endpoints(args), args.router_timeout)
+                          config_from_args(args), describe_endpoints(args), args.router_timeout, args.timeline)
