@@ -193,6 +193,7 @@ class Mission:
         return code
 
     def _start_processes(self) -> None:
+        self.children.warm_up()  # the rover agents' server imports while the world starts
         common = ["--world", self.args.world, "--connect", self.endpoint]
         shutil.rmtree(self.out / "state", ignore_errors=True)  # a reused run folder must not resume old poses
         (self.out / "state").mkdir()
