@@ -66,6 +66,7 @@ class RoverAgent:
         self.senses = Senses()
         self.now = 0.0
         self.status_at = -math.inf
+        self._scan_to_fold: tuple[float, float, float, tuple[Hit, ...]] | None = None
         self.handlers: dict[str, Callable[[m.Message], list[Out]]] = {
             ks.PERCEPTION: self._on_perception, ks.NAVIGATION_STATUS: self._on_navigation_status,
             ks.CANCEL_RESULT: self._on_cancel_result, ks.ACTION_REJECTED: self._on_action_rejected,
@@ -83,7 +84,16 @@ class RoverAgent:
         """The estimate's mean, once the rover knows where it stands."""
         return self.estimator.pose
 
+    def catch_up(self) -> None:
+        """Book-keeping that waits until the answer to a sample is out: folding a scan into the traverse map (most
+        of the handling of a perception, and nothing a decision reads). The Zenoh loop calls this once it has
+        published the answer; ``handle`` and ``on_clock`` call it first, so every sample finds it done."""
+        if self._scan_to_fold is not None:
+            scan, self._scan_to_fold = self._scan_to_fold, None
+            self.map.fold_scan(*scan)
+
     def handle(self, topic: str, payload: bytes) -> list[Out]:
+        self.catch_up()
         handler = self.handlers.get(topic)
         if handler is None:
             self.rejected.count(topic, "no handler for this topic")
@@ -95,6 +105,7 @@ class RoverAgent:
             return []
 
     def on_clock(self, clock: m.Clock) -> list[Out]:
+        self.catch_up()
         if clock.run != self.restarts.run:
             self._join(clock)
         if not clock.running:  # the world waiting for agents, or done: nothing moves, nothing to answer
@@ -275,7 +286,7 @@ class RoverAgent:
         standing = self.actions.in_flight is None and self.pose is not None and self.actions.settled_by(msg.stamp)
         if standing:  # where the estimate says it stands: correct it, then map what it sees from there
             self.estimator.localise(msg.stamp, hits, self.state, self.senses.partners)
-            self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
+            self._scan_to_fold = (self.pose.x, self.pose.z, self.pose.heading, hits)  # once the answer is out
         # answered with perception, which the lockstep world always waits for
         ask = self._ask_station(hits) + self._share_estimate()
         flight = self.actions.in_flight
