@@ -208,9 +208,10 @@ class Mission:
         if getattr(self.args, "ros2", False) or external:
             drive = ["--drive", ",".join(map(str, sorted(external)))] if external else []
             self.children.start("ros2", "ros2_bridge", "--params", str(self.scenario_file), *drive, *common)
+        # forked warm too: the lander needs what the rovers' server has imported, and it came last of the agents
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
                             str(self.out / "lander_archive"), "--map-out", str(self.out), "--state",
-                            str(self.out / "state"), *common, priority=agents)
+                            str(self.out / "state"), *common, warm=True, priority=agents)
         count, per = len(self.scenario.rovers), self.args.agents_per_process
         for first, last in groups([i for i in range(1, count + 1) if i not in external], per):
             name, which = self._rover_group(first, last)
