@@ -56,6 +56,13 @@ class Children:
         self.procs[name] = proc
         return proc
 
+    def warm_up(self) -> None:
+        """Have the warm server import ``preload`` now, while other children start (``warm_start.prestart``)."""
+        from deploy import warm_start
+
+        if warm_start.available():
+            warm_start.prestart(self.preload)
+
     def dead(self) -> dict[str, int]:
         return {name: p.returncode for name, p in self.procs.items() if p.poll() is not None}
 

@@ -164,6 +164,7 @@ class Mission:
         return code
 
     def _start_processes(self) -> None:
+        self.children.warm_up()  # the rover agents' server imports while the world starts
         common = ["--world", self.options.world, "--connect", self.endpoint]
         shutil.rmtree(self.out / "state", ignore_errors=True)  # a reused run folder must not resume old poses
         (self.out / "state").mkdir()
@@ -178,9 +179,10 @@ class Mission:
         if self.options.ros2 or external:
             drive = ["--drive", ",".join(map(str, sorted(external)))] if external else []
             self.children.start("ros2", "ros2_bridge", "--params", str(self.scenario_file), *drive, *common)
+        # forked warm too: the lander needs what the rovers' server has imported, and it came last of the agents
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
                             str(self.out / "lander_archive"), "--map-out", str(self.out), "--state",
-                            str(self.out / "state"), *common, priority=agents)
+                            str(self.out / "state"), *common, warm=True, priority=agents)
         count, per = len(self.scenario.rovers), self.options.agents_per_process
         for first, last in groups([i for i in range(1, count + 1) if i not in external], per):
             name, which = self._rover_group(first, last)

@@ -58,6 +58,7 @@ def answer(agent: RoverAgent, samples: list[tuple[str, bytes]]) -> list[Out]:
     out: list[Out] = []
     for topic, payload in samples:
         out += agent.on_clock(codec.decode(m.Clock, payload)) if topic == ks.CLOCK else agent.handle(topic, payload)
+    agent.catch_up()
     return out
 
 

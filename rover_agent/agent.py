@@ -84,7 +84,12 @@ class RoverAgent:
         """The estimate's mean, once the rover knows where it stands."""
         return self.estimator.pose
 
+    def catch_up(self) -> None:
+        """Map book-keeping deferred until the answer is out (``MapRecorder.fold_later``)."""
+        self.map.catch_up()
+
     def handle(self, topic: str, payload: bytes) -> list[Out]:
+        self.catch_up()
         handler = self.handlers.get(topic)
         if handler is None:
             self.rejected.count(topic, "no handler for this topic")
@@ -96,6 +101,7 @@ class RoverAgent:
             return []
 
     def on_clock(self, clock: m.Clock) -> list[Out]:
+        self.catch_up()
         if clock.run != self.restarts.run:
             self._join(clock)
         if not clock.running:  # the world waiting for agents, or done: nothing moves, nothing to answer
@@ -276,7 +282,7 @@ class RoverAgent:
         standing = self.actions.in_flight is None and self.pose is not None and self.actions.settled_by(msg.stamp)
         if standing:  # where the estimate says it stands: correct it, then map what it sees from there
             self.estimator.localise(msg.stamp, hits, self.state, self.senses.partners)
-            self.map.fold_scan(self.pose.x, self.pose.z, self.pose.heading, hits)
+            self.map.fold_later(self.pose.x, self.pose.z, self.pose.heading, hits)
         # answered with perception, which the lockstep world always waits for
         ask = self._ask_station(hits) + self._share_estimate()
         flight = self.actions.in_flight

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 import threading
 
-from bus.bus import Bus
+from bus.bus import Bus, Received
 from bus.process import freeze_start_up_heap
 from bus.world_watch import ClockWatch
 from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
@@ -19,46 +19,75 @@ log = logging.getLogger("lunarsim.rover")
 
 def run(agents: RoverAgent | list[RoverAgent], bus: Bus, stop: threading.Event) -> None:
     """Run one agent, or several sharing this process and its Zenoh session (``--ids``): each keeps its own
-    subscriptions and liveliness token, so the world and the router see them exactly as separate processes."""
+    subscriptions and liveliness token, so the world and the router see them exactly as separate processes.
+
+    Each sample is handled on Zenoh's receiving thread as it arrives (``Bus.handle_directly``), in arrival order,
+    and what the agent answers is published from there; this thread only watches the clock and waits for ``stop``.
+    A handler's exception stops the agent and is raised here, as it would be from a loop of its own."""
     agents = [agents] if isinstance(agents, RoverAgent) else agents
     keys = agents[0].keys
-    by_prefix: dict[str, RoverAgent] = {}
+    who = f"rover {agents[0].id}" if len(agents) == 1 else f"rovers {agents[0].id}..{agents[-1].id}"
+    handler = _Handler(agents, bus, stop, ClockWatch(who, keys.clock))
+    bus.handle_directly(handler)
     bus.subscribe(keys.clock)  # before the tokens: the world starts the clock once it sees them
     for agent in agents:
-        by_prefix[keys.rover(agent.id, "")] = agent
         for topic in SUBSCRIBED_TOPICS:
             bus.subscribe(keys.rover(agent.id, topic))
         bus.declare_token(keys.alive_rover(agent.id))
-    who = f"rover {agents[0].id}" if len(agents) == 1 else f"rovers {agents[0].id}..{agents[-1].id}"
-    watch = ClockWatch(who, keys.clock)
     log.info("%s: started on %s, waiting for the world's clock", who, keys.prefix)
     freeze_start_up_heap()
     try:
-        _loop(agents, bus, stop, watch, by_prefix)
+        while not stop.wait(0.2):
+            handler.check()
+        if handler.failed is not None:
+            raise handler.failed
     finally:
+        handler.closed = True
         STATE_WRITER.flush()  # the states of the last actions, before the process ends
         for agent in agents:
             log.info("rover %d: stopping as %s at t = %.1f s; refused %d sample(s)", agent.id, agent.state,
                      agent.now, agent.rejected.total)
 
 
-def _loop(agents: list[RoverAgent], bus: Bus, stop: threading.Event, watch: ClockWatch,
-          by_prefix: dict[str, RoverAgent]) -> None:
-    keys = agents[0].keys
-    while not stop.is_set():
-        item = bus.receive(timeout=0.2)
-        watch.check()
-        if item is None:
-            continue
-        if item.key == keys.clock:
-            watch.heard()
-            clock = _decode_clock(agents, item.payload)
-            out = [o for agent in agents for o in agent.on_clock(clock)] if clock is not None else []
-        else:
-            prefix = item.key[:item.key.rindex("/") + 1]
-            out = by_prefix[prefix].handle(item.key[len(prefix):], item.payload)
-        for key, message in out:
-            bus.publish(key, message)
+class _Handler:
+    """What the agents of a process do with each sample, on Zenoh's thread: the clock to all of them, a rover's
+    own topic to its agent; what they answer is published at once."""
+
+    def __init__(self, agents: list[RoverAgent], bus: Bus, stop: threading.Event, watch: ClockWatch) -> None:
+        self.agents, self.bus, self.stop, self.watch = agents, bus, stop, watch
+        self.clock_key = agents[0].keys.clock
+        self.by_prefix = {agent.keys.rover(agent.id, ""): agent for agent in agents}
+        self.failed: BaseException | None = None
+        self.closed = False
+        self._watch_lock = threading.Lock()  # the watch is also checked from the waiting thread
+
+    def __call__(self, item: Received) -> None:
+        if self.closed or self.failed is not None:
+            return
+        try:
+            self._handle(item)
+        except BaseException as exc:  # raised by ``run`` on its own thread
+            self.failed = exc
+            self.stop.set()
+
+    def _handle(self, item: Received) -> None:
+        if item.key == self.clock_key:
+            with self._watch_lock:
+                self.watch.heard()
+            clock = _decode_clock(self.agents, item.payload)
+            out = [o for agent in self.agents for o in agent.on_clock(clock)] if clock is not None else []
+            for key, message in out:
+                self.bus.publish(key, message)
+            return
+        prefix = item.key[:item.key.rindex("/") + 1]
+        agent = self.by_prefix[prefix]
+        for key, message in agent.handle(item.key[len(prefix):], item.payload):
+            self.bus.publish(key, message)
+        agent.catch_up()  # the answer is out: now the book-keeping
+
+    def check(self) -> None:
+        with self._watch_lock:
+            self.watch.check()
 
 
 def _decode_clock(agents: list[RoverAgent], payload: bytes) -> m.Clock | None:

@@ -20,8 +20,9 @@ from test_web_browser import CHROMIUM
 pytestmark = pytest.mark.bench_smoke
 
 BENCHMARKS = REPO / "benchmarks"
-SUPPORT = {"control_loop_world", "host", "latency_summary", "proc_meter", "quick", "scale_args", "scale_cluster",
-           "scale_observe", "scale_report", "scale_witness", "zenoh_floor", "ros2_sdk_meter"}
+SUPPORT = {"control_loop_world", "host", "latency_summary", "lockstep_speed_report", "proc_meter", "quick",
+           "scale_args", "scale_cluster", "scale_observe", "scale_report", "scale_witness", "tick_costs", "zenoh_floor",
+           "ros2_sdk_meter"}
 """Modules the benchmarks import or start, not benchmarks themselves."""
 MS = r"\d+\.\d{3}"
 
@@ -79,6 +80,19 @@ SMOKES: dict[str, Smoke] = {
         r"other_rovers_reply_p99_ms\s+(\d+\.\d{3}|nan)",
         r"reached\s+\d+/3"),
         json_check=lambda doc: doc["flood_puts_per_s"] > 0),
+    "lockstep_speed": Smoke(lines=(
+        r"in process \(harness\.loopback\.run_mission_agents\): median \d+\.\d x real time \(runs: [\d.]+\); "
+        r"target 60 x: (PASS|FAIL)",
+        r"lunarsim run --lockstep, whole command \(a process per rover\): median \d+\.\d x real time \(runs: [\d.]+\); "
+        r"target 25 x: (PASS|FAIL)",
+        r"lunarsim run phases \(median s from the command's start\): .*clock started \d+\.\d\d.*, command over "
+        r"\d+\.\d\d",
+        rf"the world's ticks through processes \(median ms a tick\): mission {MS}, stepping {MS}, publishing {MS}, "
+        rf"waiting for acks {MS} \(\d+% of ticks wait\), taking answers {MS}",
+        rf"\s+world: perception rays\s+{MS} ms a tick\s+\d+\.\d%",
+        rf"an agent's handling of one perception \(in process, mean of \d+\): {MS} ms until its answer is out: .*; "
+        rf"then the traverse map {MS} ms"),
+        json_check=lambda doc: len(doc["in_process"]) == len(doc["command"]) == 1 and doc["parts"][0]["ticks"] > 0),
     "recorder_throughput": Smoke(args=("--port", "{port}"), lines=(
         r"10 rovers, 3 s simulated in [\d.]+ s \(real-time factor [\d.]+\): \d+ messages/s, [\d.]+ MB/s",
         r"perception\s+\d+\s+\d+",

@@ -24,6 +24,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bus import priority, snapshot
 from bus.bus import Bus, Received
@@ -37,6 +38,9 @@ from world_service.lockstep import LockstepTick
 from world_service.presence import Agents, agent_name, note_ack, note_liveliness
 from world_service.rover_ids import IdDesk
 from world_service.served import ServedWorld
+
+if TYPE_CHECKING:
+    from schemas.scenario import Scenario
 
 log = logging.getLogger("lunarsim.world")
 
@@ -129,16 +133,20 @@ def _step_realtime(world: ServedWorld, bus: Bus, photographer: Photographer, sta
 
 
 def _step_lockstep(world: ServedWorld, bus: Bus, photographer: Photographer, tick: LockstepTick, agents: Agents,
-                   state_file: Path | None) -> None:
+                   state_file: Path | None, tally: LockstepTally) -> None:
     """One tick in lockstep (``LockstepTick.step``): the clock goes out only when the tick waits for someone."""
+    t0 = time.perf_counter()
     photos = photographer.take(world.clock.tick + 1)
     world.dropped_messages = sum(bus.inbox.dropped.values())
     samples, clock = tick.step(photos, set(agents.ids.values()))
     _keep(world, state_file)
+    t1 = time.perf_counter()
     for key, message in samples:
         bus.publish(key, message)
     if clock is not None:
         bus.publish(world.keys.clock, clock)
+    tally.stepping += t1 - t0
+    tally.publishing += time.perf_counter() - t1
 
 
 def _keep(world: ServedWorld, state_file: Path | None) -> None:
@@ -158,12 +166,20 @@ def _hold(world: ServedWorld, bus: Bus, agents: Agents, stop: threading.Event) -
             handle(world, bus, item, agents)
 
 
+def start_camera(scenario: Scenario, lockstep: bool) -> CameraProcess:
+    """The camera process of a world that renders its photos (``ServedWorld.RENDERS_PHOTOS``). Its start (NumPy,
+    Numba's loops, the terrain: a second or two of CPU) takes longer than the world's own, and the clock waits for
+    it: started first, it is ready about when the agents are."""
+    return CameraProcess(scenario, priority.for_mode("auto", lockstep))
+
+
 def serve(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event, report_file: Path | None = None,
-          lingering: bool = True) -> m.MissionReport:
+          lingering: bool = True, camera: CameraProcess | None = None) -> m.MissionReport:
     """The world service's life on ``bus``: the mission (``run``), its report written to ``report_file``, then, while
-    ``lingering``, the final statistics until ``stop``."""
+    ``lingering``, the final statistics until ``stop``. ``camera``: started already (``start_camera``), else
+    ``run`` starts one."""
     declare_io(bus, world.keys, world)
-    report = run(world, bus, settings, stop)
+    report = run(world, bus, settings, stop, camera)
     if report_file is not None:
         report_file.write_text(json.dumps(report.model_dump(), indent=2) + "\n")
     if lingering:
@@ -171,29 +187,36 @@ def serve(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading
     return report
 
 
-def run(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event) -> m.MissionReport:
+def run(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event,
+        camera: CameraProcess | None = None) -> m.MissionReport:
     """Run the mission until every rover is done or stuck, ``max_sim_time`` passes, or ``stop`` is set."""
     world.clock.time_scale, world.clock.lockstep = (0.0, True) if settings.lockstep else (settings.time_scale, False)
-    camera = (CameraProcess(world.scenario, priority.for_mode("auto", settings.lockstep))
-              if world.RENDERS_PHOTOS else None)  # starts while the agents connect
+    if camera is None and world.RENDERS_PHOTOS:
+        camera = start_camera(world.scenario, settings.lockstep)  # starts while the agents connect
+    elif not world.RENDERS_PHOTOS and camera is not None:
+        camera.close()
+        camera = None
     agents = Agents(world.keys)
     photographer = Photographer(world, settings.lockstep, camera, settings.photo_dir)
     try:
-        wait_for_agents(world, bus, settings, stop, agents)
-        photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock.message(running=False)))
-        freeze_start_up_heap()
-        agents.tick = LockstepTick(world, settings.max_sim_time) if settings.lockstep else None
-        log.info("clock started at t = %.1f s: %s", world.clock.sim_time,
-                 "lockstep" if settings.lockstep else f"real time x {settings.time_scale:g}")
-        (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
+        try:
+            wait_for_agents(world, bus, settings, stop, agents)
+            photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock.message(running=False)))
+            freeze_start_up_heap()
+            agents.tick = LockstepTick(world, settings.max_sim_time) if settings.lockstep else None
+            log.info("clock started at t = %.1f s: %s", world.clock.sim_time,
+                     "lockstep" if settings.lockstep else f"real time x {settings.time_scale:g}")
+            (_run_lockstep if settings.lockstep else _run_realtime)(world, bus, settings, stop, agents, photographer)
+        finally:
+            for key, message in photographer.finish():
+                bus.publish(key, message)
+        if settings.state_file is not None:  # over, or stopped on purpose: a state is kept only by a world killed
+            snapshot.discard(settings.state_file)
+        bus.publish(world.keys.state, world.observed_state())  # the final state, then the report computed from it
+        report = world.report()
+        bus.publish(world.keys.stats, m.WorldStats(stamp=world.clock.sim_time, report=report, final=True))
     finally:
-        for key, message in photographer.close():
-            bus.publish(key, message)
-    if settings.state_file is not None:  # over, or stopped on purpose: a state is kept only by a world killed
-        snapshot.discard(settings.state_file)
-    bus.publish(world.keys.state, world.observed_state())  # the final state, then the report computed from it
-    report = world.report()
-    bus.publish(world.keys.stats, m.WorldStats(stamp=world.clock.sim_time, report=report, final=True))
+        photographer.close()  # after the report: the launcher need not wait for the camera process to end
     _log_end(world, report, stop.is_set())
     return report
 
@@ -239,18 +262,21 @@ def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: t
         while not stop.is_set():
             while world.clock.hold.held() and not stop.is_set():
                 _hold(world, bus, agents, stop)
-            t0 = time.perf_counter()
-            _step_lockstep(world, bus, photographer, tick, agents, settings.state_file)
-            tally.stepping += time.perf_counter() - t0
+            _step_lockstep(world, bus, photographer, tick, agents, settings.state_file, tally)
             if tick.over:
                 return
             tally.ticks += 1
             tally.waited += bool(tick.waiting)
             t0 = time.perf_counter()
             _collect_until_acked(world, bus, settings, stop, agents)
-            tally.waiting += time.perf_counter() - t0
-            for key, message in tick.take():
+            t1 = time.perf_counter()
+            late = tick.take()
+            t2 = time.perf_counter()
+            for key, message in late:
                 bus.publish(key, message)
+            tally.waiting += t1 - t0
+            tally.taking += t2 - t1
+            tally.publishing += time.perf_counter() - t2
     finally:
         log.info("%s; waiting for photos %.2f s", tally.summary(world.clock.sim_time), photographer.waited_s)
 
@@ -263,7 +289,9 @@ class LockstepTally:
     ticks: int = 0
     waited: int = 0
     stepping: float = 0.0
+    publishing: float = 0.0
     waiting: float = 0.0
+    taking: float = 0.0
     cpu_start: float = field(default_factory=time.process_time)
 
     def summary(self, sim_time: float) -> str:
@@ -272,7 +300,8 @@ class LockstepTally:
         cpu = time.process_time() - self.cpu_start
         return (f"lockstep: {sim_time:.1f} s simulated in {wall:.2f} s ({sim_time / max(wall, 1e-9):.1f}x real "
                 f"time); {self.ticks} ticks, {self.waited} waited for acks ({self.waiting:.2f} s), stepping "
-                f"{self.stepping:.2f} s; the world's CPU {cpu:.2f} s")
+                f"{self.stepping:.2f} s, publishing {self.publishing:.2f} s, taking answers {self.taking:.2f} s; the "
+                f"world's CPU {cpu:.2f} s")
 
 
 def _collect_until_acked(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event,

@@ -38,11 +38,23 @@ class MapRecorder:
         self.step_deg = p.ray_step_deg
         self.rays = [-self.fov / 2 + i * self.step_deg for i in range(p.perception_granularity)]
         self.known: set[MappedCell] = set()
+        self._to_fold: tuple[float, float, float, tuple] | None = None
         self.pending: list[MappedCell] = []
         self.outbox: dict[int, radio.MapReport] = {}
         self.next_seq = 0
         self.last_pose: tuple[float, float, float] | None = None
         self.last_send = -math.inf
+
+    def fold_later(self, x: float, z: float, heading_deg: float, hits: tuple) -> None:
+        """Keep a scan to fold once the agent's answer is out (``catch_up``): folding is most of the handling of a
+        perception, and no decision reads the map."""
+        self._to_fold = (x, z, heading_deg, hits)
+
+    def catch_up(self) -> None:
+        """Fold the scan kept by ``fold_later``, if any; every sample's handling calls this first."""
+        if self._to_fold is not None:
+            scan, self._to_fold = self._to_fold, None
+            self.fold_scan(*scan)
 
     def fold_scan(self, x: float, z: float, heading_deg: float, hits: Iterable) -> None:
         """Note what a scan from a standing rover at (x, z) facing ``heading_deg`` saw (hits: angle, distance,

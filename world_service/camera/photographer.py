@@ -126,10 +126,12 @@ class Photographer:
             save_photo(self.photo_dir, job, photo)
         return self.world.keys.rover(job.rover_id, ks.PHOTO), photo
 
-    def close(self) -> list[Out]:
-        """Stop the camera process; the photos still on their way, to publish."""
+    def finish(self) -> list[Out]:
+        """The photos still on their way, to publish."""
         self.wait = True
-        out = self.take(max((job.due_tick for job, _ in self.queued), default=0))
+        return self.take(max((job.due_tick for job, _ in self.queued), default=0))
+
+    def close(self) -> None:
+        """Stop the camera process."""
         if self.camera is not None:
             self.camera.close()
-        return out

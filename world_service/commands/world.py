@@ -69,12 +69,18 @@ def run(args: argparse.Namespace) -> int:
     state_file = None if args.no_state or args.twin else args.state or process.state_folder(args.world) / "world.state"
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
                                      lockstep=args.lockstep, photo_dir=args.photos, state_file=state_file)
-    session = _open(args)  # before the terrain is built: agents may connect meanwhile
+    camera = None if args.twin else service.start_camera(scenario, args.lockstep)  # it starts while all else does
+    try:
+        session = _open(args)  # before the terrain is built: agents may connect meanwhile
+    except BaseException:
+        if camera is not None:
+            camera.close()
+        raise
     bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen,  # a router puts undeclared
               loss=args.fault_loss, loss_seed=scenario.seed)
     with bus, process.stop_on_signals() as stop:
         world = _world(args, scenario, Keyspace(args.world), state_file)
-        service.serve(world, bus, settings, stop, args.report, lingering=not args.exit_when_done)
+        service.serve(world, bus, settings, stop, args.report, lingering=not args.exit_when_done, camera=camera)
     return 0
 
 
