@@ -8,6 +8,8 @@ return) and for each rover's role (formation, in_crater, out_of_range):
   relay spot at the end (at the last goal a daisy chain's relays walk on once released, ``release_relays``; a
   relay still on its spot counts as not reached, as in the report's figure);
 - collisions (rover and obstacle, per mission) and stuck rovers (said so, or counted stalled by the world);
+- relays stranded: rovers still holding a daisy chain's relay spot at the end, a spot nobody needs any more, per
+  mission of the daisy family (and how many in the others' missions);
 - path efficiency of the rovers that reached: their ideal path (the report's relative path length) over the
   distance they covered (the report's mission figure mixes in rovers that never moved); above 1 where a rover
   skipped a leg: a relay of a chain to a goal before the last is sent on to the next goal, not to that one;
@@ -214,7 +216,19 @@ def aggregate(results: list[dict]) -> dict:
     failures = [{"seed": row["seed"], "classes": row["classes"], **r, "why": failure_kind(r)}
                 for row in ok for r in row["rovers"] if not r["reached"]]
     return {"overall": summarise(ok), "by_class": by_class, "by_role": by_role, "errors": len(results) - len(ok),
+            "stranded": stranded(ok),
             "failure_kinds": dict(Counter(f["why"] for f in failures).most_common()), "failures": failures}
+
+
+def stranded(rows: list[dict]) -> dict:
+    """Relays still holding a daisy chain's spot at the end, over the daisy family's missions: a spot the mission
+    no longer needs (at the end nobody needs the route), per mission and the missions with any."""
+    daisy = [row for row in rows if row["classes"]["family"] == "daisy"]
+    counts = [sum(r["state"] == "relay" for r in row["rovers"]) for row in daisy]
+    return {"daisy_missions": len(daisy), "relays": sum(counts), "missions_with_any": sum(c > 0 for c in counts),
+            "per_mission": round(sum(counts) / len(daisy), 3) if daisy else None,
+            "elsewhere": sum(r["state"] == "relay" for row in rows if row["classes"]["family"] != "daisy"
+                             for r in row["rovers"])}
 
 
 # ---- output ----
@@ -242,6 +256,9 @@ def print_table(agg: dict) -> None:
               f"{s['complete']:>6}/{s['missions']:<3}")
     print(f"err: distance from the final goal at the end; est: distance of each rover's own estimate from the truth "
           f"at the end, over the {agg['overall']['walked_400m']} rovers that walked {LOCALISED_AFTER_M:.0f} m or more")
+    if (st := agg.get("stranded")) is not None:  # runs saved before the figure have none
+        print(f"relays stranded: {st['relays']} in {st['missions_with_any']} of {st['daisy_missions']} daisy missions "
+              f"({_fmt(st['per_mission'], '.2f')} a mission); {st['elsewhere']} in other missions")
 
 
 def print_failures(agg: dict, shown: int) -> None:
