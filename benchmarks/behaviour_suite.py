@@ -8,6 +8,8 @@ return) and for each rover's role (formation, in_crater, out_of_range):
   relay spot at the end (at the last goal a daisy chain's relays walk on once released, ``release_relays``; a
   relay still on its spot counts as not reached, as in the report's figure);
 - collisions (rover and obstacle, per mission) and stuck rovers (said so, or counted stalled by the world);
+- where the distance goes: the metres the rovers that reached walked, by what they walked for (their goal, a
+  way by the lander, a search for a fix, a relay spot, the lander's radio), beside their ideal paths;
 - relays stranded: rovers still holding a daisy chain's relay spot at the end, a spot nobody needs any more, per
   mission of the daisy family (and how many in the others' missions);
 - path efficiency of the rovers that reached: their ideal path (the report's relative path length) over the
@@ -146,6 +148,7 @@ def _rovers(world: World, made: GeneratedScenario, agents: dict[int, RoverAgent]
                     "estimate_std_m": _estimate_std(agents[r.id]),
                     "distance_covered_m": r.distance_covered_m, "ideal_path_m": round(ideal, 3),
                     "efficiency": round(ideal / r.distance_covered_m, 4) if r.distance_covered_m > 0 else None,
+                    "walked_by_cause": {k: round(v, 2) for k, v in sorted(agents[r.id].walked.items())},
                     "detail": referee.status[r.id].detail})
     return out
 
@@ -216,8 +219,21 @@ def aggregate(results: list[dict]) -> dict:
     failures = [{"seed": row["seed"], "classes": row["classes"], **r, "why": failure_kind(r)}
                 for row in ok for r in row["rovers"] if not r["reached"]]
     return {"overall": summarise(ok), "by_class": by_class, "by_role": by_role, "errors": len(results) - len(ok),
-            "stranded": stranded(ok),
+            "stranded": stranded(ok), "walked": walked_by_cause(ok),
             "failure_kinds": dict(Counter(f["why"] for f in failures).most_common()), "failures": failures}
+
+
+def walked_by_cause(rows: list[dict]) -> dict:
+    """Metres the rovers that reached walked, by what they walked for (``RoverAgent.walked``), beside their ideal
+    paths: where path efficiency goes. Runs saved before the figure have none."""
+    reached = [r for row in rows for r in row["rovers"] if r["reached"] and "walked_by_cause" in r]
+    causes: Counter = Counter()
+    for r in reached:
+        causes.update(r["walked_by_cause"])
+    return {"rovers": len(reached), "ideal_m": round(sum(r["ideal_path_m"] for r in reached), 1),
+            "covered_m": round(sum(r["distance_covered_m"] for r in reached), 1),
+            "by_cause_m": {k: round(v, 1) for k, v in causes.most_common()},
+            "rovers_by_cause": dict(Counter(k for r in reached for k, v in r["walked_by_cause"].items() if v > 0))}
 
 
 def stranded(rows: list[dict]) -> dict:
@@ -256,6 +272,11 @@ def print_table(agg: dict) -> None:
               f"{s['complete']:>6}/{s['missions']:<3}")
     print(f"err: distance from the final goal at the end; est: distance of each rover's own estimate from the truth "
           f"at the end, over the {agg['overall']['walked_400m']} rovers that walked {LOCALISED_AFTER_M:.0f} m or more")
+    if (w := agg.get("walked")) is not None and w["rovers"]:
+        causes = ", ".join(f"{k} {v:.0f} m ({w['rovers_by_cause'].get(k, 0)} rovers)"
+                           for k, v in w["by_cause_m"].items())
+        print(f"walked by the {w['rovers']} rovers that reached: {w['covered_m']:.0f} m for {w['ideal_m']:.0f} m of "
+              f"ideal paths; by cause: {causes}")
     if (st := agg.get("stranded")) is not None:  # runs saved before the figure have none
         print(f"relays stranded: {st['relays']} in {st['missions_with_any']} of {st['daisy_missions']} daisy missions "
               f"({_fmt(st['per_mission'], '.2f')} a mission); {st['elsewhere']} in other missions")
