@@ -10,7 +10,7 @@ from procs import SCENARIOS
 from harness.loopback import run_mission
 from lander_agent.daisy_chain import SPACING, in_radio_reach, plan_chain, relays_needed
 from lander_agent.mission import MissionPlan
-from lander_agent.runtime import PhotoArchive
+from lander_agent.runtime import Lander, PhotoArchive
 from rover_agent.agent import RoverAgent
 from schemas import codec, radio
 from schemas import keyspace as ks
@@ -95,6 +95,15 @@ def test_a_chain_whose_far_end_has_gone_quiet_lets_its_relays_go():
     assert all(plan.direction_for(rid).kind == "crater" for rid in (1, 2, 3, 4))
     plan.on_report(7, GoalReport(goal_index=0, outcome="reached"))
     assert plan.outcome[7] == "reached" and 8 not in plan.outcome
+
+
+def test_the_lander_notes_when_it_last_heard_each_rover_of_its_plan():
+    lander = Lander(MissionPlan(load_scenario(SCENARIOS / "daisy_chain.yaml")), KEYS)
+    lander.now = 30.0
+    report = radio.pack(GoalReport(goal_index=0, outcome="reached"))
+    lander.on_comm_in(m.InboundComm(sender=5, payload=report))
+    lander.on_comm_in(m.InboundComm(sender=40, payload=report))  # no rover of the plan: nothing to note
+    assert lander.plan.heard_at == {5: 30.0}
 
 
 def test_a_rover_heard_again_keeps_the_chain_standing():
