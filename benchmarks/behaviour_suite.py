@@ -43,6 +43,9 @@ held-out set before it, for reference).
     python benchmarks/behaviour_suite.py [--set dev|held-out|old-held-out] [--seeds A-B] [--kind K] [--jobs 2]
                                          [--json FILE]
     python benchmarks/behaviour_suite.py --quick    # two missions cut at 30 simulated seconds: a smoke check
+
+With ``--json``, the file holds the missions finished so far while the suite runs (``"partial": true``), so a run
+cut short can still be tabled with ``--table``.
 """
 
 from __future__ import annotations
@@ -55,6 +58,7 @@ import statistics
 import sys
 import time
 from collections import Counter
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
@@ -302,7 +306,8 @@ def print_saved(path: Path, shown: int) -> int:
         results = saved["missions"]
     except (OSError, ValueError, KeyError) as exc:
         raise SystemExit(f"--table: cannot read {path}: {exc}") from None
-    print(f"{path}: set {saved.get('set')}, seeds {saved.get('seeds')}, {len(results)} missions")
+    cut = " (partial: a run cut short)" if saved.get("partial") else ""
+    print(f"{path}: set {saved.get('set')}, seeds {saved.get('seeds')}, {len(results)} missions{cut}")
     agg = aggregate(results)
     print_table(agg)
     print_failures(agg, shown)
@@ -330,7 +335,9 @@ def describe_seeds(name: str, seeds: range) -> str:
     return f"set: none ({span} lie outside the {name} set {fixed.start}-{fixed.stop - 1})"
 
 
-def run_all(seeds: range, kind: str | None, jobs: int, cap_s: float | None = None) -> list[dict]:
+def run_all(seeds: range, kind: str | None, jobs: int, cap_s: float | None = None,
+            keep: Callable[[list[dict]], None] | None = None) -> list[dict]:
+    """Every mission's results, in seed order; ``keep`` is handed those so far after each one."""
     results = []
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         futures = [pool.submit(run_one, seed, kind, cap_s) for seed in seeds]
@@ -338,6 +345,8 @@ def run_all(seeds: range, kind: str | None, jobs: int, cap_s: float | None = Non
             row = future.result()
             results.append(row)
             print(f"[{done}/{len(futures)}] {_progress(row)}", flush=True)
+            if keep is not None:
+                keep(sorted(results, key=lambda row: row["seed"]))
     return sorted(results, key=lambda row: row["seed"])
 
 
@@ -377,7 +386,13 @@ def main(argv: list[str] | None = None) -> int:
     print(host.line(machine))
     print(describe_seeds(args.set, seeds) + (f", kind {args.kind}" if args.kind else "") + f", {args.jobs} jobs")
     started = time.perf_counter()
-    results = run_all(seeds, args.kind, args.jobs, args.sim_cap)
+    about = {"host": machine, "set": args.set, "seeds": [seeds.start, seeds.stop - 1], "kind": args.kind,
+             "jobs": args.jobs}
+
+    def keep(rows: list[dict]) -> None:  # a run cut short leaves the missions it finished (``--table`` reads them)
+        args.json.write_text(json.dumps({**about, "partial": True, "missions": rows}, indent=1) + "\n")
+
+    results = run_all(seeds, args.kind, args.jobs, args.sim_cap, keep if args.json else None)
     wall = time.perf_counter() - started
     agg = aggregate(results)
     print()
@@ -387,9 +402,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\n{len(results)} missions in {wall:.0f} s of wall ({args.jobs} jobs); one mission took "
           f"{statistics.fmean(walls):.1f} s on average (max {max(walls):.1f} s); {agg['errors']} failed with an error")
     if args.json:
-        args.json.write_text(json.dumps({"host": machine, "set": args.set, "seeds": [seeds.start, seeds.stop - 1],
-                                         "kind": args.kind, "jobs": args.jobs, "wall_s": round(wall, 1),
-                                         "missions": results, "aggregate": agg}, indent=1) + "\n")
+        args.json.write_text(json.dumps({**about, "wall_s": round(wall, 1), "missions": results, "aggregate": agg},
+                                        indent=1) + "\n")
         print(f"written {args.json}")
     return 0
 
