@@ -8,6 +8,10 @@ return) and for each rover's role (formation, in_crater, out_of_range):
   relay spot at the end (at the last goal a daisy chain's relays walk on once released, ``release_relays``; a
   relay still on its spot counts as not reached, as in the report's figure);
 - collisions (rover and obstacle, per mission) and stuck rovers (said so, or counted stalled by the world);
+- where the distance goes: the metres the rovers that reached walked, by what they walked for (their goal, a
+  way by the lander, a search for a fix, a relay spot, the lander's radio), beside their ideal paths;
+- relays stranded: rovers still holding a daisy chain's relay spot at the end, a spot nobody needs any more, per
+  mission of the daisy family (and how many in the others' missions);
 - path efficiency of the rovers that reached: their ideal path (the report's relative path length) over the
   distance they covered (the report's mission figure mixes in rovers that never moved); above 1 where a rover
   skipped a leg: a relay of a chain to a goal before the last is sent on to the next goal, not to that one;
@@ -33,10 +37,15 @@ one with a rover out of range, a team of twelve). It needs no router, ports or p
 
 Each mission stops at a simulated-time cap (``sim_cap``: from the longest rover's ideal path) so a rover that
 never finishes cannot hang the suite; the world's watchdog counts a rover stuck after 300 s without progress.
-Two seed sets are fixed: tune on DEVELOPMENT, then report HELD_OUT, which tuning must not look at.
+Seed sets are fixed: tune on DEVELOPMENT, then report HELD_OUT, which tuning must not look at (OLD_HELD_OUT, the
+held-out set before it, for reference).
 
-    python benchmarks/behaviour_suite.py [--set dev|held-out] [--seeds A-B] [--kind K] [--jobs 2] [--json FILE]
+    python benchmarks/behaviour_suite.py [--set dev|held-out|old-held-out] [--seeds A-B] [--kind K] [--jobs 2]
+                                         [--json FILE]
     python benchmarks/behaviour_suite.py --quick    # two missions cut at 30 simulated seconds: a smoke check
+
+With ``--json``, the file holds the missions finished so far while the suite runs (``"partial": true``), so a run
+cut short can still be tabled with ``--table``.
 """
 
 from __future__ import annotations
@@ -49,6 +58,7 @@ import statistics
 import sys
 import time
 from collections import Counter
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
@@ -64,8 +74,12 @@ from world_service.outcome import statistics as stats
 from world_service.sim import World
 
 DEVELOPMENT = range(0, 200)
-HELD_OUT = range(100_000, 100_200)
-SETS = {"dev": DEVELOPMENT, "held-out": HELD_OUT}
+HELD_OUT = range(500_000, 500_200)
+"""Fixed before any tuning it measures: run it once, at the end of a round of changes, never to tune on."""
+OLD_HELD_OUT = range(100_000, 100_200)
+"""The held-out set before ``HELD_OUT``: run after several rounds of changes, so no longer held out; kept to
+compare with figures measured on it."""
+SETS = {"dev": DEVELOPMENT, "held-out": HELD_OUT, "old-held-out": OLD_HELD_OUT}
 BASE_CAP_S, CAP_S_PER_M, MAX_CAP_S = 600.0, 3.0, 1800.0
 """Simulated-time cap: 600 s (twice the watchdog's stall time) plus 3 s a metre of the longest ideal path."""
 SHOWN_FAILURES = 25
@@ -138,6 +152,7 @@ def _rovers(world: World, made: GeneratedScenario, agents: dict[int, RoverAgent]
                     "estimate_std_m": _estimate_std(agents[r.id]),
                     "distance_covered_m": r.distance_covered_m, "ideal_path_m": round(ideal, 3),
                     "efficiency": round(ideal / r.distance_covered_m, 4) if r.distance_covered_m > 0 else None,
+                    "walked_by_cause": {k: round(v, 2) for k, v in sorted(agents[r.id].walked.items())},
                     "detail": referee.status[r.id].detail})
     return out
 
@@ -208,7 +223,32 @@ def aggregate(results: list[dict]) -> dict:
     failures = [{"seed": row["seed"], "classes": row["classes"], **r, "why": failure_kind(r)}
                 for row in ok for r in row["rovers"] if not r["reached"]]
     return {"overall": summarise(ok), "by_class": by_class, "by_role": by_role, "errors": len(results) - len(ok),
+            "stranded": stranded(ok), "walked": walked_by_cause(ok),
             "failure_kinds": dict(Counter(f["why"] for f in failures).most_common()), "failures": failures}
+
+
+def walked_by_cause(rows: list[dict]) -> dict:
+    """Metres the rovers that reached walked, by what they walked for (``RoverAgent.walked``), beside their ideal
+    paths: where path efficiency goes. Runs saved before the figure have none."""
+    reached = [r for row in rows for r in row["rovers"] if r["reached"] and "walked_by_cause" in r]
+    causes: Counter = Counter()
+    for r in reached:
+        causes.update(r["walked_by_cause"])
+    return {"rovers": len(reached), "ideal_m": round(sum(r["ideal_path_m"] for r in reached), 1),
+            "covered_m": round(sum(r["distance_covered_m"] for r in reached), 1),
+            "by_cause_m": {k: round(v, 1) for k, v in causes.most_common()},
+            "rovers_by_cause": dict(Counter(k for r in reached for k, v in r["walked_by_cause"].items() if v > 0))}
+
+
+def stranded(rows: list[dict]) -> dict:
+    """Relays still holding a daisy chain's spot at the end, over the daisy family's missions: a spot the mission
+    no longer needs (at the end nobody needs the route), per mission and the missions with any."""
+    daisy = [row for row in rows if row["classes"]["family"] == "daisy"]
+    counts = [sum(r["state"] == "relay" for r in row["rovers"]) for row in daisy]
+    return {"daisy_missions": len(daisy), "relays": sum(counts), "missions_with_any": sum(c > 0 for c in counts),
+            "per_mission": round(sum(counts) / len(daisy), 3) if daisy else None,
+            "elsewhere": sum(r["state"] == "relay" for row in rows if row["classes"]["family"] != "daisy"
+                             for r in row["rovers"])}
 
 
 # ---- output ----
@@ -236,6 +276,14 @@ def print_table(agg: dict) -> None:
               f"{s['complete']:>6}/{s['missions']:<3}")
     print(f"err: distance from the final goal at the end; est: distance of each rover's own estimate from the truth "
           f"at the end, over the {agg['overall']['walked_400m']} rovers that walked {LOCALISED_AFTER_M:.0f} m or more")
+    if (w := agg.get("walked")) is not None and w["rovers"]:
+        causes = ", ".join(f"{k} {v:.0f} m ({w['rovers_by_cause'].get(k, 0)} rovers)"
+                           for k, v in w["by_cause_m"].items())
+        print(f"walked by the {w['rovers']} rovers that reached: {w['covered_m']:.0f} m for {w['ideal_m']:.0f} m of "
+              f"ideal paths; by cause: {causes}")
+    if (st := agg.get("stranded")) is not None:  # runs saved before the figure have none
+        print(f"relays stranded: {st['relays']} in {st['missions_with_any']} of {st['daisy_missions']} daisy missions "
+              f"({_fmt(st['per_mission'], '.2f')} a mission); {st['elsewhere']} in other missions")
 
 
 def print_failures(agg: dict, shown: int) -> None:
@@ -258,7 +306,8 @@ def print_saved(path: Path, shown: int) -> int:
         results = saved["missions"]
     except (OSError, ValueError, KeyError) as exc:
         raise SystemExit(f"--table: cannot read {path}: {exc}") from None
-    print(f"{path}: set {saved.get('set')}, seeds {saved.get('seeds')}, {len(results)} missions")
+    cut = " (partial: a run cut short)" if saved.get("partial") else ""
+    print(f"{path}: set {saved.get('set')}, seeds {saved.get('seeds')}, {len(results)} missions{cut}")
     agg = aggregate(results)
     print_table(agg)
     print_failures(agg, shown)
@@ -286,7 +335,9 @@ def describe_seeds(name: str, seeds: range) -> str:
     return f"set: none ({span} lie outside the {name} set {fixed.start}-{fixed.stop - 1})"
 
 
-def run_all(seeds: range, kind: str | None, jobs: int, cap_s: float | None = None) -> list[dict]:
+def run_all(seeds: range, kind: str | None, jobs: int, cap_s: float | None = None,
+            keep: Callable[[list[dict]], None] | None = None) -> list[dict]:
+    """Every mission's results, in seed order; ``keep`` is handed those so far after each one."""
     results = []
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         futures = [pool.submit(run_one, seed, kind, cap_s) for seed in seeds]
@@ -294,6 +345,8 @@ def run_all(seeds: range, kind: str | None, jobs: int, cap_s: float | None = Non
             row = future.result()
             results.append(row)
             print(f"[{done}/{len(futures)}] {_progress(row)}", flush=True)
+            if keep is not None:
+                keep(sorted(results, key=lambda row: row["seed"]))
     return sorted(results, key=lambda row: row["seed"])
 
 
@@ -333,7 +386,13 @@ def main(argv: list[str] | None = None) -> int:
     print(host.line(machine))
     print(describe_seeds(args.set, seeds) + (f", kind {args.kind}" if args.kind else "") + f", {args.jobs} jobs")
     started = time.perf_counter()
-    results = run_all(seeds, args.kind, args.jobs, args.sim_cap)
+    about = {"host": machine, "set": args.set, "seeds": [seeds.start, seeds.stop - 1], "kind": args.kind,
+             "jobs": args.jobs}
+
+    def keep(rows: list[dict]) -> None:  # a run cut short leaves the missions it finished (``--table`` reads them)
+        args.json.write_text(json.dumps({**about, "partial": True, "missions": rows}, indent=1) + "\n")
+
+    results = run_all(seeds, args.kind, args.jobs, args.sim_cap, keep if args.json else None)
     wall = time.perf_counter() - started
     agg = aggregate(results)
     print()
@@ -343,9 +402,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\n{len(results)} missions in {wall:.0f} s of wall ({args.jobs} jobs); one mission took "
           f"{statistics.fmean(walls):.1f} s on average (max {max(walls):.1f} s); {agg['errors']} failed with an error")
     if args.json:
-        args.json.write_text(json.dumps({"host": machine, "set": args.set, "seeds": [seeds.start, seeds.stop - 1],
-                                         "kind": args.kind, "jobs": args.jobs, "wall_s": round(wall, 1),
-                                         "missions": results, "aggregate": agg}, indent=1) + "\n")
+        args.json.write_text(json.dumps({**about, "wall_s": round(wall, 1), "missions": results, "aggregate": agg},
+                                        indent=1) + "\n")
         print(f"written {args.json}")
     return 0
 

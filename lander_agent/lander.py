@@ -78,6 +78,7 @@ class Lander:
         self.now = clock.sim_time
         if clock.sim_time >= self.next_send:
             self.next_send = clock.sim_time + SEND_PERIOD_S
+            self._release_quiet_chains()
             out = self.broadcast(clock.sim_time)
         if clock.sim_time >= self.next_map:
             self.next_map = clock.sim_time + MAP_PUBLISH_PERIOD_S
@@ -98,6 +99,13 @@ class Lander:
         if traverse is not None:
             self.map = traverse
 
+    def _release_quiet_chains(self) -> None:
+        """Chains whose far end has gone quiet let their relays go (``MissionPlan.release_quiet``); the directions
+        that say so go out with this broadcast."""
+        moving = self.plan.release_quiet(self.now)
+        if moving:
+            log.info("t = %.1f s: no word from the far end of a daisy chain; directions sent to %s", self.now, moving)
+
     def final_map(self) -> list[Out]:
         """Once, when the mission is over (the world stopped its clock, or the lander is stopped): the map as
         it ends, published and written, so the files, the recording and the report agree."""
@@ -110,6 +118,7 @@ class Lander:
 
     def on_comm_in(self, msg: m.InboundComm) -> list[Out]:
         report = radio.unpack(msg.payload)
+        self.plan.heard(msg.sender, self.now)
         if isinstance(report, radio.MapReport):
             self.map.fold(msg.sender, report)
             ack = radio.pack(radio.MapAck(seqs=[report.seq]))

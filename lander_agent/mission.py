@@ -37,6 +37,8 @@ class MissionPlan:
         self.chains: dict[int, Chain] = {}
         self.finished: dict[int, dict[int, bool]] = {}  # goal index -> rover held done there -> its photos are in
         self.stations: dict[tuple[int, Goal], dict[int, tuple[float, float]]] = {}
+        self.heard_at: dict[int, float] = {}
+        """When the lander last heard each rover by radio (any report); unheard rovers from the mission's start."""
         self._form_chain(0)
 
     @property
@@ -187,10 +189,37 @@ class MissionPlan:
         finished[rover_id] = report.photos_pending == 0
         return self._release(index)
 
-    def _release(self, index: int) -> list[int]:
+    def heard(self, rover_id: int, now: float) -> None:
+        """A report from ``rover_id`` came in by radio: it has a route to the lander now."""
+        if rover_id in self.goal_of:
+            self.heard_at[rover_id] = max(now, self.heard_at.get(rover_id, now))
+
+    def release_quiet(self, now: float) -> list[int]:
+        """Release the chains whose far end has gone quiet: every rover the chain waits for (not a relay, not yet
+        done with its photos in) unheard for ``relay_cut_off_s``. A wall between two relay spots cuts a chain; the
+        rovers beyond it then never get a report through, and the relays on the lander's side, which still hear
+        it, would hold their spots for nobody until the mission's end. A quiet rover goes on as it was: at the
+        last goal its report is taken whenever it comes, before it the next goal's direction waits for it.
+        Returns the rovers with a new goal."""
+        quiet_s = self.scenario.rover_params.communication.relay_cut_off_s
+        moving: list[int] = []
+        for index in list(self.chains):
+            waited = self._waited_for(index)
+            if waited and all(now - self.heard_at.get(rid, 0.0) >= quiet_s for rid in waited):
+                moving += self._release(index, quiet=set(waited))
+        return moving
+
+    def _waited_for(self, index: int) -> list[int]:
+        """The rovers the chain of goal ``index`` stands for that are not done there with their photos in."""
+        chain, finished = self.chains[index], self.finished.get(index, {})
+        return [rid for rid, g in self.goal_of.items()
+                if g == index and rid not in self.outcome and rid not in chain.spots and not finished.get(rid, False)]
+
+    def _release(self, index: int, quiet: set[int] = frozenset()) -> list[int]:
+        """Every rover of the chain's goal on to what follows it, once the chain waits for nobody but ``quiet``."""
         chain = self.chains[index]
         group = [rid for rid, g in self.goal_of.items() if g == index and rid not in self.outcome]
-        if any(rid not in chain.spots and not self.finished[index].get(rid, False) for rid in group):
+        if any(rid not in quiet for rid in self._waited_for(index)):
             return []
         del self.chains[index]
         moving, held = [], {}
@@ -198,7 +227,9 @@ class MissionPlan:
             if index < self.missions.final_index(rid):
                 self.goal_of[rid] += 1
                 moving.append(rid)
-            elif rid in self.finished[index]:
+            elif rid in quiet:  # still on its way, out of reach: its report is taken when it comes
+                continue
+            elif rid in self.finished.setdefault(index, {}):
                 self.outcome[rid] = "reached"
             elif self.scenario.rover_params.communication.release_relays:  # free to walk on to the goal
                 self._assign_station(rid, index, chain.spots[rid])

@@ -21,14 +21,16 @@ from bus.rejections import Rejections
 from rover_agent.actions.tracker import ActionTracker
 from rover_agent.behaviour import DefaultBehaviour
 from rover_agent.decisions import BaseBehaviour, Decision, Finish, Hit, Hold, MoveTo, Rotate, View
+from rover_agent.detours import Detours
 from rover_agent.estimation.estimator import Estimator
 from rover_agent.mission.goals import Mission
 from rover_agent.mission.photos import PhotoOutbox
+from rover_agent.mission.stations import drawn_in
 from rover_agent.mission.traverse_map import MapRecorder
 from rover_agent.outgoing import Sender
 from rover_agent.restarts.resume import Restarts
 from rover_agent.senses import Senses
-from rover_agent.status import status_detail
+from rover_agent.status import status_detail, walking_cause
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -65,8 +67,11 @@ class RoverAgent:
         self.photos = PhotoOutbox()
         self.map = MapRecorder(params)
         self.senses = Senses()
+        self.detours = Detours(self.mission, self.estimator, self.behaviour)
         self.now = 0.0
         self.status_at = -math.inf
+        self.walked: dict[str, float] = {}
+        """Metres walked by what the rover walked for (``status.walking_cause``): where a mission's distance goes."""
         self.handlers: dict[str, Callable[[m.Message], list[Out]]] = {
             ks.PERCEPTION: self._on_perception, ks.NAVIGATION_STATUS: self._on_navigation_status,
             ks.CANCEL_RESULT: self._on_cancel_result, ks.ACTION_REJECTED: self._on_action_rejected,
@@ -169,7 +174,7 @@ class RoverAgent:
         if msg.outcome == "completed":
             self.estimator.completed(flight.start, flight.decision)
             if isinstance(flight.decision, MoveTo):
-                self.behaviour.moved(math.hypot(flight.decision.x, flight.decision.z))
+                self._moved(math.hypot(flight.decision.x, flight.decision.z))
             self._settle(msg.stamp)
         # otherwise the action ended early: the CancelResult that follows says where the rover stopped
         return []
@@ -179,10 +184,15 @@ class RoverAgent:
         if flight is None:
             return []
         self.estimator.stopped_early(flight.start, msg.x, msg.z, msg.angle_deg)
-        self.behaviour.moved(math.hypot(msg.x, msg.z))
+        self._moved(math.hypot(msg.x, msg.z))
         self.behaviour.cancelled(self.now)
         self._settle(self.now)
         return []
+
+    def _moved(self, distance: float) -> None:
+        self.behaviour.moved(distance)
+        cause = walking_cause(self.mission, self.estimator)
+        self.walked[cause] = self.walked.get(cause, 0.0) + distance
 
     def _on_action_rejected(self, msg: m.ActionRejected) -> list[Out]:
         flight = self.actions.answered(msg.action_id)
@@ -270,9 +280,11 @@ class RoverAgent:
     def view(self, stamp: float, pose: Pose, hits: tuple[Hit, ...], remaining_m: float = 0.0) -> View:
         """What the behaviour sees: its goal is the lander while it seeks contact or goes by it to fix its
         estimate, else the mission's."""
-        goal = self.mission.contact.goal or self.estimator.fix.goal or self.mission.goal
-        return View(stamp, pose, goal, hits, self.senses.pitch[0], self.senses.charge, self.senses.sunlit,
-                    self.estimator.localisation.position_std, remaining_m)
+        std, radius = self.estimator.localisation.position_std, self.params.perception.perception_radius
+        goal = (self.mission.contact.goal or self.estimator.fix.goal or self.estimator.search.goal
+                or drawn_in(self.mission.goal, std, radius))
+        return View(stamp, pose, goal, hits, self.senses.pitch[0], self.senses.charge, self.senses.sunlit, std,
+                    remaining_m)
 
     def _on_perception(self, msg: m.Perception) -> list[Out]:
         self.now = max(self.now, msg.stamp)
@@ -282,6 +294,7 @@ class RoverAgent:
         standing = self.actions.in_flight is None and self.pose is not None and self.actions.settled_by(msg.stamp)
         if standing:  # where the estimate says it stands: correct it, then map what it sees from there
             self.estimator.localise(msg.stamp, hits, self.state, self.senses.partners)
+            self.estimator.note_sure()
             self.map.fold_later(self.pose.x, self.pose.z, self.pose.heading, hits)
         # answered with perception, which the lockstep world always waits for
         ask = self._ask_station(hits) + self._share_estimate()
@@ -300,11 +313,12 @@ class RoverAgent:
                  and self.actions.settled_by(self.senses.pitch[1]))
         if not ready:
             return ask
-        self._mind_fix()
+        self.detours.before_decision(self.now)
         return ask + self._act(self.behaviour.decide(self.view(msg.stamp, self.pose, hits)))
 
     def _ask_station(self, hits: tuple[Hit, ...]) -> list[Out]:
-        request = self.mission.ask_station(self.pose, hits, self.now, fixing=self.estimator.fix.active)
+        fixing = self.estimator.fix.active or self.estimator.search.active
+        request = self.mission.ask_station(self.pose, hits, self.now, fixing=fixing)
         return [] if request is None else [self.send.radio([ks.LANDER_ID], request)]
 
     def _share_estimate(self) -> list[Out]:
@@ -326,23 +340,6 @@ class RoverAgent:
             self.behaviour.start_goal(goal)
         return goal is not None
 
-    def _mind_fix(self) -> None:
-        """Before a decision: take up, or end, a way by the lander to fix the estimate (``estimation.lander_fix``)."""
-        goal = self.mission.goal
-        if goal is None or self.mission.finished_goal is not None or self.mission.contact.seeking:
-            return
-        step = self.estimator.mind_fix(goal)
-        if step == "over":
-            self._fix_over()
-        elif step == "detour":
-            self.behaviour.start_goal(self.estimator.fix.goal)
-
-    def _fix_over(self) -> None:
-        """Fixed, or where the lander was thought to be: on to the rover's own goal."""
-        self.estimator.fix.active = False
-        if self.mission.goal is not None:
-            self.behaviour.start_goal(self.mission.goal)
-
     def _act(self, decision: Decision) -> list[Out]:
         if isinstance(decision, Hold):
             return []
@@ -360,8 +357,8 @@ class RoverAgent:
             contact.arrive(self.now, blocked=outcome == "stuck")
             self.behaviour.state = "waiting"
             return [self.status()]
-        if self.estimator.fix.active:
-            return self._fix_arrived(outcome)
+        if (detour := self.detours.arrived(outcome, self.now)) is not False:  # a leg of a way to fix the estimate
+            return self._act(detour) if isinstance(detour, Rotate) else [self.status()]
         self.behaviour.state = self.mission.finish(outcome, why, self.now)
         goal = self.mission.goal
         out = [*self._report_goal(), self.status()]
@@ -369,18 +366,6 @@ class RoverAgent:
         if outcome == "reached" and goal.kind == "crater" and rovers_near:
             out.append(self.send.radio(rovers_near, radio.CraterFound(goal_index=goal.index)))
         return out
-
-    def _fix_arrived(self, outcome: str) -> list[Out]:
-        """A leg of the way by the lander is over and the estimate not yet fixed: turn round to look, go on to the
-        next spot of the search, or give up and go on to the rover's own goal (``LanderFix.arrived``)."""
-        step = self.estimator.fix_arrived(outcome)
-        if step == "look":
-            return self._act(Rotate(180.0))
-        if step == "search":
-            self.behaviour.start_goal(self.estimator.fix.goal)
-        else:
-            self._fix_over()
-        return [self.status()]
 
     def _report_estimate(self) -> list[Out]:
         """The estimate on the rover's own key, with the periodic status (``Estimator.report``)."""

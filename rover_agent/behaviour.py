@@ -211,14 +211,17 @@ class DefaultBehaviour(BaseBehaviour):
 
     @property
     def close_quarters(self) -> bool:
-        """On the rim, parking at a station or long stuck in a jam of rovers: short steps, small gaps, stop
-        only for imminent contact."""
-        return self.state == "climbing" or self._parking or self.crowd.squeezing
+        """On the rim (not on the level ground below a crest station, ``CraterRules.level_step``), parking at a
+        station or long stuck in a jam of rovers: short steps, small gaps, stop only for imminent contact."""
+        return (self.state == "climbing" and not self.crater.level) or self._parking or self.crowd.squeezing
 
     def _short_step(self, view: View) -> float | None:
-        """Short steps on the rim, shorter still near the top, so the rover stops on the crest, not past it;
-        short steps too when parking among rovers standing at their stations."""
+        """Short steps on the rim, shorter still near the top, so the rover stops on the crest, not past it (but long
+        ones on the level ground below a crest station, ``CraterRules.level_step``); short steps too when parking
+        among rovers standing at their stations."""
         step = self.params.behaviour.min_move_size
+        if self.state == "climbing" and (level := self.crater.level_step(view)) is not None:
+            return step if self.crowd.squeezing else level
         if self._parking or self.crowd.squeezing:
             return step
         if self.state != "climbing":

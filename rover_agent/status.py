@@ -27,4 +27,20 @@ def status_detail(state: str, mission: Mission, estimator: Estimator, senses: Se
         detail = mission.contact.detail
     elif estimator.fix.active:
         detail = lander_fix.DETAIL
+    elif estimator.search.active:
+        detail = estimator.search.detail
     return detail
+
+
+def walking_cause(mission: Mission, estimator: Estimator) -> str:
+    """What the rover walks for now: "contact" (seeking the lander's word), "lander fix" (going by the lander
+    before its goal), "fix search" (unsure at its goal), "relay" (to a daisy chain's spot) or "goal"."""
+    if mission.contact.seeking:
+        return "contact"
+    if estimator.fix.active:
+        return "lander fix"
+    if estimator.search.active:
+        return "fix search"
+    if mission.goal is not None and mission.goal.kind == "relay":
+        return "relay"
+    return "goal"

@@ -174,3 +174,20 @@ def test_on_the_rim_a_photo_every_30_degrees_once_round_then_done():
     assert [d for d in decisions if isinstance(d, Rotate)] == [Rotate(30.0)] * 11
     assert len({p.label for p in photos}) == 12 and photos[1].label == "goal1_030.0deg"
     assert b.decide(view) == Finish("reached")
+
+
+def test_stepped_back_off_the_bowl_wall_and_level_facing_out_the_rover_observes_without_turning_back():
+    """The photographs go once round from any heading: turning to the crater only to read the pitch, and back
+    again, cost some four seconds a time."""
+    goal = goal_at(0.0, 60.0, kind="crater")
+    b = fresh_behaviour(goal)
+    b.decide(_crater_view(pitch=9.0))
+    b.moved(2.0)
+    assert b.decide(_crater_view(pitch=-BOWL_PITCH - 2, hits=())) == Rotate(180.0)
+    facing_out = Pose(0.0, 0.0, 180.0)
+    assert isinstance(b.decide(view_of(goal, pose=facing_out, pitch=15.0)), MoveTo)  # the step back
+    b.moved(1.0)
+    still_wall = b.decide(view_of(goal, pose=facing_out, pitch=6.0))  # rising outwards yet: the bowl's wall
+    assert still_wall == MoveTo(0.0, PARAMS.behaviour.min_move_size / 2)
+    b.moved(1.0)
+    assert _on_crest(b, b.decide(view_of(goal, pose=facing_out, pitch=0.2)))

@@ -10,6 +10,7 @@ from procs import SCENARIOS
 from harness.loopback import run_mission
 from lander_agent.archive import PhotoArchive
 from lander_agent.daisy_chain import SPACING, in_radio_reach, plan_chain, relays_needed
+from lander_agent.lander import Lander
 from lander_agent.mission import MissionPlan
 from rover_agent.agent import RoverAgent
 from schemas import codec, radio
@@ -75,6 +76,45 @@ def test_the_lander_holds_finished_rovers_until_the_chain_is_released():
     assert not set(stations) & {plan.direction_for(rid).station for rid in (5, 6, 7, 8)}
     plan.on_report(2, GoalReport(goal_index=0, outcome="reached"))
     assert plan.outcome[2] == "reached"
+
+
+def test_a_chain_whose_far_end_has_gone_quiet_lets_its_relays_go():
+    """A wall cuts the chain: rovers 7 and 8 beyond it never get a word through. The relays on the lander's side
+    still hear it, so they would never cut off by themselves; the lander releases them once the far end has been
+    quiet for ``relay_cut_off_s``, and takes the quiet rovers' reports whenever they come."""
+    scenario = load_scenario(SCENARIOS / "daisy_chain.yaml")
+    plan = MissionPlan(scenario)
+    quiet_s = scenario.rover_params.communication.relay_cut_off_s
+    for rid in (5, 6):
+        plan.heard(rid, 10.0)
+        plan.on_report(rid, GoalReport(goal_index=0, outcome="reached"))
+    plan.heard(7, 20.0)  # heard once on its way, then lost behind the wall
+    assert plan.release_quiet(20.0 + quiet_s - 1.0) == []
+    assert plan.relay_chain == [4, 1, 3, 2]
+    assert sorted(plan.release_quiet(20.0 + quiet_s)) == [1, 2, 3, 4]
+    assert plan.relay_chain == [] and plan.outcome == {5: "reached", 6: "reached"}
+    assert all(plan.direction_for(rid).kind == "crater" for rid in (1, 2, 3, 4))
+    plan.on_report(7, GoalReport(goal_index=0, outcome="reached"))
+    assert plan.outcome[7] == "reached" and 8 not in plan.outcome
+
+
+def test_the_lander_notes_when_it_last_heard_each_rover_of_its_plan():
+    lander = Lander(MissionPlan(load_scenario(SCENARIOS / "daisy_chain.yaml")), KEYS)
+    lander.now = 30.0
+    report = radio.pack(GoalReport(goal_index=0, outcome="reached"))
+    lander.on_comm_in(m.InboundComm(sender=5, payload=report))
+    lander.on_comm_in(m.InboundComm(sender=40, payload=report))  # no rover of the plan: nothing to note
+    assert lander.plan.heard_at == {5: 30.0}
+
+
+def test_a_rover_heard_again_keeps_the_chain_standing():
+    scenario = load_scenario(SCENARIOS / "daisy_chain.yaml")
+    plan = MissionPlan(scenario)
+    quiet_s = scenario.rover_params.communication.relay_cut_off_s
+    for rid in (5, 6, 7):
+        plan.on_report(rid, GoalReport(goal_index=0, outcome="reached"))
+    plan.heard(8, quiet_s)  # still walking, its map reports coming in
+    assert plan.release_quiet(quiet_s + 1.0) == [] and plan.relay_chain == [4, 1, 3, 2]
 
 
 def test_radio_reach_hops_from_the_lander_through_rovers_in_range():

@@ -144,3 +144,76 @@ def test_a_rover_held_up_on_the_rim_far_from_its_station_observes_there_rather_t
     photos = [t for t, d in enumerate(decisions) if isinstance(d, TakePhoto)]
     assert photos and photos[0] > MAX_CROWD_WAIT_S and b.state == "observing"
     assert not any(isinstance(d, Finish) for d in decisions)
+
+
+def _spoke_point(out_m: float, across_m: float = 0.0) -> tuple[float, float]:
+    """A point ``out_m`` outside the station along its spoke (east here), ``across_m`` to the side of it."""
+    sx, sz = CRATER.target
+    return sx + out_m, sz + across_m
+
+
+def test_a_rover_given_its_station_past_the_foot_climbs_from_where_it_stands_not_back_at_the_foot():
+    """The station comes once crater terrain is in view, often with the rover past the foot already: walking back
+    out to the foot to climb the same slope again cost the crater mission's last rover 43 m and 22 s."""
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    x, z = _spoke_point(3.0, 2.0)  # 3 m out, beside the spoke, facing the crater
+    pose = Pose(x, z, 270.0)
+    up = b.decide(View(0.0, pose, CRATER, CRATER_AHEAD, 0.0))
+    assert b.state == "climbing" and isinstance(up, MoveTo)
+    assert _bearing(pose, up) == pytest.approx(math.degrees(math.atan2(CRATER.target[0] - x, CRATER.target[1] - z))
+                                               % 360, abs=6.0)
+    assert rim.joins_spoke(CRATER, pose) == pytest.approx(3.0)
+
+
+@pytest.mark.parametrize(("out_m", "across_m"), [(3.0, 4.0), (-2.0, 0.0), (rim.FOOT_LEAST_M + 7.0, 0.0)])
+def test_off_the_spoke_in_the_bowl_or_beyond_the_foot_the_rover_goes_by_the_foot(out_m, across_m):
+    """Far to the side of its spoke, inside the crest or farther out than the foot, the foot is the way."""
+    x, z = _spoke_point(out_m, across_m)
+    assert rim.joins_spoke(CRATER, Pose(x, z, 270.0)) is None
+
+
+def test_on_level_ground_below_its_station_the_rover_takes_long_steps_at_full_speed():
+    """Short steps and slow moves are for the slope: on level ground a climb from the foot took 2 m steps, and
+    slow ones with a teammate near, for ten metres and more."""
+    wide = Goal(0, 1, "crater", 0.0, 60.0, station=(30.0, 0.0), shared=True)  # its foot 18 m out
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(wide)
+    x, z = rim.foot(wide)
+    mate = (Hit(60.0, 3.0, "rover"),)  # beside it, out of its way
+    step = b.decide(View(0.0, Pose(x, z, 270.0), wide, (*CRATER_AHEAD, *mate), 0.0, position_std_m=1.0))
+    assert isinstance(step, MoveTo) and not step.slow
+    assert math.hypot(step.x, step.z) == pytest.approx(0.9 * PARAMS.perception.perception_radius, abs=0.05)
+    b.moved(math.hypot(step.x, step.z))
+    near = b.decide(View(1.0, Pose(wide.target[0] + 7.0, wide.target[1], 270.0), wide, (), 0.0, position_std_m=1.0))
+    assert isinstance(near, MoveTo) and math.hypot(near.x, near.z) == pytest.approx(7.0 - 2.0 - 2 * 1.0, abs=0.05)
+    b.moved(3.0)
+    on_slope = b.decide(View(2.0, Pose(wide.target[0] + 4.0, wide.target[1], 270.0), wide, (), 8.0))
+    assert isinstance(on_slope, MoveTo) and math.hypot(on_slope.x, on_slope.z) <= PARAMS.behaviour.min_move_size
+
+
+def test_at_its_station_by_its_estimate_but_still_below_the_crest_the_rover_climbs_on_towards_the_crater():
+    """Its estimate is a metre or two off: facing the crater, pitch says the crest is ahead. Heading back for the
+    station turned it round, and it turned to and fro between crater and station until its looks ran out, then
+    observed from below the crest."""
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    _on_the_spoke(b)
+    b.moved(6.0)
+    sx, sz = CRATER.target
+    facing_crater = Pose(sx - 0.5, sz, 270.0)  # just past its station by the estimate, facing the crater
+    decisions = [b.decide(View(float(t), facing_crater, CRATER, (), 3.0, position_std_m=1.5)) for t in range(3)]
+    assert all(isinstance(d, MoveTo) and _bearing(facing_crater, d) == pytest.approx(270.0, abs=1.0)
+               for d in decisions)
+    assert isinstance(b.decide(View(4.0, facing_crater, CRATER, (), 0.2, position_std_m=1.5)), TakePhoto)
+
+
+def test_climbing_on_past_its_station_ends_where_its_estimate_allows():
+    b = DefaultBehaviour(1, PARAMS)
+    b.start_goal(CRATER)
+    _on_the_spoke(b)
+    b.moved(6.0)
+    sx, sz = CRATER.target
+    b.decide(View(0.0, Pose(sx, sz, 270.0), CRATER, (), 3.0, position_std_m=0.5))
+    far_past = Pose(sx - 1.5 - 3 * 0.5 - 0.1, sz, 270.0)
+    assert isinstance(b.decide(View(1.0, far_past, CRATER, (), 3.0, position_std_m=0.5)), TakePhoto)

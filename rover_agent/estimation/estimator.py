@@ -26,6 +26,7 @@ import math
 from bus.rejections import Rejections
 from rover_agent.actions.in_flight import InFlight
 from rover_agent.decisions import Goal, Hit, MoveTo, Rotate
+from rover_agent.estimation.fix_search import FixSearch
 from rover_agent.estimation.lander_fix import LanderFix
 from rover_agent.estimation.pose_filter import Localisation, NoiseModel
 from rover_agent.estimation.sightings import (
@@ -74,6 +75,9 @@ class Estimator:
         self.teammates: dict[int, Teammate] = {}
         """Each teammate's latest estimate of itself, heard by radio."""
         self.fix = LanderFix()
+        self.search = FixSearch()
+        self.sure_at: tuple[float, float] | None = None
+        """Where the estimate was last sure (``fix_search``): told where it stands, or fixed since."""
         self.shared_at = -math.inf
         """When the rover last told its estimate."""
 
@@ -84,6 +88,14 @@ class Estimator:
     def place(self, pose: Pose | None) -> None:
         """Where the rover is told it stands (its calibration, its planned dispatch): exactly there."""
         self.localisation = None if pose is None else Localisation(pose, NoiseModel.of(self.params.navigation))
+        self.sure_at = None if pose is None else (pose.x, pose.z)
+
+    def note_sure(self) -> None:
+        """Keep where the rover stands as its last sure place when its estimate is sure enough to stop a search
+        for a fix there (``fix_search.DONE_STD_SHARE``)."""
+        loc, radius = self.localisation, self.params.perception.perception_radius
+        if loc is not None and self.search.sure(loc, radius):
+            self.sure_at = (loc.pose.x, loc.pose.z)
 
     def resume(self, pose: Pose, cov: list[list[float]] | None) -> None:
         """Where a restarted agent saved it stood, as sure as it was."""
@@ -209,3 +221,18 @@ class Estimator:
         loc = self.localisation
         return self.fix.arrived(outcome, (loc.pose.x, loc.pose.z), self.params.perception.perception_radius,
                                 loc.position_std if loc else 0.0)
+
+    # ---- the search for a fix at the goal ----
+
+    def search_leg(self, goal: Goal, now: float, begins: bool) -> bool:
+        """At ``goal`` by an estimate it knows to be unsure: begin a search for a fix (``begins``), or go on to its
+        next leg; False: no search, or it is over (``fix_search``)."""
+        loc, radius = self.localisation, self.params.perception.perception_radius
+        if begins:
+            return self.search.wanted(goal, loc, radius) and self.search.begin(
+                goal, loc, now, self.teammates, self.sure_at, radius)
+        return loc is not None and self.search.next_leg(goal, loc, now, self.teammates, self.sure_at, radius)
+
+    def search_over(self, now: float) -> bool:
+        """Searching, and sure again or out of time."""
+        return self.search.over(self.localisation, now, self.params.perception.perception_radius)

@@ -4,7 +4,7 @@ is ``lander_agent.stations``)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from rover_agent.decisions import Goal, Hit
 from schemas import radio
@@ -14,6 +14,28 @@ STATION_ASK_M = 15.0
 """Near a shared waypoint, closer than this, the rover asks the lander for its station: just before it reaches
 a 20-rover formation (8.5 m in radius at the default spacing), so stations go out in the order rovers arrive."""
 STATION_ASK_RETRY_S = 2.0
+DRAW_IN_SIGMAS = 2.0
+"""A rover walks to its station at a shared waypoint drawn in toward the waypoint so that this many of its own
+1-sigma position errors still leave it within the perception radius of it, where the waypoint counts as reached
+(``drawn_in``)."""
+DRAW_IN_LEAST = 0.6
+"""A station is drawn in to no less than this share of its offset: the team's formation shrinks alike (its rovers'
+errors are alike), and the lander's spacing (2 m between centres at the least) keeps a body's gap between them."""
+
+
+def drawn_in(goal: Goal | None, position_std: float, radius: float) -> Goal | None:
+    """``goal`` with its station at a shared waypoint drawn in toward the waypoint while the rover's estimate is
+    too unsure for the station's offset (``DRAW_IN_SIGMAS``): a rover off by its error on an outer station of a
+    large formation stands beyond the radius within which the waypoint is reached, one nearer the middle does not.
+    The rover's own figures alone: its station and its estimate's error."""
+    if goal is None or goal.kind != "waypoint" or goal.station is None:
+        return goal
+    offset = math.hypot(*goal.station)
+    room = radius - DRAW_IN_SIGMAS * position_std
+    if offset <= room or offset == 0.0:
+        return goal
+    share = max(DRAW_IN_LEAST, room / offset)
+    return replace(goal, station=(goal.station[0] * share, goal.station[1] * share))
 
 
 @dataclass

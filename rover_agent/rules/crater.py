@@ -17,6 +17,7 @@ from rover_agent.rules.tuning import (
     CLIMB_PITCH,
     CREST_FACING,
     CREST_PITCH,
+    LEVEL_MARGIN_M,
     MAX_BACKS,
     MAX_CREST_LOOKS,
     NEAR_CREST_PITCH,
@@ -46,6 +47,12 @@ class CraterRules:
         """Steps back out of the crater's bowl onto the crest."""
         self.on_spoke = False
         """At the foot of its crest station's spoke, or past it (``rim``)."""
+        self.level = False
+        """Taking a long step on level ground below its station (``level_step``): not yet at close quarters."""
+        self.onwards = False
+        """At its crest station by its own estimate, still below the crest by pitch: climbing on (``_on_up``)."""
+        self.crest_after: float | None = None
+        """Climbing along its spoke: metres to walk before the crest can be told by pitch (``rim.crest_after_m``)."""
         self.backing = False
         """Turned away from the bowl, to step out of it next."""
         self.bowl_looked_at: float | None = None
@@ -56,12 +63,26 @@ class CraterRules:
     def start(self) -> None:
         """A new goal: nothing climbed, nothing photographed."""
         self.seen_at, self.max_pitch, self.crest_looks, self.backs = None, -90.0, 0, 0
-        self.on_spoke, self.backing, self.bowl_looked_at = False, False, None
+        self.on_spoke, self.crest_after, self.backing, self.bowl_looked_at = False, None, False, None
+        self.level, self.onwards = False, False
         self.photos_taken, self.photo_due = 0, True
 
     def near_top(self, pitch_deg: float) -> bool:
         """Up the rim and levelling off: the crest is close."""
         return self.max_pitch >= CLIMB_PITCH and pitch_deg < NEAR_CREST_PITCH
+
+    def level_step(self, view: View) -> float | None:
+        """On its spoke, still on level ground (no climb felt yet): a step up to ``LEVEL_MARGIN_M`` and two of its
+        estimate's errors short of its station, where short steps would only cost time; None where short steps
+        are due (on the slope, or with no station to measure by). The crest is the station's, so such a step
+        cannot carry the rover over it unless its estimate is off by more than the margin."""
+        goal, pose = view.goal, view.pose
+        self.level = False
+        if not self.on_spoke or goal.station is None or max(self.max_pitch, view.pitch_deg) >= CLIMB_PITCH:
+            return None
+        gap = math.dist(goal.target, (pose.x, pose.z)) - LEVEL_MARGIN_M - 2 * view.position_std_m
+        self.level = gap > self.params.behaviour.min_move_size
+        return gap if self.level else None
 
     def observe(self, goal: Goal) -> Decision:
         """On the rim: a photo, a turn of ``photo_step_deg``, a photo... once round (report 10.5.3)."""
@@ -78,16 +99,18 @@ class CraterRules:
         return Rotate(step)
 
     def to_spoke(self, view: View, walking: Walking) -> Decision | None:
-        """With a station on the crest: walk to the foot of its spoke first (``rim``); None from there on, or
-        where the way to the foot stops getting shorter (the climb then starts where the rover stands)."""
+        """With a station on the crest: walk to the foot of its spoke first (``rim``); None from there on, from
+        where it joins the spoke on the way, or where the way to the foot stops getting shorter (the climb then
+        starts where the rover stands)."""
         goal, pose = view.goal, view.pose
         if goal.station is None or self.on_spoke:
             return None
         fx, fz = rim.foot(goal)
         gap = math.hypot(fx - pose.x, fz - pose.z)
-        if gap > STATION_CLOSE_M and not walking.pacing(gap, NO_PROGRESS_ROUTE_M):
+        joined = rim.joins_spoke(goal, pose) if gap > STATION_CLOSE_M else None
+        if joined is None and gap > STATION_CLOSE_M and not walking.pacing(gap, NO_PROGRESS_ROUTE_M):
             return walking.head_for(view.toward(fx, fz), gap, None)
-        self.on_spoke = True
+        self.on_spoke, self.crest_after = True, rim.crest_after_m(goal, joined)
         walking.climbing(from_spoke=True)
         self.seen_at = walking.odometer
         return None
@@ -113,6 +136,8 @@ class CraterRules:
             if walking.free_distance(0.0, view.hits) >= step:
                 return MoveTo(0.0, step)
             self.backs = MAX_BACKS  # a rover right behind: stay, rather than squeeze into it
+        if self.backs and abs(to_crater) >= 180.0 - CREST_FACING and (out := self._out_of_wall(view, walking)):
+            return out
         if climbed and facing and view.pitch_deg <= -BOWL_PITCH and self.backs < MAX_BACKS:
             # Past the crest, on the bowl's wall: turn round and step back onto the crest (a move must be in
             # view), where the rover is at its goal and its radio sees over the rim (to a daisy chain's last relay).
@@ -123,17 +148,50 @@ class CraterRules:
             # Up the rim, facing the crater, long held up by rovers ahead that leave no step towards it: they
             # stand on the crest a body or two ahead (the crater's counterpart of a waypoint crowded in view).
             return Finish("reached")
-        after = rim.crest_after_m(goal) if self.on_spoke else self.params.perception.perception_radius
+        after = self.crest_after if self.on_spoke else self.params.perception.perception_radius
         if not (climbed and (self.backs or walked >= after or at_station)):
             return None
         if view.pitch_deg > CREST_PITCH and not self.backs:
-            return None
+            self.onwards = self.onwards or at_station
+            return self._on_up(view, walking, facing, to_crater) if self.onwards else None
         if facing or self.crest_looks >= MAX_CREST_LOOKS:
             return Finish("reached")
         # Pitch tells the crest only when facing the crater; across or away from it, turn and look again
         # (a few times: on a crowded rim other rovers may keep turning it aside).
         self.crest_looks += 1
         return Rotate(round(to_crater, 3))
+
+    def _out_of_wall(self, view: View, walking: Walking) -> Decision | None:
+        """Stepped back off the bowl's wall, still facing out: level, it stands on the crest and observes from
+        there (the photographs go once round from any heading); still rising outwards, it is on the wall yet and
+        steps out again (up to ``MAX_BACKS`` steps in all). Turning to the crater only to read the pitch, and back
+        again to step out, cost some four seconds a time. None: past the crest, down the outer slope (it turns to
+        the crater), or no step left to take."""
+        if abs(view.pitch_deg) <= CREST_PITCH:
+            return Finish("reached")
+        step = self.params.behaviour.min_move_size / 2
+        if view.pitch_deg > CREST_PITCH and self.backs < MAX_BACKS and walking.free_distance(0.0, view.hits) >= step:
+            self.backs += 1
+            return MoveTo(0.0, step)
+        return None
+
+    def _on_up(self, view: View, walking: Walking, facing: bool, to_crater: float) -> Decision | None:
+        """At its station by its own estimate, with pitch not level: facing the crater, pitch says the crest is
+        still ahead (the estimate is a metre or two off), so up it goes, towards the crater, in half steps; not
+        facing it, it turns to it to read the pitch. Heading back for where the estimate puts the station instead
+        turned the rover round, and it turned to and fro between the crater (pitch up) and the station (behind it)
+        until its looks ran out, and observed from below the crest. None once it has climbed on as far as its
+        estimate's error allows (``STATION_CLOSE_M`` and three 1-sigma errors past the station), it observes from
+        where it stands; with no step free ahead (rovers on the crest), the usual rules hold it (None)."""
+        pose, goal = view.pose, view.goal
+        if not facing and self.crest_looks < MAX_CREST_LOOKS:
+            self.crest_looks += 1
+            return Rotate(round(to_crater, 3))
+        step = self.params.behaviour.min_move_size / 2
+        beyond = math.dist(goal.target, (pose.x, pose.z)) > STATION_CLOSE_M + 3 * view.position_std_m
+        if not facing or beyond:
+            return Finish("reached")
+        return MoveTo(0.0, step) if walking.free_distance(0.0, view.hits) >= step else None
 
     def _near_station(self, view: View) -> bool:
         """Within two bodies of its crest station by its own estimate, or with none (the report's rule: anywhere

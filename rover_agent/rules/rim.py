@@ -3,7 +3,9 @@
 The rover first walks to the foot of its station's spoke, a point outside the rim on the line from the goal
 (within the bowl, near the crater's centre) through the station, and only then climbs, along the spoke. So a
 team meets the crest spread all round it, each rover on its own stretch, instead of all climbing to the crest
-point nearest where they came from, where the later ones are held off the crest behind the first. The climb
+point nearest where they came from, where the later ones are held off the crest behind the first. A rover
+already between the foot and the crest, near its spoke (``joins_spoke``), climbs from where it stands: a station
+comes once the crater's terrain is in view, often with the rover past the foot already. The climb
 itself is the default behaviour's: at its station by its own estimate a rover counts as up the rim, and pitch,
 facing the crater, still says whether it stands on the crest.
 """
@@ -26,6 +28,10 @@ CREST_AFTER = 0.5
 """Climbing from the foot, a crest told by pitch counts only after this share of the way in: a bump at the foot
 is not the crest (the default behaviour's rule, walking the perception radius, is for a rover that does not know
 how far the crest is)."""
+SPOKE_CONE_DEG = 45.0
+"""Seen from its station, a rover within this angle of the spoke, outside the crest and no farther out than the
+foot, is on its way up the spoke already: walking back out to the foot only to climb the same slope again cost a
+rover of the crater mission 43 m of walking and 22 s, the last to finish."""
 
 
 def _out_m(goal: Goal) -> float:
@@ -42,9 +48,25 @@ def foot(goal: Goal) -> tuple[float, float]:
     return goal.x + sx * scale, goal.z + sz * scale
 
 
-def crest_after_m(goal: Goal) -> float:
-    """Metres to walk from the foot before the crest can be told by pitch."""
-    return CREST_AFTER * _out_m(goal)
+def crest_after_m(goal: Goal, out_m: float | None = None) -> float:
+    """Metres to walk from the foot (or from where the rover joined its spoke, ``out_m`` outside the station)
+    before the crest can be told by pitch."""
+    return CREST_AFTER * (_out_m(goal) if out_m is None else out_m)
+
+
+def joins_spoke(goal: Goal, pose: Pose) -> float | None:
+    """How far outside its station, along the spoke, a rover stands that is on its way up the spoke already (within
+    ``SPOKE_CONE_DEG`` of it, no farther out than the foot); None when it is not, and walks to the foot."""
+    sx, sz = goal.station
+    reach = math.hypot(sx, sz)
+    if reach < 1e-9:
+        return None
+    ux, uz = sx / reach, sz / reach
+    rx, rz = pose.x - goal.x - sx, pose.z - goal.z - sz  # from the station to the rover
+    along, across = rx * ux + rz * uz, abs(rx * uz - rz * ux)
+    if not 0.0 < along <= _out_m(goal) or across > along * math.tan(math.radians(SPOKE_CONE_DEG)):
+        return None
+    return along
 
 
 def facing_station(goal: Goal, pose: Pose) -> bool:

@@ -8,6 +8,9 @@ CLIMB_PITCH = 2.0
 """Degrees of nose-up pitch that count as having started up the crater rim."""
 CREST_PITCH = 0.5
 """At or below this pitch, after climbing, the rover stands on the crest."""
+LEVEL_MARGIN_M = 2.0
+"""A long step on level ground below a crest station ends at least this far, and two of the estimate's 1-sigma
+errors, short of it (``CraterRules.level_step``)."""
 NEAR_CREST_PITCH = 4.0
 """Below this pitch, after climbing, the crest is close: half steps."""
 CREST_FACING = 30.0
