@@ -11,8 +11,13 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
+USES_DEFAULT_PORT = pytest.mark.xdist_group("default_zenoh_port")
+"""For a test that starts what listens on or looks at the default Zenoh port (a run without ``--port``, a replay
+serving as the router there): under ``pytest -n N --dist loadgroup`` such tests run one after another."""
 
 
 def free_port() -> int:

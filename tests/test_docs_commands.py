@@ -54,7 +54,7 @@ from pathlib import Path
 
 import pytest
 from docs_blocks import FOLDER, Block, MarkerError, blocks, normalise, omitted, pages, script
-from procs import REPO
+from procs import REPO, USES_DEFAULT_PORT
 
 CLONE = ("scenarios", "deploy", "tests/data")
 """The folders of a clone's root that commands name. Whole packages, code too: a child started with
@@ -146,6 +146,7 @@ def left_in(home: Path) -> list[str]:
 
 
 @pytest.mark.e2e
+@USES_DEFAULT_PORT
 @pytest.mark.parametrize("page", RUN)
 def test_commands_run_as_copied(page, tmp_path, home):
     work = clone_root(tmp_path / "work")

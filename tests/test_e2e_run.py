@@ -156,33 +156,40 @@ def test_no_router_is_said_plainly_within_seconds():
     assert "no Zenoh router reachable" in proc.stderr
 
 
-def _noisy_scenario(tmp_path):
+def _noisy_scenario(folder):
     """crater_observation with every source of randomness switched on: slip, heading, gyroscope, radio loss."""
     data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
     data["rover_params"] = {"navigation": {"slip_std": 0.03, "heading_noise_std_deg": 1.0},
                             "perception": {"gyroscope_noise_std_deg": 0.2},
                             "communication": {"loss_probability": 0.05}}
-    path = tmp_path / "noisy.yaml"
+    path = folder / "noisy.yaml"
     path.write_text(yaml.safe_dump(data))
     return path
 
 
-def _lockstep_report(tmp_path, name: str, *extra: str) -> dict:
-    report, _ = run_cli_mission(tmp_path / name, str(_noisy_scenario(tmp_path)), "--lockstep", "--seed", "7",
+def _lockstep_report(folder, name: str, *extra: str) -> dict:
+    report, _ = run_cli_mission(folder / name, str(_noisy_scenario(folder)), "--lockstep", "--seed", "7",
                                 "--port", str(free_port()), "--quiet", *extra)
     report.pop("wall_time_s")
     return report
 
 
-def test_lockstep_runs_with_the_same_seed_give_the_same_report(tmp_path):
-    first, second = _lockstep_report(tmp_path, "a"), _lockstep_report(tmp_path, "b")
+@pytest.fixture(scope="module")
+def noisy_lockstep(tmp_path_factory) -> dict:
+    """The noisy mission's lockstep report, seed 7, one rover agent a process: what a second run of the same seed,
+    and a run with agents sharing processes, must repeat."""
+    return _lockstep_report(tmp_path_factory.mktemp("noisy"), "first")
+
+
+def test_lockstep_runs_with_the_same_seed_give_the_same_report(noisy_lockstep, tmp_path):
+    first, second = noisy_lockstep, _lockstep_report(tmp_path, "b")
     assert first == second
     assert first["seed"] == 7 and first["complete"] is True and first["rovers_reached_final_goal"] >= 4
 
 
-def test_rovers_sharing_processes_run_the_same_lockstep_mission(tmp_path):
+def test_rovers_sharing_processes_run_the_same_lockstep_mission(noisy_lockstep, tmp_path):
     shared = _lockstep_report(tmp_path, "shared", "--agents-per-process", "3")
-    assert shared == _lockstep_report(tmp_path, "apart")
+    assert shared == noisy_lockstep
     assert sorted(p.name for p in (tmp_path / "shared" / "logs").glob("rover*.log")) == ["rovers1-3.log",
                                                                                        "rovers4-5.log"]
     assert len(list((tmp_path / "shared" / "state").glob("rover*.json"))) == 5

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from procs import SCENARIOS, run_cli_mission
+from procs import SCENARIOS, USES_DEFAULT_PORT, run_cli_mission
 
 from deploy import cli
 from ros2_bridge import ros_types
@@ -20,7 +20,7 @@ from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
 from sessions.format import read_samples
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, USES_DEFAULT_PORT]
 WORLD = "bag"
 
 

@@ -10,7 +10,7 @@ from types import SimpleNamespace
 
 import pytest
 import zenoh
-from procs import SCENARIOS, lunarsim, run_cli_mission, wait_for
+from procs import SCENARIOS, USES_DEFAULT_PORT, lunarsim, run_cli_mission, wait_for
 
 from bus.zenoh_config import build_config
 from deploy.cli import main
@@ -348,6 +348,7 @@ def test_prefetch_yields_everything_in_order_passes_errors_on_and_stops_its_read
              "the read-ahead thread to stop")
 
 
+@USES_DEFAULT_PORT
 def test_with_no_router_named_or_listening_a_replay_serves_as_the_router_on_the_default_endpoint(tmp_path):
     """The tour's order: a run (the world its router) ends, then a replay; a viewer left on the default endpoint
     finds the replay there."""
