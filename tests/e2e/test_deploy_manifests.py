@@ -373,7 +373,7 @@ def test_dockerignore_sends_what_the_dockerfile_copies_and_leaves_the_rest_out()
     left_out = [f for f in needed if dockerignore_excludes(f) and f"/src/{f}" not in built]
     assert not left_out, f"pip install . needs these, the context leaves them out: {left_out[:5]}"
     assert dockerignore_excludes("web/frontend/node_modules/three/package.json")
-    for path in (".git/HEAD", "runs/crater/report.json", ".ci-venv/bin/python", "tests/test_bus.py",
+    for path in (".git/HEAD", "runs/crater/report.json", ".ci-venv/bin/python", "tests/e2e/test_bus.py",
                  "benchmarks/x.py", "schemas/__pycache__/m.cpython-312.pyc", "deploy/compose.yaml",
                  "deploy/k8s/router.yaml", "lunarsim.egg-info/PKG-INFO"):
         assert dockerignore_excludes(path), f"{path} would be sent to the build"

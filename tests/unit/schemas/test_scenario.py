@@ -22,9 +22,9 @@ from schemas.scenario import (
     parse_scenario,
 )
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[3] / "scenarios"
 SCENARIO_FILES = sorted(SCENARIOS.glob("*.yaml"))
-PROFILES = Path(__file__).resolve().parent / "data" / "profiles"
+PROFILES = Path(__file__).resolve().parents[2] / "data" / "profiles"
 """The report's editor profiles (appendix C.3, figures 27-30), kept as test data."""
 
 BASE = {

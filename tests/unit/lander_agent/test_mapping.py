@@ -23,7 +23,7 @@ from schemas.params import MappingParams, PerceptionParams, RoverParams
 from schemas.scenario import load_scenario, parse_scenario
 from world_service.outcome import map_truth
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[3] / "scenarios"
 PARAMS = RoverParams(perception=PerceptionParams(field_of_view_degrees=180.0, perception_radius=5.0,
                                                  perception_granularity=5))
 """Five rays: -90, -45, 0, 45 and 90 degrees, 5 m long."""

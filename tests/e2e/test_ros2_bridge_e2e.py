@@ -1,5 +1,5 @@
 """``lunarsim ros2`` through a real router on loopback, against an independent implementation of rmw_zenoh's wire
-format (``zenoh-ros2-sdk``, in ``tests/ros2_sdk_side.py``): ROS 2 subscribers read a running mission, a ROS 2
+format (``zenoh-ros2-sdk``, in ``tests/support/ros2_sdk_side.py``): ROS 2 subscribers read a running mission, a ROS 2
 publisher drives a rover, ROS 2's graph lists the bridge's topics, and nothing a ROS node sends stops the bridge."""
 
 from __future__ import annotations
@@ -54,7 +54,8 @@ def test_ros2_nodes_read_a_mission_drive_a_rover_and_list_the_bridge(router, tmp
             wait_for(lambda: states, 60, "the world's state")
             start = next(r for r in states[-1].rovers if r.id == 2).distance_covered_m
             port = router.rsplit(":", 1)[1]
-            probe = subprocess.run([sys.executable, str(REPO / "tests" / "ros2_sdk_side.py"), "--port", port,
+            sdk_side = REPO / "tests" / "support" / "ros2_sdk_side.py"
+            probe = subprocess.run([sys.executable, str(sdk_side), "--port", port,
                                     "--domain", str(DOMAIN), "--listen-rover", "1", "--drive-rover", "2"],
                                    capture_output=True, text=True, timeout=150)
             assert probe.returncode == 0, probe.stdout + probe.stderr

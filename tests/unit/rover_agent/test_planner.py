@@ -18,7 +18,7 @@ from rover_agent.rules.occupancy import Point
 from rover_agent.rules.planner import OccupancyGrid, _farthest_visible, _forbidden, disc_offsets, next_waypoint, plan
 from schemas.scenario import load_scenario
 
-MAZE = Path(__file__).resolve().parents[1] / "scenarios" / "maze.yaml"
+MAZE = Path(__file__).resolve().parents[3] / "scenarios" / "maze.yaml"
 MAZE_START = (-500.0, 95.0)
 MAZE_GOAL = (-507.6, -52.8)
 CLEARANCE = 1.2

@@ -1,10 +1,11 @@
-"""Attacks through a real router on a running mission: hostile but well-formed samples (``tests/hostile.py``) on
+"""Attacks through a real router on a running mission: hostile but well-formed samples (``tests/support/hostile.py``) on
 every key a rover, the lander or the ground may publish, in open mode and with rover 1's own certificate on a
 secured router; an action id from the future; the world SIGKILLed under ``lunarsim run``.
 
 No process dies, nothing is written outside the run folder, photo files are named by their receivers, every
 refusal is counted, and the mission still ends with a true report. The same payloads are fed to each process in
-process by ``tests/test_trust_boundaries.py``. Each test runs a mission; run them with ``pytest -m faults``.
+process by ``tests/unit/schemas/test_trust_boundaries.py``. Each test runs a mission; run them with
+``pytest -m faults``.
 """
 
 from __future__ import annotations

@@ -173,7 +173,7 @@ def test_check_driver_passes_the_reference_driver_on_the_emulated_device():
 
 
 def test_check_driver_names_the_bugs_of_a_faulty_driver(emulator):
-    env = {**os.environ, "PYTHONPATH": str(REPO / "tests")}
+    env = {**os.environ, "PYTHONPATH": str(REPO / "tests" / "support")}
     check = lunarsim("check-driver", f"hardware_faulty:OldFirmwareDriver?port={emulator.path}", env=env)
     out, err = check.communicate(timeout=60)
     assert check.returncode == 1, out + err

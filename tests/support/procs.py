@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SCENARIOS = REPO / "scenarios"
 USES_DEFAULT_PORT = pytest.mark.xdist_group("default_zenoh_port")
 """For a test that starts what listens on or looks at the default Zenoh port (a run without ``--port``, a replay

@@ -1,4 +1,4 @@
-"""A driver with real bugs, for ``lunarsim check-driver`` to find (tests/test_hardware.py).
+"""A driver with real bugs, for ``lunarsim check-driver`` to find (tests/e2e/test_hardware.py).
 
 It is the reference serial driver as someone might port it to an older firmware: that firmware called
 cancelling ``STOP``, and the port swallows the device's error answer instead of raising it, so a cancel

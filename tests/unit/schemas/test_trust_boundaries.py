@@ -2,7 +2,7 @@
 in process: none raises, every refusal is counted, whatever they publish afterwards still encodes, and no received
 value names a file.
 
-The same payloads go through a real router to a running mission in ``tests/test_attacks.py``.
+The same payloads go through a real router to a running mission in ``tests/e2e/test_attacks.py``.
 """
 
 from __future__ import annotations

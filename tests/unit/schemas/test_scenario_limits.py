@@ -16,7 +16,7 @@ from schemas.keyspace import check_world_name
 from schemas.params import RoverParams
 from schemas.scenario import Scenario, ScenarioError, TerrainSpec, load_rover_params, load_scenario, parse_scenario
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[3] / "scenarios"
 
 BASE = {
     "name": "tiny",

@@ -10,7 +10,7 @@ import pytest
 from harness.loopback import run_mission
 from schemas.scenario import load_scenario
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[3] / "scenarios"
 MAX_SIM_TIME = 300.0
 
 

@@ -22,7 +22,7 @@ from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
 from world_service.sim import World
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[3] / "scenarios"
 KEYS = Keyspace("t")
 
 

@@ -59,7 +59,7 @@ SAMPLES: dict[type, m.Message] = {
 }
 SAMPLES[m.WorldStats] = m.WorldStats(stamp=6.0, report=SAMPLES[m.MissionReport], final=True)
 
-SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "crater_observation.yaml"
+SCENARIO = Path(__file__).resolve().parents[3] / "scenarios" / "crater_observation.yaml"
 MODELS = sorted(SAMPLES, key=lambda model: model.__name__)
 
 

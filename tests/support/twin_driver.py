@@ -6,7 +6,7 @@ start, +x to the right) and the radio's ``comm_partners``. As the rover agent: i
 ahead, ``turn:D`` in place, positive right), reports itself done, prints ``drive done`` and stands still
 until SIGTERM.
 
-    python tests/twin_driver.py --connect tcp/127.0.0.1:7447 --world twin --id 1 --legs drive:4,turn:90,drive:3
+    python tests/support/twin_driver.py --connect tcp/127.0.0.1:7447 --world twin --id 1 --legs drive:4,turn:90,drive:3
 """
 
 from __future__ import annotations

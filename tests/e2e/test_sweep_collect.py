@@ -2,7 +2,7 @@
 the JOB_COMPLETION_INDEX Kubernetes would set) writing into one folder as the pods write onto their shared claim,
 then the collect pod's own command as a real process. Its batch.json and table must be those ``lunarsim batch``
 gives for the same seeds, and a sweep with a failed pod, a corrupt report or a seed twice must be told, not
-crash. The manifests are read as ``tests/test_deploy_manifests.py`` reads them (its helpers expand them), so
+crash. The manifests are read as ``tests/e2e/test_deploy_manifests.py`` reads them (its helpers expand them), so
 what runs here is what the cluster would run, but for the results path (a folder here) and each run's port
 (pods have a network each; processes here share one).
 """

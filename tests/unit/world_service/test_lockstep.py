@@ -33,7 +33,7 @@ from world_service.presence import Agents, note_ack
 from world_service.sim import World
 from world_service.terrain.views import DenseView, UncachedView
 
-SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[3] / "scenarios"
 KEYS = ks.Keyspace("test")
 DT = 0.05
 

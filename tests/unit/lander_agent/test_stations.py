@@ -17,7 +17,7 @@ from schemas import messages as m
 from schemas.radio import GoalReport, StationRequest
 from schemas.scenario import load_scenario
 
-SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[3] / "scenarios"
 
 
 @pytest.mark.parametrize("count", [2, 5, 20, 40])

@@ -1,6 +1,6 @@
 """The batch Job and its collect pod agree without a cluster: each index writes the folder the collector reads, on
 the claim the collector mounts, and the collect pod's command parses as kubectl would create it. Read with
-``tests/test_deploy_manifests.py``'s helpers, which expand the manifests as Kubernetes and the shell would."""
+``tests/e2e/test_deploy_manifests.py``'s helpers, which expand the manifests as Kubernetes and the shell would."""
 
 from __future__ import annotations
 

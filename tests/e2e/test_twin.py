@@ -215,7 +215,7 @@ def test_twin_refuses_lockstep_and_a_scaled_clock(tmp_path):
 
 
 def driver(router: str, rover_id: int, legs: str, partners: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, str(REPO / "tests" / "twin_driver.py"), "--connect", router,
+    return subprocess.Popen([sys.executable, str(REPO / "tests" / "support" / "twin_driver.py"), "--connect", router,
                              "--world", "twin", "--id", str(rover_id), "--legs", legs, "--partners", partners],
                             cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 

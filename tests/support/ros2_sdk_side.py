@@ -1,7 +1,7 @@
 """The ROS 2 side of the bridge's tests, in a process of its own: ``zenoh-ros2-sdk``, an implementation of rmw_zenoh's
 wire format independent of the bridge, with the vendored ``.msg`` definitions (it fetches nothing).
 
-    python tests/ros2_sdk_side.py --port P --domain D --listen-rover 1 --drive-rover 2
+    python tests/support/ros2_sdk_side.py --port P --domain D --listen-rover 1 --drive-rover 2
 
 Subscribes to a rover's scan, imu and odom and to /clock until each has samples, lists the graph's topics, then
 publishes a move goal to another rover until its navigation status says the move completed; prints one JSON line.
@@ -18,7 +18,7 @@ import threading
 import time
 from pathlib import Path
 
-MSGS = Path(__file__).resolve().parent / "data" / "ros2_msgs"
+MSGS = Path(__file__).resolve().parents[1] / "data" / "ros2_msgs"
 LISTENED = {"scan": "sensor_msgs/msg/LaserScan", "imu": "sensor_msgs/msg/Imu", "odom": "nav_msgs/msg/Odometry"}
 
 

@@ -1,5 +1,5 @@
 """The command blocks of the README and the guides, with their ``docs-test`` markers, as
-``tests/test_docs_commands.py`` runs them. Pure: reads Markdown, runs nothing. The rules are in that module's
+``tests/e2e/test_docs_commands.py`` runs them. Pure: reads Markdown, runs nothing. The rules are in that module's
 docstring."""
 
 from __future__ import annotations
