@@ -1,5 +1,5 @@
 """``--quick`` for the benchmarks: the same code path end to end at small sizes, in seconds, so a test can run every
-benchmark on every change (``tests/test_benchmarks.py``) and none of them rots between the runs that measure."""
+benchmark on every change (``tests/e2e/test_benchmarks.py``) and none of them rots between the runs that measure."""
 
 from __future__ import annotations
 

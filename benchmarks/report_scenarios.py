@@ -4,7 +4,7 @@ The report's editor profiles (appendix C.3, figures 27-30: crater_observation, c
 maze_crater_return) are what the behaviour was built on; this measures it there as the issue's targets ask
 (at least 98 % reach, no collisions, no stuck rover), with 20-rover teams respawned in the report's formation
 (``--rovers``). Each mission runs in lockstep in one process (``harness.loopback.run_mission``, which gives the
-report of ``lunarsim run --lockstep``: tests/test_loopback_equals_processes.py), capped in simulated time as the
+report of ``lunarsim run --lockstep``: tests/e2e/test_loopback_equals_processes.py), capped in simulated time as the
 behaviour suite caps its missions.
 
     python benchmarks/report_scenarios.py [--seeds 1-10] [--teams 5 20] [--jobs 2] [--json FILE]

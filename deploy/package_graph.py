@@ -1,6 +1,6 @@
 """Which LunarSim package imports which, read from the source (every import, also those inside functions), and the
 floors they stack into: the diagram of ``docs/concepts/architecture.md`` is drawn from this, so it cannot drift from
-the code. ``tests/test_layout.py`` holds the same imports to the rules (downwards only, no circles).
+the code. ``tests/project/test_layout.py`` holds the same imports to the rules (downwards only, no circles).
 """
 
 from __future__ import annotations

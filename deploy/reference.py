@@ -1,8 +1,8 @@
 """The documentation's generated pages, so they cannot drift from what they describe: the home page from the
 README, and references from the code: every key and the message it carries (``schemas``), every scenario field
 with its default and bounds (the pydantic models, also as a JSON Schema for editors), every command's help (the
-argparse parsers), and the packages' diagram from their imports. ``tests/test_docs.py`` fails when the checked-in
-pages differ from what this writes.
+argparse parsers), and the packages' diagram from their imports. ``tests/project/test_docs.py`` fails when the
+checked-in pages differ from what this writes.
 
     python -m deploy.reference docs      # after changing a message, a scenario field, a flag or an import
 """

@@ -77,7 +77,7 @@ def _let_go_of_server() -> None:
     never does, and while it held the pipe open a launcher killed outright (SIGKILL) would leave the server
     waiting for the pipe to close and the agents waiting for the server to die (their SIGTERM-on-parent-death
     is tied to the server, their parent). Closed, the launcher's death ends the server, and that ends them."""
-    server = forkserver._forkserver  # CPython's own; tests/test_warm_start.py fails if it ever moves
+    server = forkserver._forkserver  # CPython's own; tests/e2e/test_warm_start.py fails if it ever moves
     fd = getattr(server, "_forkserver_alive_fd", None)
     if fd is not None:
         with contextlib.suppress(OSError):

@@ -4,7 +4,7 @@ pure ``handle`` functions, every message still encoded and decoded with the code
 Deterministic and fast: the behaviour checker, the behaviour suite and the tests of mission logic use it. As in
 lockstep, photos arrive on their due tick, and an agent that publishes on a tick the world would not wait for
 (its ``next_wake`` misses a timer) is an error here. The cross-process path is tested separately over a real
-router, and gives the same report (tests/test_loopback_equals_processes.py).
+router, and gives the same report (tests/e2e/test_loopback_equals_processes.py).
 """
 
 from __future__ import annotations

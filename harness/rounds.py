@@ -10,7 +10,7 @@ Zenoh. The lander's part runs here, at the same points.
 
 The in-process mission (``harness.loopback``) answers with the rover agents themselves; the PettingZoo
 environment (``rover_env``) with a policy. With the shipped agents the report is the one ``lunarsim run --lockstep``
-gives (tests/test_loopback_equals_processes.py, tests/test_rover_env.py).
+gives (tests/e2e/test_loopback_equals_processes.py, tests/e2e/test_rover_env.py).
 """
 
 from __future__ import annotations

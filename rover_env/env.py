@@ -3,7 +3,7 @@
 A step is one round of a lockstep tick (``harness.rounds``): every rover hears what reached its keys (the clock,
 perception, radio...) and answers; the world and the lander run in between with the code of ``lunarsim run
 --lockstep``. A policy answering with the shipped rover agent (``rover_env.policy.AgentPolicy``) gives the report
-of ``lunarsim run --lockstep --seed`` of the same scenario and seed (tests/test_rover_env.py), and a rover's
+of ``lunarsim run --lockstep --seed`` of the same scenario and seed (tests/e2e/test_rover_env.py), and a rover's
 observation is what its agent would receive, nothing more. (A reply to an answer can reach a rover within the
 tick here, a tick later over Zenoh: ``docs/guides/research.md``.)
 

@@ -25,8 +25,8 @@ class DecodeError(LunarSimError, ValueError):
 def encode(message: BaseModel) -> bytes:
     """The fields as the model holds them (``__dict__``), nested models the same way: for LunarSim's models,
     which have no serializers, aliases, computed fields or extra fields, that is exactly what ``model_dump``
-    returns (``tests/test_codec.py`` checks both), at a third of its cost. The world encodes 31,500 messages a
-    simulated second at 1,000 rovers, and ``model_dump`` was a tenth of its main thread's time."""
+    returns (``tests/unit/schemas/test_codec.py`` checks both), at a third of its cost. The world encodes 31,500
+    messages a simulated second at 1,000 rovers, and ``model_dump`` was a tenth of its main thread's time."""
     return msgpack.packb([SCHEMA_VERSION, message.__dict__], use_bin_type=True, default=_fields)
 
 

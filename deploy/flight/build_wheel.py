@@ -27,7 +27,7 @@ REPO = Path(__file__).resolve().parents[2]
 DIST_NAME = "lunarsim-rover"
 FLIGHT_PACKAGES = ("schemas", "bus", "shared", "rover_agent", "hardware")
 """The packages the rover carries, whole, with their subpackages: the layout keeps ground-side code out of them
-(``tests/test_layout.py``)."""
+(``tests/project/test_layout.py``)."""
 DEPENDENCIES = ("eclipse-zenoh>=1.10,<2", "msgpack>=1.0", "pydantic>=2.6,<3", "pyyaml>=6")
 EXTRAS = {"serial": ("pyserial>=3.5",)}
 SCRIPTS = {"lunarsim-rover": "rover_agent.commands.rover:main", "lunarsim-bridge": "hardware.commands.bridge:main"}

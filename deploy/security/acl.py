@@ -28,7 +28,7 @@ taken from what the programs do:
   which the ROS 2 nodes (``ros2-nodes``) share, and where those nodes may do nothing else: no LunarSim key.
 
 Everything else is denied (``default_permission: deny``). Two Zenoh facts shape the rules (checked on a
-real router, see tests/test_security.py): a declared publisher sends only when it has learnt of a matching
+real router, see tests/e2e/test_security.py): a declared publisher sends only when it has learnt of a matching
 subscriber, so a publishing role must be allowed to *see* subscriber declarations (egress
 ``declare_subscriber``: it reveals which keys are subscribed, no data); and a rule matches a message only if
 the rule's key expression includes the message's, so a wildcard subscription needs a rule at least as wide.

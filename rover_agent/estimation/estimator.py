@@ -55,7 +55,7 @@ lander still corrects it there; teammates do again once it is off the rim."""
 SHARE_PERIOD_S = 1.0
 """How often a rover tells its estimate. Every sample a rover hears by radio may make it answer, so a lockstep
 world waits for its ack: told with every scan (5 Hz), estimates made each tick of a 5-rover mission wait for 2.7
-agents on average instead of 1.7 (tests/test_lockstep.py allows 2)."""
+agents on average instead of 1.7 (tests/unit/world_service/test_lockstep.py allows 2)."""
 FORGET_AFTER_S = 2 * ESTIMATE_MAX_AGE_S
 """A teammate's estimate older than this is forgotten: never matched again (``sightings.match_teammates``), and
 a flood of senders must not pile up."""

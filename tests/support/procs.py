@@ -1,0 +1,109 @@
+"""Helpers for tests that run real LunarSim processes over a real Zenoh router on loopback."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+SCENARIOS = REPO / "scenarios"
+USES_DEFAULT_PORT = pytest.mark.xdist_group("default_zenoh_port")
+"""For a test that starts what listens on or looks at the default Zenoh port (a run without ``--port``, a replay
+serving as the router there): under ``pytest -n N --dist loadgroup`` such tests run one after another."""
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_for(predicate: Callable[[], object], timeout: float, what: str, interval: float = 0.05):
+    """Poll until ``predicate`` returns something truthy; fail naming ``what`` after ``timeout`` seconds."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(interval)
+    raise AssertionError(f"timed out after {timeout:g} s waiting for {what}")
+
+
+def lunarsim(*args: str, **kwargs) -> subprocess.Popen:
+    """Start ``lunarsim ARGS`` (through the installed package's CLI module) in the repository folder."""
+    return subprocess.Popen([sys.executable, "-m", "deploy.cli", *args], cwd=REPO, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kwargs)
+
+
+def module(name: str, *args: str) -> subprocess.Popen:
+    """Start ``python -m NAME ARGS``: each LunarSim process also runs alone."""
+    return subprocess.Popen([sys.executable, "-m", name, *args], cwd=REPO, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+
+
+def stop(*procs: subprocess.Popen) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.send_signal(signal.SIGTERM)
+    for p in procs:
+        try:
+            p.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
+def processes_mentioning(text: str) -> list[int]:
+    """Pids of live processes whose command line contains ``text`` (to check for orphans)."""
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        try:
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            state = (entry / "stat").read_text().split()[2]
+        except OSError:
+            continue
+        if text in cmdline and state != "Z":
+            pids.append(int(entry.name))
+    return pids
+
+
+def run_cli_mission(out: Path, *args: str, timeout: float = 240) -> tuple[dict, str]:
+    """``lunarsim run ARGS --out OUT``, waited for; it must exit 0. Returns (report.json, stdout)."""
+    import json
+
+    proc = lunarsim("run", *args, "--out", str(out))
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, f"exit {proc.returncode}\n{stdout}\n{stderr}"
+    return json.loads((out / "report.json").read_text()), stdout
+
+
+def wait_for_output(proc: subprocess.Popen, text: str, timeout: float) -> str:
+    """Read ``proc``'s stdout until a line contains ``text``; fail after ``timeout`` seconds or at its exit."""
+    import threading
+
+    found: list[str] = []
+
+    def read() -> None:
+        for line in proc.stdout:
+            if text in line:
+                found.append(line)
+                return
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(timeout)
+    assert found, f"no line with {text!r} from the process within {timeout:g} s (exit code {proc.poll()})"
+    return found[0]

@@ -1,0 +1,289 @@
+"""The msgpack codec: every payload model round-trips, and every decoder turns garbage into DecodeError."""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+import msgpack
+import pytest
+from pydantic import BaseModel
+
+from schemas import codec, radio
+from schemas import messages as m
+
+SAMPLES: dict[type, m.Message] = {
+    m.Perception: m.Perception(stamp=1.25, angles_deg=[-10.5, 0.0, 42.0], distances_m=[3.5, 1.0, 9.75],
+                               kinds=["rover", "obstacle", "crater_terrain"]),
+    m.MoveAction: m.MoveAction(x=-1.5, z=7.25),
+    m.RotateAction: m.RotateAction(degrees=-90.0),
+    m.NavigationStatus: m.NavigationStatus(stamp=3.0, action="rotate", remaining=12.5, outcome="cancelled"),
+    m.CancelAction: m.CancelAction(),
+    m.Ack: m.Ack(tick=42),
+    m.Telemetry: m.Telemetry(stamp=1.5, x=0.25, z=3.0, heading_deg=12.5, pitch_deg=-2.0, moving=True),
+    m.RoverIdGrant: m.RoverIdGrant(id=3),
+    m.CancelResult: m.CancelResult(x=0.25, z=3.5, angle_deg=-4.0, reason="collided"),
+    m.SpeedAction: m.SpeedAction(level=2),
+    m.ActionRejected: m.ActionRejected(action="move", reason="blocked", detail="rock"),
+    m.Gyroscope: m.Gyroscope(stamp=0.05, pitch_deg=-3.5),
+    m.Battery: m.Battery(stamp=1.0, charge_wh=12.5, capacity_wh=20.0, solar_w=3.25, empty=False),
+    m.Temperature: m.Temperature(stamp=1.0, celsius=-12.5, shutdown=True),
+    m.Sunlight: m.Sunlight(stamp=1.0, lit=False),
+    m.OutboundComm: m.OutboundComm(targets=[0, 3], payload=b"\x00\xffhello", channel="calibration"),
+    m.InboundComm: m.InboundComm(sender=4, payload=b"\x01\x02"),
+    m.CommPartners: m.CommPartners(ids=[0, 2, 5]),
+    m.MissionDirection: m.MissionDirection(goal_index=1, goals_total=3, kind="crater", bearing_deg=212.5,
+                                           distance_m=88.0),
+    m.Calibration: m.Calibration(x=50.0, z=-50.0, heading_deg=180.074),
+    m.PhotoAction: m.PhotoAction(label="rim-30"),
+    m.Photo: m.Photo(stamp=9.5, label="rim-30", png=b"\x89PNG\r\n\x1a\n\x00\x00"),
+    m.RoverStatus: m.RoverStatus(stamp=2.0, state="climbing", goal_index=0, detail="pitch 3.1"),
+    m.WorldState: m.WorldState(
+        stamp=4.0,
+        rovers=[m.RoverTruth(id=1, x=-510.0, z=100.0, heading_deg=180.0, action="move", state="migration",
+                             goal_index=0, distance_to_goal_m=120.5, distance_covered_m=3.25, alive=True),
+                m.RoverTruth(id=2, x=-500.0, z=100.0, heading_deg=90.0, action="idle", state="done",
+                             goal_index=1, distance_to_goal_m=0.0, distance_covered_m=80.0, alive=False)],
+        comm_links=[(0, 1), (1, 2)],
+    ),
+    m.MissionReport: m.MissionReport(
+        scenario="crater_observation", seed=7, relative_path_length_m=108.4, average_distance_covered_m=110.2,
+        average_path_efficiency=0.98, total_distance_covered_m=551.0, rovers_reached_final_goal=4,
+        rovers_total=5, rover_collisions=1, obstacle_collisions=2, rovers_stuck=1, mission_duration_s=43.1,
+        wall_time_s=12.5, complete=True, rejected_messages=3,
+    ),
+    m.LanderStatus: m.LanderStatus(stamp=5.0, phase="migration", rover_goals={1: 0, 2: 1}, connected=[1, 2],
+                                   relay_chain=[0, 1, 2]),
+    m.Clock: m.Clock(tick=12, sim_time=0.6, time_scale=1.0, running=False),
+    radio.GoalReport: radio.GoalReport(goal_index=2, outcome="stuck"),
+}
+SAMPLES[m.WorldStats] = m.WorldStats(stamp=6.0, report=SAMPLES[m.MissionReport], final=True)
+
+SCENARIO = Path(__file__).resolve().parents[3] / "scenarios" / "crater_observation.yaml"
+MODELS = sorted(SAMPLES, key=lambda model: model.__name__)
+
+
+def test_every_topic_model_and_extra_model_has_a_sample():
+    required = set(m.TOPIC_MODELS.values()) | {m.WorldState, m.WorldStats, m.MissionReport, m.LanderStatus,
+                                               m.Clock, radio.GoalReport}
+    assert required <= set(SAMPLES)
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
+def test_round_trip(model):
+    message = SAMPLES[model]
+    assert type(message) is model
+    payload = codec.encode(message)
+    assert isinstance(payload, bytes)
+    assert codec.decode(model, payload) == message
+
+
+def _model_dump_encoding(message) -> bytes:
+    """What ``codec.encode`` returned before it took the fields as held: the reference it must match."""
+    return msgpack.packb([codec.SCHEMA_VERSION, message.model_dump()], use_bin_type=True)
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
+def test_encoding_is_byte_for_byte_that_of_model_dump(model):
+    assert codec.encode(SAMPLES[model]) == _model_dump_encoding(SAMPLES[model])
+
+
+def _schema_models() -> list[type[BaseModel]]:
+    found, todo = [], [BaseModel]
+    while todo:
+        for sub in todo.pop().__subclasses__():
+            todo.append(sub)
+            if sub.__module__.startswith("schemas."):
+                found.append(sub)
+    return found
+
+
+def test_no_schema_model_dumps_other_than_its_fields():
+    """``codec.encode`` packs a model's ``__dict__``: a serializer, an alias, a computed or an extra field would
+    make ``model_dump`` differ from it, so none may appear without changing the codec."""
+    models = _schema_models()
+    assert m.WorldState in models and radio.GoalReport in models
+    for model in models:
+        decorators = model.__pydantic_decorators__
+        assert not decorators.field_serializers and not decorators.model_serializers, model
+        assert not model.model_computed_fields, model
+        assert model.model_config.get("extra") != "allow", model
+        assert all(f.alias is None and f.serialization_alias is None for f in model.model_fields.values()), model
+
+
+def test_what_the_world_builds_encodes_as_model_dump_would():
+    """The world builds its perceptions with ``model_construct``, its lockstep clock with ``model_copy`` and the
+    rest validated: every message of 25 ticks of a real mission, and a state, encodes exactly as before."""
+    from schemas import keyspace as ks
+    from schemas.scenario import load_scenario
+    from world_service.sim import World
+
+    world = World(load_scenario(SCENARIO), ks.Keyspace("codec"))
+    for rid in world.actuator.bodies:
+        world.receive(world.keys.rover(rid, ks.MOVE_ACTION), codec.encode(m.MoveAction(x=0.5, z=4.0)))
+    out = [item for _ in range(25) for item in world.step()] + [("state", world.observed_state())]
+    out.append(("clock", world.clock.message().model_copy(update={"acks": [1, 2]})))
+    assert {type(message) for _, message in out} >= {m.Gyroscope, m.Perception, m.WorldState, m.Clock}
+    for _, message in out:
+        assert codec.encode(message) == _model_dump_encoding(message), message
+
+
+def test_round_trip_keeps_types_of_tuples_int_keys_and_bytes():
+    state = codec.decode(m.WorldState, codec.encode(SAMPLES[m.WorldState]))
+    assert state.comm_links == [(0, 1), (1, 2)] and isinstance(state.comm_links[0], tuple)
+    lander = codec.decode(m.LanderStatus, codec.encode(SAMPLES[m.LanderStatus]))
+    assert lander.rover_goals == {1: 0, 2: 1} and all(isinstance(k, int) for k in lander.rover_goals)
+    photo = codec.decode(m.Photo, codec.encode(SAMPLES[m.Photo]))
+    assert photo.png == b"\x89PNG\r\n\x1a\n\x00\x00"
+
+
+def test_envelope_is_version_then_fields():
+    version, fields = msgpack.unpackb(codec.encode(m.MoveAction(x=1.0, z=2.0)), raw=False)
+    assert version == codec.SCHEMA_VERSION == 1
+    assert fields == {"x": 1.0, "z": 2.0, "action_id": 0}
+
+
+def _assert_rejected(model, payload, *fragments):
+    with pytest.raises(codec.DecodeError) as info:
+        codec.decode(model, payload)
+    text = str(info.value)
+    assert text.startswith(f"{model.__name__}:"), text
+    for fragment in fragments:
+        assert fragment in text, text
+    return text
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
+def test_random_bytes_are_rejected(model):
+    rng = random.Random(f"codec-{model.__name__}")
+    for _ in range(200):
+        garbage = rng.randbytes(rng.randint(1, 64))
+        _assert_rejected(model, garbage)
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
+def test_empty_payload_is_rejected(model):
+    _assert_rejected(model, b"", "not msgpack")
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
+@pytest.mark.parametrize("shape", [
+    42, "text", None, [], [1], [1, 2, 3], {"x": 1.0}, [1, [1, 2]], [1, "fields"], [{}, 1],
+], ids=repr)
+def test_msgpack_of_the_wrong_shape_is_rejected(model, shape):
+    _assert_rejected(model, msgpack.packb(shape, use_bin_type=True), "expected [schema_version, {fields}]")
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
+@pytest.mark.parametrize("version", [0, 2, -1, 99, "1", None, [1]])
+def test_wrong_schema_version_is_rejected(model, version):
+    fields = SAMPLES[model].model_dump()
+    payload = msgpack.packb([version, fields], use_bin_type=True)
+    _assert_rejected(model, payload, "schema version", repr(version))
+
+
+@pytest.mark.parametrize("version", [True, 1.0])
+def test_schema_version_must_be_the_integer_1(version):
+    payload = msgpack.packb([version, {"x": 1.0, "z": 2.0}], use_bin_type=True)
+    _assert_rejected(m.MoveAction, payload, "schema version")
+
+
+def _foreign_sample(model):
+    """A valid encoding of another model with a field the target does not have (so it cannot be read as one)."""
+    own = set(model.model_fields)
+    for other in MODELS:
+        if other is not model and not set(SAMPLES[other].model_dump()) <= own:
+            return SAMPLES[other]
+    raise AssertionError(f"no foreign sample for {model.__name__}")
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
+def test_valid_encoding_of_a_different_model_is_rejected(model):
+    foreign = _foreign_sample(model)
+    _assert_rejected(model, codec.encode(foreign))
+
+
+@pytest.mark.parametrize(("model", "other"), [
+    (m.MoveAction, m.Calibration),  # a subset of Calibration's fields: the extra heading_deg is refused
+    (m.Calibration, m.MoveAction),  # heading_deg missing
+    (m.CancelAction, m.RotateAction),
+    (m.RotateAction, m.CancelAction),
+    (m.InboundComm, m.OutboundComm),
+    (m.WorldStats, m.MissionReport),
+    (radio.GoalReport, m.MissionDirection),
+], ids=lambda model: model.__name__)
+def test_close_relatives_are_not_confused(model, other):
+    _assert_rejected(model, codec.encode(SAMPLES[other]))
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
+def test_extra_fields_are_rejected(model):
+    fields = {**SAMPLES[model].model_dump(), "bogus_field": 1}
+    payload = msgpack.packb([codec.SCHEMA_VERSION, fields], use_bin_type=True)
+    _assert_rejected(model, payload, "bogus_field")
+
+
+@pytest.mark.parametrize(("model", "fields", "path"), [
+    (m.Perception, {"stamp": 0.0, "angles_deg": [1.0], "distances_m": [], "kinds": []}, "<root>"),
+    (m.Perception, {"stamp": 0.0, "angles_deg": [1.0], "distances_m": [2.0], "kinds": ["cheese"]}, "kinds.0"),
+    (m.SpeedAction, {"level": 4}, "level"),
+    (m.SpeedAction, {"level": 0}, "level"),
+    (m.MissionDirection, {"goal_index": -1, "goals_total": 1, "kind": "crater", "bearing_deg": 0.0,
+                          "distance_m": 1.0}, "goal_index"),
+    (m.NavigationStatus, {"stamp": 0.0, "action": "fly", "remaining": 0.0}, "action"),
+    (m.MoveAction, {"x": 1.0}, "z"),
+    (m.MoveAction, {"x": [1.0], "z": 2.0}, "x"),
+    (m.WorldState, {"stamp": 0.0, "rovers": [{"id": 1}]}, "rovers.0.x"),
+    (radio.GoalReport, {"goal_index": 0, "outcome": "maybe"}, "outcome"),
+])
+def test_invalid_field_values_name_model_and_field_path(model, fields, path):
+    payload = msgpack.packb([codec.SCHEMA_VERSION, fields], use_bin_type=True)
+    _assert_rejected(model, payload, f"{model.__name__}: {path}:")
+
+
+def test_perception_columns_of_different_lengths_are_rejected():
+    payload = msgpack.packb([1, {"stamp": 0.0, "angles_deg": [1.0, 2.0], "distances_m": [1.0], "kinds": ["rover"]}])
+    _assert_rejected(m.Perception, payload, "same length")
+
+
+# ---- radio payloads ----
+
+
+def test_radio_pack_unpack_round_trip():
+    report = radio.GoalReport(goal_index=3, outcome="reached")
+    assert radio.unpack(radio.pack(report)) == report
+
+
+@pytest.mark.parametrize("tag", ["goal_reprot", "", "GoalReport", 7, None, b"goal_report"], ids=repr)
+def test_radio_unknown_tag_is_rejected(tag):
+    body = codec.encode(radio.GoalReport(goal_index=0, outcome="reached"))
+    payload = msgpack.packb([tag, body], use_bin_type=True)
+    with pytest.raises(codec.DecodeError, match="unknown tag"):
+        radio.unpack(payload)
+
+
+def test_radio_body_that_is_not_bytes_is_rejected():
+    payload = msgpack.packb(["goal_report", {"goal_index": 0, "outcome": "reached"}], use_bin_type=True)
+    with pytest.raises(codec.DecodeError, match="radio payload"):
+        radio.unpack(payload)
+
+
+def test_radio_body_of_the_wrong_model_is_rejected_naming_it():
+    body = codec.encode(m.MoveAction(x=1.0, z=2.0))
+    payload = msgpack.packb(["goal_report", body], use_bin_type=True)
+    with pytest.raises(codec.DecodeError, match=r"^GoalReport:"):
+        radio.unpack(payload)
+
+
+@pytest.mark.parametrize("shape", [None, 5, "goal_report", [], ["goal_report"], ["a", "b", "c"], {"a": 1}],
+                         ids=repr)
+def test_radio_wrong_shape_is_rejected(shape):
+    with pytest.raises(codec.DecodeError, match="radio payload"):
+        radio.unpack(msgpack.packb(shape, use_bin_type=True))
+
+
+def test_radio_garbage_is_rejected():
+    rng = random.Random("radio-garbage")
+    for payload in [b"", *(rng.randbytes(rng.randint(1, 64)) for _ in range(300))]:
+        with pytest.raises(codec.DecodeError):
+            radio.unpack(payload)
