@@ -88,7 +88,7 @@ def measure(plan: Plan, s: Setting) -> dict:
     scenario_file = run_dir / "scenario.yaml"
     scenario_file.write_text(dump_scenario(scenario))
     cluster = Cluster(run_dir / "logs", plan, scenario_file, scenario, s.router_process(plan),
-                      priority.for_mode(s.agent_priority, plan.lockstep))
+                      priority.for_mode(s.agent_priority, plan.lockstep, plan.rovers))
     observer = None
     load_before = os.getloadavg()
     try:

@@ -12,6 +12,12 @@ world leaves, and an agent that falls behind shows it as its own lag, as a slow 
 In lockstep the world waits for the agents' acks, so it gains nothing by going first: there they keep the
 world's priority (idle agents made the crater mission 11 % slower).
 
+A few agents take little from the world, and lowered they would also give way to whatever else the machine runs
+(a build, another simulation): beside two CPU-bound processes an idle-class agent, or the camera, gets almost no
+CPU at all, and a mission waits on photos and moves that never come. So ``auto`` lowers them only in a crowd
+(``CROWD`` agents or more), where the measurement above holds, and the camera then runs ``low`` rather than
+``idle``: slowly, but never starved.
+
 Only lowering: it needs no privilege. Threads inherit their creator's policy, so lowering a process's first
 thread before it opens its Zenoh session lowers Zenoh's threads as well.
 """
@@ -25,17 +31,28 @@ Priority = Literal["equal", "low", "idle"]
 CHOICES = ("auto", "equal", "low", "idle")
 HELP = ("CPU priority of the agents against the world on this machine: 'idle' runs them on what the world leaves "
         "(the kernel's SCHED_IDLE), 'low' at nice 19 without preempting it (SCHED_BATCH), 'equal' as the kernel "
-        "shares by default; 'auto' (default): idle in real time, equal in lockstep")
+        "shares by default; 'auto' (default): idle in real time with 20 or more rovers, else equal")
 LOWEST_NICE = 19
 
 
-def for_mode(choice: str, lockstep: bool) -> Priority:
-    """``auto`` resolved: agents yield to a real-time world, and keep its priority in lockstep."""
+CROWD = 20
+"""Co-hosted rovers from which ``auto`` lowers the agents of a real-time world (the module's docstring says why)."""
+
+
+def for_mode(choice: str, lockstep: bool, rovers: int = CROWD) -> Priority:
+    """``auto`` resolved: a crowd of agents yields to a real-time world; a few agents, and any in lockstep, keep
+    its priority."""
     if choice not in CHOICES:
         raise ValueError(f"unknown priority {choice!r}: expected one of {', '.join(CHOICES)}")
     if choice == "auto":
-        return "equal" if lockstep else "idle"
+        return "idle" if not lockstep and rovers >= CROWD else "equal"
     return choice  # type: ignore[return-value]
+
+
+def for_camera(lockstep: bool, rovers: int) -> Priority:
+    """The world's camera process: out of the world's way when a crowd keeps it rendering in real time, but
+    ``low``, not ``idle``, so other work on the machine cannot starve it of the photos a mission waits for."""
+    return "low" if for_mode("auto", lockstep, rovers) == "idle" else "equal"
 
 
 def lower(priority: Priority) -> bool:

@@ -174,7 +174,7 @@ class Mission:
         else:
             self._start_world_as_router()
             self._start_recorder(common)
-        agents = priority.for_mode(self.options.agent_priority, self.options.lockstep)
+        agents = priority.for_mode(self.options.agent_priority, self.options.lockstep, len(self.scenario.rovers))
         external = self.options.external
         if self.options.ros2 or external:
             drive = ["--drive", ",".join(map(str, sorted(external)))] if external else []

@@ -170,7 +170,7 @@ def start_camera(scenario: Scenario, lockstep: bool) -> CameraProcess:
     """The camera process of a world that renders its photos (``ServedWorld.RENDERS_PHOTOS``). Its start (NumPy,
     Numba's loops, the terrain: a second or two of CPU) takes longer than the world's own, and the clock waits for
     it: started first, it is ready about when the agents are."""
-    return CameraProcess(scenario, priority.for_mode("auto", lockstep))
+    return CameraProcess(scenario, priority.for_camera(lockstep, len(scenario.rovers)))
 
 
 def serve(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event, report_file: Path | None = None,

@@ -12,7 +12,7 @@ import sys
 import pytest
 import yaml
 import zenoh
-from procs import REPO, SCENARIOS, free_port, lunarsim, module, stop, wait_for
+from procs import REPO, SCENARIOS, free_port, lunarsim, module, read_until, stop, wait_for
 
 from bus.zenoh_config import build_config
 from ros2_bridge import rmw, ros_types
@@ -75,6 +75,7 @@ def test_ros2_nodes_read_a_mission_drive_a_rover_and_list_the_bridge(router, tmp
                 "header": {"frame_id": "rover_2/base_link"}, "pose": {"position": {"x": 1e9}}})
             session.put(goal_key, far)
             session.put(goal_key.replace("rover_2", "rover_99"), far)
+            refused = read_until(bridge, ("not CDR", "no rover 99"), 30)
             tokens_running = _bridge_tokens(session)
             assert bridge.poll() is None, "the bridge died on hostile input"
             stop(bridge)
@@ -98,7 +99,7 @@ def test_ros2_nodes_read_a_mission_drive_a_rover_and_list_the_bridge(router, tmp
         assert ros_type in graph.get(name, []), (name, graph.get(name))
     assert "/tf" not in graph, "ground truth must be off by default"
     assert any("/NN/%/%/lunarsim_bridge" in t for t in tokens_running) and tokens_after == ["gone"]
-    log = bridge.stdout.read()
+    log = refused + bridge.stdout.read()
     assert "no rover 99" in log and "not CDR" in log and "move_goal" in log
 
 

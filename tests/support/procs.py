@@ -92,18 +92,25 @@ def run_cli_mission(out: Path, *args: str, timeout: float = 240) -> tuple[dict, 
 
 def wait_for_output(proc: subprocess.Popen, text: str, timeout: float) -> str:
     """Read ``proc``'s stdout until a line contains ``text``; fail after ``timeout`` seconds or at its exit."""
+    return next(line for line in read_until(proc, (text,), timeout).splitlines(keepends=True) if text in line)
+
+
+def read_until(proc: subprocess.Popen, texts: tuple[str, ...], timeout: float) -> str:
+    """Read ``proc``'s stdout until every one of ``texts`` has shown up, and return all it read; fail after
+    ``timeout`` seconds or at its exit. A process handles samples when it gets to them: wait for its word."""
     import threading
 
-    found: list[str] = []
+    read: list[str] = []
+    done = threading.Event()
 
-    def read() -> None:
+    def reader() -> None:
         for line in proc.stdout:
-            if text in line:
-                found.append(line)
+            read.append(line)
+            if all(any(text in seen for seen in read) for text in texts):
+                done.set()
                 return
 
-    reader = threading.Thread(target=read, daemon=True)
-    reader.start()
-    reader.join(timeout)
-    assert found, f"no line with {text!r} from the process within {timeout:g} s (exit code {proc.poll()})"
-    return found[0]
+    threading.Thread(target=reader, daemon=True).start()
+    missing = [] if done.wait(timeout) else [t for t in texts if not any(t in seen for seen in read)]
+    assert not missing, f"no line with {missing!r} from the process within {timeout:g} s (exit code {proc.poll()})"
+    return "".join(read)

@@ -12,9 +12,12 @@ import pytest
 from bus import priority
 
 
-def test_auto_yields_to_a_real_time_world_only() -> None:
-    assert priority.for_mode("auto", lockstep=False) == "idle"
-    assert priority.for_mode("auto", lockstep=True) == "equal"
+def test_auto_yields_to_a_real_time_world_only_in_a_crowd() -> None:
+    assert priority.for_mode("auto", lockstep=False, rovers=priority.CROWD) == "idle"
+    assert priority.for_mode("auto", lockstep=False, rovers=5) == "equal"
+    assert priority.for_mode("auto", lockstep=True, rovers=1000) == "equal"
+    assert priority.for_camera(lockstep=False, rovers=priority.CROWD) == "low"
+    assert priority.for_camera(lockstep=False, rovers=5) == priority.for_camera(lockstep=True, rovers=1000) == "equal"
     assert priority.for_mode("low", lockstep=True) == "low"
     with pytest.raises(ValueError, match="unknown priority 'high': expected one of auto, equal, low, idle"):
         priority.for_mode("high", lockstep=False)

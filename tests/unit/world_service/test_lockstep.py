@@ -211,11 +211,14 @@ def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world
         process.close()
 
 
-def test_the_camera_renders_in_the_idle_class_in_real_time_only(crater_world):
-    """In real time it renders on what the world leaves; in lockstep the clock waits for it (bus.priority)."""
+def test_the_camera_gives_way_in_a_real_time_crowd_only(crater_world):
+    """With a crowd in real time it renders below the world, in the batch class and never idle, so other work on
+    the machine cannot starve it; in lockstep the clock waits for it (bus.priority)."""
     scenario, _ = crater_world
-    for lockstep, policy in ((False, os.SCHED_IDLE), (True, os.SCHED_OTHER)):
-        process = CameraProcess(scenario, priority.for_mode("auto", lockstep))
+    crowd = priority.CROWD
+    cases = ((False, crowd, os.SCHED_BATCH), (False, 5, os.SCHED_OTHER), (True, crowd, os.SCHED_OTHER))
+    for lockstep, rovers, policy in cases:
+        process = CameraProcess(scenario, priority.for_camera(lockstep, rovers))
         try:
             assert process.pool.submit(os.sched_getscheduler, 0).result(timeout=60) == policy
         finally:
