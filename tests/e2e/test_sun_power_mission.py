@@ -1,4 +1,4 @@
-"""End to end (issue 8): ``lunarsim run scenarios/polar_night_edge.yaml --lockstep`` over a real router with real
+"""End to end: ``lunarsim run scenarios/polar_night_edge.yaml --lockstep`` over a real router with real
 processes, once with the default behaviour and once with ``sun_ignoring``: the first rover charges in sunlight
 and crosses the crater's shadow, the second runs empty in it and freezes there."""
 

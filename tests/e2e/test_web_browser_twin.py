@@ -1,4 +1,4 @@
-"""The web twin's first-hour rough edges (issue 28), each checked in a real headless Chromium.
+"""The web twin's first-hour rough edges, each checked in a real headless Chromium.
 
 The editor opens the scenario ``lunarsim view --scenario`` was given; each tab has its own URL and survives a
 reload; the 3D view starts framed on the mission with a scale bar and the report's axes; the editor's labels do

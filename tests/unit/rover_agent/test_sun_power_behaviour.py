@@ -1,4 +1,4 @@
-"""Staying in the sun (issue 8): the default behaviour charges in sunlight and keeps out of shadow when low;
+"""Staying in the sun: the default behaviour charges in sunlight and keeps out of shadow when low;
 ``sun_ignoring`` does not; the agent does nothing while its rover is off. Scripted sensor data, no router,
 then both behaviours on ``polar_night_edge`` in one process."""
 

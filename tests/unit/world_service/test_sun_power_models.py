@@ -1,4 +1,4 @@
-"""Sunlight, shadows, batteries and temperatures (issue 8): the pure models against closed forms, and the
+"""Sunlight, shadows, batteries and temperatures: the pure models against closed forms, and the
 world with and without a sun."""
 
 from __future__ import annotations
