@@ -11,7 +11,6 @@ with ``--truth``.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from bus import process
@@ -28,21 +27,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ros2_bridge.rosbag import export_recording
-    from schemas.scenario import load_scenario
-    from sessions.format import embedded_scenario
-    from sessions.recording import check_recording
+    from sessions.export_input import recording_to_export
 
     if args.output.exists():
         raise process.UsageError(f"{args.output}: already exists (a rosbag2 export writes a new folder)")
-    recording = check_recording(args.input)
-    scenario = load_scenario(args.scenario) if args.scenario else embedded_scenario(recording.metadata,
-                                                                                     str(args.input))
-    if scenario is None:
-        print(f"warning: {args.input} embeds no scenario and none was given (--scenario): scan assumes the stock "
-              "perception layout", file=sys.stderr)
-    for note in (recording.foreign_note(), recording.gap_note()):
-        if note:
-            print(f"warning: {note}", file=sys.stderr)
+    recording, scenario = recording_to_export(args.input, args.scenario, "scan assumes the stock perception layout")
     counts, skipped = export_recording(recording, scenario.rover_params if scenario is not None else None,
                                        args.truth, args.output)
     print(f"wrote {args.output}: {sum(counts.values())} messages on {len(counts)} topics"

@@ -29,21 +29,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from schemas.scenario import load_scenario
-    from sessions.format import embedded_scenario
+    from sessions.export_input import recording_to_export
     from sessions.foxglove_export import export_foxglove
-    from sessions.recording import check_recording
 
     check_paths(args.input, args.output)
-    recording = check_recording(args.input)
-    scenario = load_scenario(args.scenario) if args.scenario else embedded_scenario(recording.metadata,
-                                                                                     str(args.input))
-    if scenario is None:
-        print(f"warning: {args.input} embeds no scenario and none was given (--scenario): "
-              "exporting without terrain and obstacles", file=sys.stderr)
-    for note in (recording.foreign_note(), recording.gap_note()):
-        if note:
-            print(f"warning: {note}", file=sys.stderr)
+    recording, scenario = recording_to_export(args.input, args.scenario, "exporting without terrain and obstacles")
     counts = export_foxglove(recording, args.output, scenario, keep_raw=args.keep_raw,
                              trail_points=0 if args.no_trails else 300, terrain_cells=args.terrain_cells,
                              progress=sys.stderr.isatty())
