@@ -66,8 +66,8 @@ def test_ctrl_c_stops_every_process_and_keeps_a_report(tmp_path):
                 codec.decode(m.WorldStats, s.payload.to_bytes())))
             wait_for(lambda: any(x.stamp >= 2.0 for x in stats), 60, "the mission to be under way")
             sub.undeclare()
-        # real time: the agents run on what the world leaves (bus.priority)
-        assert _policies(port, "rover_agent") == _policies(port, "lander_agent") == {os.SCHED_IDLE}
+        # real time, five rovers, no crowd: the agents keep the world's priority (bus.priority)
+        assert _policies(port, "rover_agent") == _policies(port, "lander_agent") == {os.SCHED_OTHER}
         assert _policies(port, "world_service") == {os.SCHED_OTHER}
         proc.send_signal(signal.SIGINT)
         _, stderr = proc.communicate(timeout=60)
