@@ -20,9 +20,9 @@ from test_web_browser import CHROMIUM
 pytestmark = pytest.mark.bench_smoke
 
 BENCHMARKS = REPO / "benchmarks"
-SUPPORT = {"control_loop_world", "host", "latency_summary", "lockstep_speed_report", "proc_meter", "quick",
-           "scale_args", "scale_cluster", "scale_observe", "scale_report", "scale_witness", "tick_costs", "zenoh_floor",
-           "ros2_sdk_meter"}
+SUPPORT = {"behaviour_tables", "control_loop_world", "host", "latency_summary", "lockstep_speed_report", "proc_meter",
+           "quick", "scale_args", "scale_cluster", "scale_observe", "scale_report", "scale_witness", "tick_costs",
+           "zenoh_floor", "ros2_sdk_meter"}
 """Modules the benchmarks import or start, not benchmarks themselves."""
 MS = r"\d+\.\d{3}"
 
