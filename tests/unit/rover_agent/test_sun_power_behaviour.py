@@ -98,8 +98,10 @@ def test_the_agent_does_nothing_while_its_rover_is_off_and_says_why():
     _feed(agent, m.Gyroscope(stamp=0.1, pitch_deg=0.0))
     _feed(agent, m.Battery(stamp=0.1, charge_wh=0.0, capacity_wh=20.0, empty=True))
     assert _feed(agent, m.Perception(stamp=0.2, angles_deg=[], distances_m=[], kinds=[])) == []
-    (_, status), = agent.on_clock(m.Clock(tick=100, sim_time=5.0, time_scale=1.0, run=RUN))
+    out = agent.on_clock(m.Clock(tick=100, sim_time=5.0, time_scale=1.0, run=RUN))
+    status, = (msg for _, msg in out if isinstance(msg, m.RoverStatus))  # beside it, the estimate it shares
     assert status.detail == "off: battery empty"
+    assert not any(isinstance(msg, m.MoveAction | m.RotateAction) for _, msg in out)
     _feed(agent, m.Battery(stamp=0.3, charge_wh=19.0, capacity_wh=20.0))
     _feed(agent, m.Temperature(stamp=0.3, celsius=-40.0, shutdown=True))
     assert _feed(agent, m.Perception(stamp=0.4, angles_deg=[], distances_m=[], kinds=[])) == []

@@ -57,6 +57,8 @@ SAMPLES: dict[type, m.Message] = {
     m.Clock: m.Clock(tick=12, sim_time=0.6, time_scale=1.0, running=False),
     radio.GoalReport: radio.GoalReport(goal_index=2, outcome="stuck"),
 }
+SAMPLES[m.EstimatedPose] = m.EstimatedPose(stamp=3.0, x=1.5, z=-2.0, heading_deg=45.0, cov_xx=0.5, cov_xz=0.1,
+                                           cov_zz=0.4, cov_xh=0.01, cov_zh=-0.01, cov_hh=0.002, moving=True)
 SAMPLES[m.WorldStats] = m.WorldStats(stamp=6.0, report=SAMPLES[m.MissionReport], final=True)
 
 SCENARIO = Path(__file__).resolve().parents[3] / "scenarios" / "crater_observation.yaml"
