@@ -10,9 +10,8 @@ import subprocess
 import sys
 
 import pytest
-import yaml
 import zenoh
-from procs import REPO, SCENARIOS, free_port, module, stop, wait_for, wait_for_output
+from procs import REPO, SCENARIOS, free_port, module, stop, two_rover_scenario, wait_for, wait_for_output
 
 from bus.world_watch import ClockWatch
 from bus.zenoh_config import SHARED_MEMORY, build_config
@@ -214,19 +213,11 @@ def test_a_config_file_may_switch_shared_memory_on_and_the_pool_shows(tmp_path):
 # ---- processes ----
 
 
-def _two_rover_scenario(tmp_path):
-    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
-    data["rovers"] = data["rovers"][:2]
-    path = tmp_path / "two.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
-
-
 @pytest.mark.e2e
 def test_rovers_started_with_id_auto_get_distinct_ids_and_a_surplus_one_is_refused(router, tmp_path):
     keys = Keyspace("autoid")
     common = ["--world", keys.world, "--connect", router]
-    scenario = _two_rover_scenario(tmp_path)
+    scenario = two_rover_scenario(tmp_path)
     rovers = [module("rover_agent", "--id", "auto", *common) for _ in range(2)]  # before the world: they wait
     world = module("world_service", str(scenario), *common, "--no-lander", "--max-sim-time", "20",
                    "--time-scale", "2")
@@ -258,7 +249,7 @@ def test_an_agent_started_first_waits_for_the_router_then_for_the_world(tmp_path
         router = module("deploy.router", "--listen", endpoint)
         wait_for_output(rover, "connected to the Zenoh router", 30)
         wait_for_output(rover, "waiting for the world service", 20)
-        world = module("world_service", str(_two_rover_scenario(tmp_path)), *common, "--no-lander")
+        world = module("world_service", str(two_rover_scenario(tmp_path)), *common, "--no-lander")
         wait_for_output(rover, "world service found", 30)
         assert rover.poll() is None
     finally:

@@ -10,9 +10,8 @@ import subprocess
 import sys
 
 import pytest
-import yaml
 import zenoh
-from procs import REPO, SCENARIOS, free_port, lunarsim, module, read_until, stop, wait_for
+from procs import REPO, SCENARIOS, free_port, lunarsim, module, read_until, stop, two_rover_scenario, wait_for
 
 from bus.zenoh_config import build_config
 from ros2_bridge import rmw, ros_types
@@ -24,14 +23,6 @@ pytestmark = pytest.mark.e2e
 DOMAIN = 7
 
 
-def _two_rover_scenario(tmp_path):
-    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
-    data["rovers"] = data["rovers"][:2]
-    path = tmp_path / "two.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
-
-
 def _bridge_tokens(session: zenoh.Session) -> list[str]:
     replies = session.liveliness().get(f"{rmw.ADMIN_SPACE}/{DOMAIN}/**", timeout=3.0)
     return [str(r.ok.key_expr) for r in replies if r.ok is not None and "lunarsim_bridge" in str(r.ok.key_expr)]
@@ -41,7 +32,7 @@ def test_ros2_nodes_read_a_mission_drive_a_rover_and_list_the_bridge(router, tmp
     """Rover 1 has its agent; rover 2 has none (the world starts without it), so only the ROS node drives it."""
     world_name = "ros2"
     keys = Keyspace(world_name)
-    scenario = _two_rover_scenario(tmp_path)
+    scenario = two_rover_scenario(tmp_path)
     common = ["--world", world_name, "--connect", router]
     world = module("world_service", str(scenario), *common, "--start-timeout", "4", "--max-sim-time", "300")
     lander = module("lander_agent", str(scenario), *common)

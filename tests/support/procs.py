@@ -114,3 +114,14 @@ def read_until(proc: subprocess.Popen, texts: tuple[str, ...], timeout: float) -
     missing = [] if done.wait(timeout) else [t for t in texts if not any(t in seen for seen in read)]
     assert not missing, f"no line with {missing!r} from the process within {timeout:g} s (exit code {proc.poll()})"
     return "".join(read)
+
+
+def two_rover_scenario(tmp_path: Path) -> Path:
+    """The crater mission with its first two rovers only, written into ``tmp_path``: a small real mission."""
+    import yaml
+
+    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
+    data["rovers"] = data["rovers"][:2]
+    path = tmp_path / "two.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
