@@ -13,7 +13,7 @@ and ``ros2-nodes`` (the ROS 2 nodes on rmw_zenoh).
 Writes the router config (TLS with mutual authentication, user/password auth, and an ``access_control``
 section that gives each role only its own keys: see ``deploy.security.acl``), the router's user/password
 dictionary (``credentials.txt`` beside it; passwords already there are kept) and one client config per
-role (``world``, ``lander``, ``ground``, ``recorder``, ``rover-<id>``, ``bridge-<id>``) in ``--clients``.
+role (``world``, ``lander``, ``ground``, ``recorder``, ``view``, ``rover-<id>``, ``bridge-<id>``) in ``--clients``.
 """
 
 from __future__ import annotations

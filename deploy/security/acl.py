@@ -1,6 +1,6 @@
 """Who may do what on a world's keyspace, and the router's Zenoh ``access_control`` section that enforces it.
 
-Each process of a deployment has a role: ``world``, ``lander``, ``ground``, ``recorder``, one ``rover-<id>``
+Each process of a deployment has a role: ``world``, ``lander``, ``ground``, ``recorder``, ``view``, one ``rover-<id>``
 per rover agent and one ``bridge-<id>`` per real rover's driver bridge. A role is the set of keys it
 publishes, subscribes to, holds liveliness tokens on, watches tokens on, answers queries on and queries,
 taken from what the programs do:
@@ -20,6 +20,8 @@ taken from what the programs do:
 - the ground alone publishes ``ground/command``; the lander answers it on ``ground/command_result``;
 - the recorder reads the whole world and writes nothing; it and the ground watch a replay's token (``alive/replay``),
   which tells a viewer that what it shows is a recording;
+- the web view (``view``, ``lunarsim view``) reads what the recorder reads and has the ground's say: it publishes
+  only ground commands, and watches a replay's token;
 - the ROS 2 bridge (``ros2``, ``lunarsim ros2``) has the ground's say and reads what it bridges: it publishes only
   ground commands, and reads the rovers' sensors, the world's answers to their actions, their radio deliveries and
   pose estimates, the clock and the lander's map; ``world/state`` only when the deployment grants it ground truth.
@@ -41,7 +43,7 @@ from dataclasses import dataclass
 
 from schemas import keyspace as ks
 
-WORLD, LANDER, GROUND, RECORDER = "world", "lander", "ground", "recorder"
+WORLD, LANDER, GROUND, RECORDER, VIEW = "world", "lander", "ground", "recorder", "view"
 ROS2, ROS2_NODES = "ros2", "ros2-nodes"
 PUBLICATION = ("put", "delete")
 
@@ -153,6 +155,12 @@ def recorder_role(keys: ks.Keyspace) -> Role:
     return Role(RECORDER, subscribes=(keys.all,), watches=(keys.alive_replays,))
 
 
+def view_role(keys: ks.Keyspace) -> Role:
+    """The recorder's reading and the ground's say: the view shows everything and sends the operator's commands."""
+    recorder, ground = recorder_role(keys), ground_role(keys)
+    return Role(VIEW, publishes=ground.publishes, subscribes=recorder.subscribes, watches=recorder.watches)
+
+
 def rover_agent_role(keys: ks.Keyspace, rover_id: int) -> Role:
     return Role(
         rover_role(rover_id),
@@ -234,7 +242,7 @@ def roles(keys: ks.Keyspace, rover_ids: Iterable[int], bridged: Iterable[int] = 
         raise ValueError(f"the clock can be one bridge's only (one rover on a bench, no world), got bridges {real}")
     simulated = None if not real else [rid for rid in ids if rid not in real]
     fixed = [world_role(keys, simulated, real, clock=not bridge_clock), lander_role(keys), ground_role(keys),
-             recorder_role(keys)]
+             recorder_role(keys), view_role(keys)]
     if ros2 is not None and (strangers := [rid for rid in ros2.driven if rid not in ids]):
         raise ValueError(f"rovers {strangers} driven from ROS 2 are not rovers of this world")
     extra = [] if ros2 is None else [ros2_bridge_role(keys, ros2), ros2_nodes_role(ros2)]

@@ -4,7 +4,7 @@
 #   deploy/security/make-dev-certs.sh [--bridges all|ID,ID...] [--ros2] OUT_DIR ROVERS [ROUTER_HOST ...]
 #
 # Makes, in OUT_DIR: a development CA (ca.pem, ca.key) and, signed by it, a key and certificate per
-# role: router, world, lander, ground, recorder and rover-1 .. rover-ROVERS (<role>.key, <role>.pem),
+# role: router, world, lander, ground, recorder, view and rover-1 .. rover-ROVERS (<role>.key, <role>.pem),
 # and with --bridges a bridge-<id> for each real rover's driver bridge (all: bridge-1 .. bridge-ROVERS),
 # with --ros2 ros2 (the ROS 2 bridge) and ros2-nodes (the ROS 2 nodes on rmw_zenoh).
 # Each certificate's common name is its role: the router's access control matches clients by it.
@@ -111,7 +111,7 @@ make_cert() {  # make_cert ROLE [SAN]: a key and a certificate with CN=ROLE, sig
 
 make_ca
 make_cert router "$(san_list "$@")"
-for role in world lander ground recorder; do
+for role in world lander ground recorder view; do
     make_cert "$role"
 done
 for ((i = 1; i <= ROVERS; i++)); do

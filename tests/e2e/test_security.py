@@ -13,6 +13,7 @@ import json
 import re
 import shutil
 import subprocess
+import urllib.request
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -51,7 +52,7 @@ def control() -> dict:
     return acl.access_control(acl.roles(KEYS, [1, 2, 3]), KEYS)
 
 
-ROLES = ["world", "lander", "ground", "recorder", "rover-1", "rover-2", "rover-3"]
+ROLES = ["world", "lander", "ground", "recorder", "view", "rover-1", "rover-2", "rover-3"]
 
 
 def may_publish(control: dict, key: str) -> set[str]:
@@ -74,19 +75,29 @@ def test_only_the_world_publishes_sensors_and_each_rover_reads_only_its_own(cont
     for topic in SUBSCRIBED_TOPICS:
         for rid in (1, 2, 3):
             assert may_publish(control, KEYS.rover(rid, topic)) == {"world"}, topic
-            assert may_subscribe(control, KEYS.rover(rid, topic)) == {f"rover-{rid}", "recorder"}, topic
+            assert may_subscribe(control, KEYS.rover(rid, topic)) == {f"rover-{rid}", "recorder", "view"}, topic
     for key in (KEYS.clock, KEYS.state, KEYS.stats):
         assert may_publish(control, key) == {"world"}
 
 
 def test_only_ground_commands_and_rovers_cannot_watch_the_ground_truth(control):
-    assert may_publish(control, KEYS.ground_command) == {"ground"}
-    assert may_subscribe(control, KEYS.ground_command) == {"world", "lander", "recorder"}
-    assert may_subscribe(control, KEYS.state) == {"recorder"}
-    assert may_subscribe(control, KEYS.clock) == {"lander", "recorder", "rover-1", "rover-2", "rover-3"}
+    assert may_publish(control, KEYS.ground_command) == {"ground", "view"}
+    assert may_subscribe(control, KEYS.ground_command) == {"world", "lander", "recorder", "view"}
+    assert may_subscribe(control, KEYS.state) == {"recorder", "view"}
+    assert may_subscribe(control, KEYS.clock) == {"lander", "recorder", "view", "rover-1", "rover-2", "rover-3"}
     for rover in ("rover-1", "rover-2"):
         for key in (KEYS.all, KEYS.rovers(ks.PERCEPTION), f"{KEYS.prefix}/world/*"):
             assert not allowed(control, rover, "declare_subscriber", "ingress", key), key
+
+
+def test_the_view_reads_what_the_recorder_reads_and_sends_nothing_but_ground_commands(control):
+    for key in (KEYS.all, KEYS.state, KEYS.rover(2, ks.PHOTO), KEYS.ground_command_result):
+        assert allowed(control, "view", "declare_subscriber", "ingress", key), key
+    assert allowed(control, "view", "declare_liveliness_subscriber", "ingress", KEYS.alive_replays)
+    published = {k for r in control["rules"] if r["id"] == "view publish" for k in r["key_exprs"]}
+    assert published == {KEYS.ground_command}
+    for key in (KEYS.rover(1, ks.MOVE_ACTION), KEYS.clock, KEYS.state):
+        assert not allowed(control, "view", "put", "ingress", key), key
 
 
 def test_liveliness_and_the_id_desk_work_for_their_roles_only(control):
@@ -155,9 +166,9 @@ def make_certs(folder: Path, rovers: int, *hosts: str, bridges: str | None = Non
 @needs_openssl
 def test_make_dev_certs_is_idempotent_and_remakes_the_router_for_new_hosts(tmp_path):
     first = make_certs(tmp_path, 1)
-    assert first.count("made ") == 7  # ca, router, world, lander, ground, recorder, rover-1
+    assert first.count("made ") == 8  # ca, router, world, lander, ground, recorder, view, rover-1
     again = make_certs(tmp_path, 2)
-    assert again.count("kept ") == 7 and "made  " + str(tmp_path / "rover-2.pem") in again
+    assert again.count("kept ") == 8 and "made  " + str(tmp_path / "rover-2.pem") in again
     new_host = make_certs(tmp_path, 2, "rover-base.local", "10.1.2.3")
     assert "made  " + str(tmp_path / "router.pem") in new_host and new_host.count("made ") == 1
     names = subprocess.run(["openssl", "x509", "-in", str(tmp_path / "router.pem"), "-noout", "-ext",
@@ -341,6 +352,35 @@ def test_lunarsim_command_reaches_the_lander_as_ground_and_not_as_a_rover(secure
         stop(lander)
 
 
+@pytest.mark.e2e
+def test_lunarsim_view_with_its_own_config_sends_a_command_the_lander_answers(secure):
+    clients = secure.folder / "clients"
+    common = ["--world", KEYS.world, "--connect", secure.endpoint]
+    lander = module("lander_agent", str(SCENARIOS / "crater_observation.yaml"), *common,
+                    "--config", str(clients / "lander.json5"))
+    port = free_port()
+    view = lunarsim("view", "--port", str(port), *common, "--config", str(clients / "view.json5"))
+    try:
+        assert wait_for_port("127.0.0.1", port, 30, view), view.communicate(timeout=5) if view.poll() else "timeout"
+        wait_for(lambda: _get_json(f"http://127.0.0.1:{port}/api/info")["connected"], 30, "the view on the router")
+        answer = _post_json(f"http://127.0.0.1:{port}/api/command", {"command": "stop", "rover_id": 1})
+        assert answer["ok"] and answer["accepted"], answer
+    finally:
+        stop(view)
+        stop(lander)
+
+
+def _get_json(url: str) -> dict:
+    with urllib.request.urlopen(url, timeout=10) as response:
+        return json.loads(response.read())
+
+
+def _post_json(url: str, body: dict) -> dict:
+    request = urllib.request.Request(url, json.dumps(body).encode(), {"Content-Type": "application/json"})
+    with urllib.request.urlopen(request, timeout=60) as response:
+        return json.loads(response.read())
+
+
 def run_mission(folder: Path, scenario: Path, connect: str, configs_dir: Path | None) -> tuple[dict, str]:
     """A lockstep mission of world, lander and two rover agents; each gets its role's config if given."""
     def args(role: str) -> list[str]:
@@ -404,7 +444,7 @@ def test_a_bridge_alone_publishes_its_own_rovers_sensors_and_telemetry(bridged):
         assert subscribers(bridged, KEYS.rover(1, topic)) >= {"recorder"}
     for topic in SUBSCRIBED_TOPICS:
         assert publishers(bridged, KEYS.rover(3, topic)) == {"world"}, topic  # rover 3 is still simulated
-        assert subscribers(bridged, KEYS.rover(1, topic)) - {"world"} == {"rover-1", "recorder"}, topic
+        assert subscribers(bridged, KEYS.rover(1, topic)) - {"world"} == {"rover-1", "recorder", "view"}, topic
         assert ("world" in subscribers(bridged, KEYS.rover(1, topic))) == (topic in TwinWorld.INPUT_TOPICS), topic
     assert publishers(bridged, KEYS.rover(3, ks.TELEMETRY)) == set()  # no agent forges a driver's pose
     for key in (KEYS.ground_command, KEYS.state, KEYS.stats, KEYS.clock, KEYS.lander(ks.COMM_IN),
