@@ -1,4 +1,5 @@
-"""Shared fixtures (a real Zenoh router process on a free loopback port), and how pytest-xdist splits the suite."""
+"""Shared fixtures: a real Zenoh router process on a free loopback port, the default port taken in turn, the flight
+environment."""
 
 from __future__ import annotations
 
@@ -9,33 +10,17 @@ from procs import free_port, module, stop
 
 from deploy.children import wait_for_port
 
-WIDE_SCOPES = ("module", "package", "session")
 
+@pytest.fixture
+def default_zenoh_port():
+    """Held while a test uses the default Zenoh port: an exclusive lock on a file beside the temporary folders, so
+    such tests take the port in turn across pytest-xdist's workers, and across two runs of the suite."""
+    import fcntl
+    import tempfile
 
-@pytest.hookimpl(tryfirst=True)
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Under ``pytest -n N --dist loadgroup``, tests that share a fixture built once per module or session run on one
-    worker, so it is built once: a module's fixture groups the module's tests, a session fixture (the flight
-    environment) the tests across modules that use it. Other tests go to whichever worker is free. A test that must
-    not run beside another (one that needs the default Zenoh port) names its group itself."""
-    for item in items:
-        if item.get_closest_marker("xdist_group") is None and (group := _shared_group(item)):
-            item.add_marker(pytest.mark.xdist_group(group))
-
-
-def _shared_group(item: pytest.Item) -> str | None:
-    info = getattr(item, "_fixtureinfo", None)
-    shared = [defs[-1] for defs in (info.name2fixturedefs.values() if info else ()) if defs and _ours(defs[-1])]
-    for fixture in shared:
-        if fixture.scope == "session":
-            return fixture.argname
-    return item.module.__name__ if shared and item.module is not None else None
-
-
-def _ours(fixture: pytest.FixtureDef) -> bool:
-    """A wide fixture of the suite's own (not pytest's, nor a cheap autouse one like ``_own_state_home``)."""
-    return (fixture.scope in WIDE_SCOPES and not fixture.argname.startswith("_")
-            and not fixture.func.__module__.startswith(("_pytest", "pytest", "xdist")))
+    with open(Path(tempfile.gettempdir()) / "lunarsim-tests-default-zenoh-port.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        yield
 
 
 @pytest.fixture(autouse=True, scope="session")

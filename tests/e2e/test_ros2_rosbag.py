@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from procs import SCENARIOS, USES_DEFAULT_PORT, run_cli_mission
+from procs import SCENARIOS, free_port, run_cli_mission
 
 from deploy import cli
 from ros2_bridge import ros_types
@@ -20,7 +20,7 @@ from schemas.keyspace import Keyspace
 from schemas.scenario import load_scenario
 from sessions.format import read_samples
 
-pytestmark = [pytest.mark.e2e, USES_DEFAULT_PORT]
+pytestmark = pytest.mark.e2e
 WORLD = "bag"
 
 
@@ -28,7 +28,7 @@ WORLD = "bag"
 def recorded(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("crater") / "run"
     run_cli_mission(out, str(SCENARIOS / "crater_observation.yaml"), "--rovers", "2", "--lockstep",
-                    "--max-sim-time", "40", "--world", WORLD, "--quiet")
+                    "--max-sim-time", "40", "--world", WORLD, "--quiet", "--port", str(free_port()))
     return out / "session.mcap"
 
 

@@ -15,9 +15,9 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 SCENARIOS = REPO / "scenarios"
-USES_DEFAULT_PORT = pytest.mark.xdist_group("default_zenoh_port")
+USES_DEFAULT_PORT = pytest.mark.usefixtures("default_zenoh_port")
 """For a test that starts what listens on or looks at the default Zenoh port (a run without ``--port``, a replay
-serving as the router there): under ``pytest -n N --dist loadgroup`` such tests run one after another."""
+serving as the router there): such tests take the port in turn (the ``default_zenoh_port`` fixture)."""
 
 
 def free_port() -> int:
