@@ -3,6 +3,7 @@ environment."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -27,8 +28,6 @@ def default_zenoh_port():
 def _own_state_home(tmp_path_factory):
     """Processes started alone keep what a restart resumes from under ``$XDG_STATE_HOME``: the tests' own, so no
     test resumes a state another run of the suite left, and none is left in the user's home."""
-    import os
-
     os.environ["XDG_STATE_HOME"] = str(tmp_path_factory.mktemp("state-home"))
 
 
@@ -56,7 +55,9 @@ def shim(tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def flight_env(tmp_path_factory) -> Path:
     """The ``lunarsim-rover`` wheel built and installed into a fresh virtual environment, as on a flight computer;
-    built once for the tests of the flight wheel and the flight benchmark's quick run."""
+    built once for the tests of the flight wheel and the flight benchmark's quick run, under pytest-xdist once for
+    all workers (the first to need it builds it in their shared temporary folder, the others wait for it)."""
+    import fcntl
     import subprocess
     import sys
 
@@ -64,11 +65,17 @@ def flight_env(tmp_path_factory) -> Path:
 
     from deploy.flight import build_wheel as flight
 
-    where = tmp_path_factory.mktemp("flight")
-    wheel = flight.build(where / "dist", REPO)
+    base = tmp_path_factory.getbasetemp()
+    where = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "flight"
+    where.mkdir(exist_ok=True)
     venv = where / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
-    subprocess.run([str(venv / "bin" / "pip"), "install", "--quiet", str(wheel)], check=True, timeout=600)
+    with open(where / "build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (where / "built").exists():
+            wheel = flight.build(where / "dist", REPO)
+            subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+            subprocess.run([str(venv / "bin" / "pip"), "install", "--quiet", str(wheel)], check=True, timeout=600)
+            (where / "built").touch()
     return venv
 
 

@@ -115,7 +115,7 @@ def test_a_rover_driven_from_ros2_reaches_its_crater_and_the_mission_completes(t
     port = free_port()
     out = tmp_path / "run"
     run = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--external", "1", "--rovers", "2",
-                   "--time-scale", "3", "--port", str(port), "--max-sim-time", "300", "--quiet", "--out", str(out))
+                   "--time-scale", "2", "--port", str(port), "--max-sim-time", "300", "--quiet", "--out", str(out))
     node = subprocess.Popen([sys.executable, str(REPO / "examples" / "ros2_rover.py"), "--id", "1", "--connect",
                              f"tcp/127.0.0.1:{port}", "--timeout", "200"], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)

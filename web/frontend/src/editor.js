@@ -176,15 +176,25 @@ export class Editor {
     }
   }
 
+  // One preview in flight at a time: edits made meanwhile are previewed together once it is back, so a quick run
+  // of edits (or a loaded machine) never piles requests on the view's one scenario reader.
   async requestPreview() {
-    const asked = (this.previewAsked = (this.previewAsked || 0) + 1);
-    let sc;
-    try { sc = this.current(); } catch { return; }
-    const r = await post("/api/scenario/validate", { scenario: sc, scene: true });
-    if (asked === this.previewAsked && r.ok) {
-      this.preview = r.scene;
-      this.previewPlaced = sc.obstacles.rocks.length;
-      this.draw();
+    if (this.previewing) { this.previewAgain = true; return; }
+    this.previewing = true;
+    try {
+      do {
+        this.previewAgain = false;
+        let sc;
+        try { sc = this.current(); } catch { return; }
+        const r = await post("/api/scenario/validate", { scenario: sc, scene: true });
+        if (!this.previewAgain && r.ok) {
+          this.preview = r.scene;
+          this.previewPlaced = sc.obstacles.rocks.length;
+          this.draw();
+        }
+      } while (this.previewAgain);
+    } finally {
+      this.previewing = false;
     }
   }
 
