@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 import os
 import sys
-from importlib.metadata import entry_points
+from typing import TYPE_CHECKING
 
 from rover_agent.decisions import BaseBehaviour
 from schemas.errors import LunarSimError
@@ -21,19 +21,22 @@ BUILT_IN = {
 }
 ENTRY_POINT_GROUP = "lunarsim.behaviours"
 
+if TYPE_CHECKING:
+    from importlib.metadata import EntryPoint
+
 
 class UnknownBehaviour(LunarSimError, ValueError):
     """A behaviour name that resolves to nothing usable; the message lists what is known."""
 
 
 def known_names() -> list[str]:
-    return sorted(set(BUILT_IN) | {ep.name for ep in entry_points(group=ENTRY_POINT_GROUP)})
+    return sorted(set(BUILT_IN) | set(_plugins()))
 
 
 def load_behaviour(name: str) -> type[BaseBehaviour]:
     target = BUILT_IN.get(name)
     if target is None:
-        plugins = {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+        plugins = _plugins()
         if name in plugins:
             return _check(name, plugins[name].load())
         target = name
@@ -46,6 +49,14 @@ def load_behaviour(name: str) -> type[BaseBehaviour]:
         return _check(name, getattr(importlib.import_module(module_name), attr))
     except (ImportError, AttributeError) as exc:
         raise UnknownBehaviour(f"behaviour {name!r} cannot be loaded: {exc}") from None
+
+
+def _plugins() -> dict[str, EntryPoint]:
+    """The installed behaviours by name. ``importlib.metadata`` (several MiB with the modules it pulls in) is
+    imported here, when a name is not built in, not by every agent that runs a built-in behaviour."""
+    from importlib.metadata import entry_points
+
+    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 
 def with_current_folder() -> None:

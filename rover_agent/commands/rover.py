@@ -14,6 +14,7 @@ from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_end
 
 if TYPE_CHECKING:
     from schemas import messages as m
+    from schemas.params import RoverParams
 
 PRELOAD = ("rover_agent.commands.rover", "bus.bus", "rover_agent.identity", "rover_agent.runtime", "rover_agent.agent",
            "rover_agent.registry", "schemas.keyspace", "schemas.scenario")
@@ -51,7 +52,6 @@ def run(args: argparse.Namespace) -> int:
     from rover_agent.agent import RoverAgent
     from rover_agent.registry import UnknownBehaviour, load_behaviour
     from schemas.keyspace import Keyspace
-    from schemas.scenario import load_rover_params
 
     if args.id is None and args.ids is None:
         raise process.UsageError("give the rover's --id (or set LUNARSIM_ROVER_ID), or --ids for several agents")
@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
         behaviour_class = load_behaviour(args.behaviour)
     except (ValueError, UnknownBehaviour) as exc:
         raise process.UsageError(str(exc)) from None
-    params = load_rover_params(args.params)
+    params = rover_params(args.params)
     keys = Keyspace(args.world)
     who = f"rover {rover_ids[0]}" if len(rover_ids) == 1 else f"rovers {args.ids}"
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who=who)
@@ -83,9 +83,23 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def rover_params(path: Path | None) -> RoverParams:
+    """The parameters of ``--params``, or the defaults: without a file the agent imports neither the scenario
+    models nor PyYAML, which it needs only to read one."""
+    if path is None:
+        from schemas.params import RoverParams
+
+        return RoverParams()
+    from schemas.scenario import load_rover_params
+
+    return load_rover_params(path)
+
+
 def _dispatch(params: Path | None, rover_ids: list[int]) -> dict[int, m.Calibration]:
     """The planned dispatch poses when ``--params`` is a mission (scenario) file, read once for every agent of the
     process: the fallback for a rover that never hears the lander's calibration (``rover_agent.contact``)."""
+    if params is None:
+        return {}
     from schemas.scenario import load_dispatch_plan
     from shared.mission import dispatch_pose
 

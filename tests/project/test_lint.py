@@ -24,3 +24,14 @@ def test_rover_agent_imports_stay_light():
     proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "", f"rover agent imports {proc.stdout.strip()}"
+
+
+def test_rover_agent_without_a_params_file_imports_no_yaml():
+    """Without ``--params`` the agent has no file to read: it loads neither PyYAML nor the scenario models."""
+    code = ("import sys; from rover_agent.commands import rover; from rover_agent.registry import load_behaviour; "
+            "load_behaviour('default'); assert rover.rover_params(None).perception.perception_radius > 0; "
+            "assert rover._dispatch(None, [1]) == {}; "
+            "print(','.join(m for m in ('yaml', 'schemas.scenario') if m in sys.modules))")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "", f"rover agent without --params imports {proc.stdout.strip()}"
