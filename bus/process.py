@@ -22,6 +22,7 @@ import traceback
 from collections.abc import Iterator
 from pathlib import Path
 
+from bus import heap
 from bus.errors import RouterUnreachable, UsageError
 from schemas.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_NO_ROUTER, EXIT_USAGE, LunarSimError
 
@@ -52,9 +53,11 @@ def freeze_start_up_heap() -> None:
     A full collection of a rover agent's start-up heap takes about 17 ms on this machine, the world's longer,
     and steady traffic sets one off every few seconds: a stall of a third of a gyroscope period, which in a
     crowded run tips samples past their period, and plain wall time in lockstep. What start-up made lives for
-    the whole run, so it is collected once and then never scanned again (``gc.freeze``)."""
+    the whole run, so it is collected once and then never scanned again (``gc.freeze``). The C heap is set to
+    keep freed array blocks from here on (``heap.keep_freed_memory``)."""
     gc.collect()
     gc.freeze()
+    heap.keep_freed_memory()
 
 
 def setup_logging(verbose: bool = False, events: bool = False) -> None:

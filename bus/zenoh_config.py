@@ -1,8 +1,8 @@
 """Zenoh configuration, layered as in the zenoh-python examples, and opening a session with a clear error.
 
-Layers, later wins: defaults (client mode, multicast scouting and shared memory off), a json5 file from ``--config`` or
-``ZENOH_CONFIG``, then ``--connect`` / ``--listen`` endpoints. Only this module and the command line
-read the environment; domain code receives a finished ``zenoh.Config``.
+Layers, later wins: defaults (client mode, multicast scouting and shared memory off, so no scouting delay), a json5
+file from ``--config`` or ``ZENOH_CONFIG``, then ``--connect`` / ``--listen`` endpoints. Only this module and the
+command line read the environment; domain code receives a finished ``zenoh.Config``.
 Kept light (no NumPy, no pydantic): the rover agent imports it.
 """
 
@@ -76,6 +76,8 @@ def build_config(mode: str = "client", config_file: str | None = None, connect: 
         conf.insert_json5("mode", json.dumps(mode))
         conf.insert_json5("scouting/multicast/enabled", "false")
         conf.insert_json5(SHARED_MEMORY, "false")
+        if not scouting:  # a router or peer waits this long in zenoh.open for answers to scouting it does not do
+            conf.insert_json5("scouting/delay", "0")
     if connect:
         _insert_endpoints(conf, "connect", connect)
     elif not path and mode == "client":

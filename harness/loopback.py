@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from bus import heap
 from harness.rounds import Drop, Rounds
 from lander_agent.archive import PhotoArchive
 from rover_agent.agent import RoverAgent
@@ -36,7 +37,10 @@ def run_mission(scenario: Scenario, max_sim_time: float, archive: PhotoArchive |
 def run_mission_agents(scenario: Scenario, max_sim_time: float, archive: PhotoArchive | None = None,
                        behaviour: type[BaseBehaviour] | None = None, map_folder: Path | None = None,
                        drop: Drop | None = None) -> tuple[World, dict[int, RoverAgent]]:
-    """The world and the rover agents at the end: what each rover believed (its pose estimate) beside the truth."""
+    """The world and the rover agents at the end: what each rover believed (its pose estimate) beside the truth.
+
+    The process's C heap is set to keep freed array blocks (``bus.heap``), as the processes of a run set theirs."""
+    heap.keep_freed_memory()
     rounds = Rounds(scenario, max_sim_time, archive, map_folder, drop, strict=True)
     agents = rover_agents(scenario, rounds.keys, rounds.rover_ids, behaviour)
     heard = rounds.advance({})

@@ -24,10 +24,14 @@ import secrets
 import socket
 from collections.abc import Awaitable, Callable, Iterable
 from dataclasses import dataclass
-
-from aiohttp import web
+from typing import TYPE_CHECKING
 
 from schemas.errors import LunarSimError
+
+# aiohttp loads only where a response is made: every lunarsim command imports this module (its checks and
+# constants) to build its parser, and most never serve a page.
+if TYPE_CHECKING:
+    from aiohttp import web
 
 LOOPBACK_NAMES = frozenset({"127.0.0.1", "localhost", "::1"})
 WILDCARDS = frozenset({"0.0.0.0", "::", ""})
@@ -182,6 +186,8 @@ def _presented(request: web.Request, access: Access) -> bool:
 
 def _enter(request: web.Request, access: Access) -> web.Response:
     """The right ``?token=``: set the cookie and send the browser on without the token in its address bar."""
+    from aiohttp import web
+
     rest = request.rel_url.with_query([(k, v) for k, v in request.query.items() if k != "token"])
     response = web.Response(status=303, headers={"Location": str(rest), "Cache-Control": "no-store"})
     response.set_cookie(access.cookie, access.token or "", httponly=True, samesite="Lax", path="/")
@@ -189,6 +195,8 @@ def _enter(request: web.Request, access: Access) -> web.Response:
 
 
 def _login(wrong: bool) -> web.Response:
+    from aiohttp import web
+
     note = "That is not the token of this view." if wrong else "This view asks for the token it printed at start."
     page = (f"<!doctype html><html><head><meta charset=utf-8><title>LunarSim: token</title></head><body>"
             f"<h1>LunarSim view</h1><p>{html.escape(note)}</p><form method=get>"
@@ -199,6 +207,8 @@ def _login(wrong: bool) -> web.Response:
 
 
 def _json(status: int, message: str) -> web.Response:
+    from aiohttp import web
+
     return web.json_response({"ok": False, "error": message}, status=status)
 
 
@@ -208,6 +218,7 @@ def _clip(text: str) -> str:
 
 def middleware(access: Access) -> Callable:
     """The aiohttp middleware applying ``refusal``; every answer also forbids framing by other sites."""
+    from aiohttp import web
 
     @web.middleware
     async def guard(request: web.Request, handler: Callable[[web.Request], Awaitable[web.StreamResponse]]

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import setproctitle
 
+from bus import heap
 from bus.lifeline import exit_when_orphaned
 from bus.priority import Priority, lower
 from schemas import messages as m
@@ -111,6 +112,7 @@ def _start(scenario: Scenario, priority: Priority, world_pid: int) -> None:
     setproctitle.setproctitle(f"lunarsim camera of world {world_pid}")
     exit_when_orphaned(world_pid)  # a world killed with SIGKILL cannot shut its pool down
     lower(priority)
+    heap.keep_freed_memory()  # a photo's rays are a few arrays of 0.5 MB, made and dropped each photo
     from world_service.terrain import height_grid  # Numba: loaded in the camera process, not in the world's
 
     _ground = (build_ground(scenario), Scene.from_scenario(scenario), scenario.rover_params)

@@ -153,30 +153,18 @@ def _pixel_directions(cam: _Camera) -> np.ndarray:
 
 
 def _terrain_hits(terrain: HeightField, cam: _Camera, dirs: np.ndarray) -> _Hits:
-    """Start the per-pixel record from the terrain: where each ray first meets the ground, and its normal there.
+    """Start the per-pixel record from the terrain: where each ray first meets the ground, and its normal there
+    (central differences of the height ``NORMAL_EPS_M`` either side).
 
-    Rays march in a block of the height grid around the camera, compiled (``HeightGrid.march``): a rising ray
+    Rays march in a block of the height grid around the camera, compiled (``HeightGrid.surface``): a rising ray
     stops once it is above the highest ground the terrain can have, so the sky costs a few steps, not 170.
     """
     shape = dirs.shape[:2]
-    flat = dirs.reshape(-1, 3)
     grid = terrain.grid_around(float(cam.origin[0]), float(cam.origin[2]), cam.max_range)
-    t = grid.march(cam.origin, flat, cam.max_range, FIRST_STEP_M, MIN_STEP_M, STEP_GROWTH)
-    hit = np.isfinite(t)
-    kind = np.where(hit, TERRAIN, SKY)
-    normal = np.zeros_like(flat)
-    points = cam.origin + t[hit, None] * flat[hit]
-    normal[hit] = _terrain_normals(grid, points[:, 0], points[:, 2])
+    t, normal = grid.surface(cam.origin, dirs.reshape(-1, 3), cam.max_range, FIRST_STEP_M, MIN_STEP_M, STEP_GROWTH,
+                             NORMAL_EPS_M)
+    kind = np.where(np.isfinite(t), TERRAIN, SKY)
     return _Hits(t.reshape(shape), kind.reshape(shape), normal.reshape(*shape, 3))
-
-
-def _terrain_normals(terrain: HeightGrid, px: np.ndarray, pz: np.ndarray) -> np.ndarray:
-    """Unit upward normals from central differences of the height, (N, 3)."""
-    e = NORMAL_EPS_M
-    slope_x = (terrain.height(px + e, pz) - terrain.height(px - e, pz)) / (2 * e)
-    slope_z = (terrain.height(px, pz + e) - terrain.height(px, pz - e)) / (2 * e)
-    n = np.stack([-slope_x, np.ones_like(slope_x), -slope_z], axis=1)
-    return n / np.linalg.norm(n, axis=1, keepdims=True)
 
 
 # ---- rocks, the lander and rovers: spheres centred on the ground ----

@@ -126,6 +126,26 @@ def test_the_compiled_march_finds_the_ground_where_its_steps_cross_it():
     assert np.allclose(t[:3], expected) and np.isinf(t[3:]).all()  # level and rising rays never meet it
 
 
+def test_the_compiled_surface_is_the_march_with_numpy_central_difference_normals_to_the_bit():
+    """The camera shades what ``surface`` returns: the march's distances, and normals as NumPy computes them."""
+    tiled = _build(SMALL, tile_size_m=16.0)
+    grid = tiled.grid_around(60.0, 50.0, 40.0)
+    origin = np.array([60.0, float(tiled.height(60.0, 50.0)) + 0.3, 50.0])
+    rng = np.random.default_rng(3)
+    dirs = rng.normal(size=(4000, 3)) * [1.0, 0.2, 1.0]
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    t, normal = grid.surface(origin, dirs, 40.0, 0.2, 0.2, 0.03, 0.25)
+    assert np.array_equal(t, grid.march(origin, dirs, 40.0, 0.2, 0.2, 0.03))
+    hit = np.isfinite(t)
+    assert 0 < hit.sum() < len(t) and not normal[~hit].any()
+    points = origin + t[hit, None] * dirs[hit]
+    px, pz, e = points[:, 0], points[:, 2], 0.25
+    slope_x = (grid.height(px + e, pz) - grid.height(px - e, pz)) / (2 * e)
+    slope_z = (grid.height(px, pz + e) - grid.height(px, pz - e)) / (2 * e)
+    n = np.stack([-slope_x, np.ones_like(slope_x), -slope_z], axis=1)
+    assert np.array_equal(normal[hit], n / np.linalg.norm(n, axis=1, keepdims=True))
+
+
 def test_tiled_terrain_is_the_untiled_generator_and_draws_the_same_randoms():
     rng = np.random.default_rng(11)
     ref = UntiledReference(SMALL, CRATERS, np.random.default_rng(11))
