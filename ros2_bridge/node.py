@@ -128,9 +128,10 @@ class BridgeLoop:
         self.topics = tp.served(translator.truth)
         self.served: set[int] = set()
         self.lunar_prefix = translator.keys.prefix + "/"
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()
         """The translator and the node are one state, which Zenoh's receiving thread (LunarSim's samples) and the
-        loop (ROS 2's samples, liveliness) both change."""
+        loop (ROS 2's samples, liveliness) both change. Reentrant: what the bridge publishes on a key it reads
+        itself (a driven rover's pose estimate) comes back at once, inside the put, on the same thread."""
 
     def start(self) -> None:
         for key in self.translator.lunarsim_keys():
