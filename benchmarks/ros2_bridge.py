@@ -75,26 +75,36 @@ def _ntp64_ns(ts: zenoh.Timestamp) -> int:
 
 
 class PlainMeter:
-    """Plain Zenoh subscribers on the world's perception and gyroscope keys: (topic, stamp ns) -> (sent, got)."""
+    """Plain Zenoh subscribers on the world's perception and gyroscope keys. A callback only notes the arrival, the
+    world's timestamp and the bytes; ``seen`` decodes them after the run, so no meter's decoding delays another's
+    samples: (topic, stamp ns) -> (sent, got)."""
 
     def __init__(self, session: zenoh.Session, keys: Keyspace) -> None:
-        self.seen: dict[tuple[str, int], tuple[int, int]] = {}
+        self.raw: list[tuple[str, bytes, int, int]] = []
         self.lock = threading.Lock()
         self.subs = [session.declare_subscriber(keys.rovers(topic), self._on) for topic in TOPICS]
 
     def _on(self, sample: zenoh.Sample) -> None:
         got = time.time_ns()
-        parts = str(sample.key_expr).split("/")
-        topic = TOPICS[parts[4]]
-        model = m.Perception if topic == "scan" else m.Gyroscope
-        stamp = codec.decode(model, sample.payload.to_bytes()).stamp
+        row = (str(sample.key_expr), sample.payload.to_bytes(), _ntp64_ns(sample.timestamp), got)
         with self.lock:
-            self.seen[(f"/rover_{parts[3]}/{topic}", round(stamp * 1e9))] = (_ntp64_ns(sample.timestamp), got)
+            self.raw.append(row)
+
+    def seen(self) -> dict[tuple[str, int], tuple[int, int]]:
+        with self.lock:
+            rows = list(self.raw)
+        out = {}
+        for key, payload, sent, got in rows:
+            parts = key.split("/")
+            topic = TOPICS[parts[4]]
+            stamp = codec.decode(m.Perception if topic == "scan" else m.Gyroscope, payload).stamp
+            out[(f"/rover_{parts[3]}/{topic}", round(stamp * 1e9))] = (sent, got)
+        return out
 
 
 class RawRosMeter:
     """Plain Zenoh subscribers on the bridge's scan and imu keys, timing arrival before any decoding: the bridge's
-    own share of the ROS 2 trip, without the SDK's."""
+    own share of the ROS 2 trip, without the SDK's. Decoded after the run, as ``PlainMeter``."""
 
     def __init__(self, session: zenoh.Session) -> None:
         here, saved = str(Path(__file__).resolve().parent), list(sys.path)
@@ -104,7 +114,7 @@ class RawRosMeter:
         finally:
             sys.path[:] = saved
 
-        self.seen: dict[tuple[str, int], int] = {}
+        self.raw: list[tuple[str, bytes, int]] = []
         self.lock = threading.Lock()
         self.types = {"scan": "sensor_msgs/msg/LaserScan", "imu": "sensor_msgs/msg/Imu"}
         self.decode = ros_types.typestore().deserialize_cdr
@@ -114,10 +124,19 @@ class RawRosMeter:
 
     def _on(self, sample: zenoh.Sample) -> None:
         got = time.time_ns()
-        parts = str(sample.key_expr).split("/")
-        stamp = self.decode(sample.payload.to_bytes(), self.types[parts[2]]).header.stamp
+        row = (str(sample.key_expr), sample.payload.to_bytes(), got)
         with self.lock:
-            self.seen[(f"/{parts[1]}/{parts[2]}", stamp.sec * 1_000_000_000 + stamp.nanosec)] = got
+            self.raw.append(row)
+
+    def seen(self) -> dict[tuple[str, int], int]:
+        with self.lock:
+            rows = list(self.raw)
+        out = {}
+        for key, payload, got in rows:
+            parts = key.split("/")
+            stamp = self.decode(payload, self.types[parts[2]]).header.stamp
+            out[(f"/{parts[1]}/{parts[2]}", stamp.sec * 1_000_000_000 + stamp.nanosec)] = got
+        return out
 
 
 class SdkMeter:
@@ -155,8 +174,7 @@ def five_rovers(folder: Path, seconds: float) -> dict:
             mission.wait(timeout=seconds * 4 + 120)
             time.sleep(1.0)  # the last samples' way through the bridge
             ros = sdk.results()
-            with plain.lock, raw.lock:
-                world, bridged = dict(plain.seen), dict(raw.seen)
+            world, bridged = plain.seen(), raw.seen()
     finally:
         _stop(*reversed(procs))
     got = {(topic, stamp): at for topic, stamp, at in ros}
