@@ -4,9 +4,7 @@ Callbacks only enqueue (no decoding, no Zenoh calls), as the zenoh-python exampl
 process's own loop drains the inbox. They run directly on Zenoh's receiving thread
 (``Callback(indirect=False)``): by default each subscriber gets its own Python thread, and samples of
 different keys then reach the inbox out of order (a perception overtaking the navigation status sent
-before it), which costs the agent a perception period. Kept light: the rover agent uses it. A process
-that only forwards samples may handle them on that thread instead (``handle_directly``, ``subscribe(direct=...)``):
-the hand-off to its loop is a thread wake-up a sample.
+before it), which costs the agent a perception period. Kept light: the rover agent uses it.
 """
 
 from __future__ import annotations

@@ -130,10 +130,9 @@ class BridgeLoop:
         self.topics = tp.served(translator.truth)
         self.served: set[int] = set()
         self.lunar_prefix = translator.keys.prefix + "/"
-        self._lock = threading.RLock()
+        self._lock = threading.Lock()
         """The translator and the node are one state, which Zenoh's receiving thread (LunarSim's samples) and the
-        loop (ROS 2's samples, liveliness) both change. Reentrant: what the bridge publishes on a key it reads
-        itself (a driven rover's pose estimate) comes back at once, inside the put, on the same thread."""
+        loop (ROS 2's samples, liveliness) both change."""
 
     def start(self) -> None:
         for key in self.translator.lunarsim_keys():
