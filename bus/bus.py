@@ -61,10 +61,6 @@ class Received(NamedTuple):
     alive: bool | None = None  # set for liveliness changes, None for data samples
 
 
-def _received(sample: zenoh.Sample) -> Received:
-    return Received(str(sample.key_expr), sample.payload.to_bytes())
-
-
 class Inbox:
     """What a process has received and not yet handled: in arrival order, bounded per key and in all.
 
@@ -152,12 +148,8 @@ class Bus:
         handler publishes from it, and never waits for anything but a congested link."""
         self._direct = handler
 
-    def subscribe(self, key_expr: str, direct: Callable[[Received], None] | None = None) -> None:
-        """``direct``: this subscription's samples go to it on Zenoh's receiving thread as they arrive (as with
-        ``handle_directly``), the others' still to the inbox: for a process that forwards one kind of sample at once
-        and keeps the inbox's bounds for the rest."""
-        on_sample = self._on_sample if direct is None else (lambda sample: direct(_received(sample)))
-        self._declared.append(self.session.declare_subscriber(key_expr, zenoh_callback(on_sample)))
+    def subscribe(self, key_expr: str) -> None:
+        self._declared.append(self.session.declare_subscriber(key_expr, zenoh_callback(self._on_sample)))
 
     def watch_liveliness(self, key_expr: str) -> None:
         """Liveliness changes arrive in the inbox with ``alive`` set; tokens already there are reported too."""
@@ -177,7 +169,7 @@ class Bus:
         self._declared.append(self.session.liveliness().declare_token(key))
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        item = _received(sample)
+        item = Received(str(sample.key_expr), sample.payload.to_bytes())
         if self._direct is not None:
             self._direct(item)
         else:

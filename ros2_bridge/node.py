@@ -4,11 +4,6 @@ moves samples between LunarSim's keys and its topics through ``Translator``.
 Every publisher and subscription of the node holds its liveliness token (``@ros2_lv/...``) while the bridge runs,
 so ``ros2 node list`` and ``ros2 topic list -t`` show them; the tokens are withdrawn when it stops. Rovers are
 served from the first sample the world sends them, so the bridge needs no scenario to start.
-
-LunarSim's samples are translated and published on Zenoh's receiving thread as they arrive: handing them to the
-loop's thread first cost a thread wake-up and a wait for the interpreter lock a sample, about a millisecond at the
-median on a loaded machine and most of what the bridge added to a sample's trip. What ROS 2 nodes send, and
-liveliness, still go through the bus's bounded inbox to the loop: a flooding node is cut off there.
 """
 
 from __future__ import annotations
@@ -21,7 +16,7 @@ from dataclasses import dataclass
 import zenoh
 import zenoh.ext
 
-from bus.bus import Bus, Received
+from bus.bus import Bus
 from ros2_bridge import rmw, ros_types
 from ros2_bridge import topics as tp
 from ros2_bridge.translator import Translator
@@ -46,10 +41,9 @@ class Publication:
     sequence: int = 1
 
     def put(self, fields: dict) -> None:
-        payload = ros_types.encode(self.ros_type, fields)
         attachment = rmw.attachment(self.sequence, time.time_ns(), self.gid)
         self.sequence += 1
-        self.publisher.put(payload, attachment=attachment)
+        self.publisher.put(ros_types.encode(self.ros_type, fields), attachment=attachment)
 
 
 class RosNode:
@@ -130,13 +124,10 @@ class BridgeLoop:
         self.topics = tp.served(translator.truth)
         self.served: set[int] = set()
         self.lunar_prefix = translator.keys.prefix + "/"
-        self._lock = threading.Lock()
-        """The translator and the node are one state, which Zenoh's receiving thread (LunarSim's samples) and the
-        loop (ROS 2's samples, liveliness) both change."""
 
     def start(self) -> None:
         for key in self.translator.lunarsim_keys():
-            self.bus.subscribe(key, direct=self.forward)
+            self.bus.subscribe(key)
         for rover_id in sorted(self.translator.driven):
             self.bus.declare_token(self.translator.keys.alive_rover(rover_id))
         self.bus.watch_liveliness(self.translator.keys.alive_rovers)
@@ -160,21 +151,13 @@ class BridgeLoop:
                     self.node.announce_subscription(name, topic.ros_type)
         log.info("serving rover %d on /rover_%d/", rover_id, rover_id)
 
-    def forward(self, item: Received) -> None:
-        """A LunarSim sample, on Zenoh's receiving thread: its ROS 2 messages go out at once."""
-        with self._lock:
-            self.handle(item.key, item.payload)
-
     def run(self, stop: threading.Event) -> None:
         while not stop.is_set():
             item = self.bus.receive(timeout=IDLE_WAIT_S)
-            if item is None:
-                continue
-            with self._lock:
-                if item.alive is not None:
-                    self.liveliness(item.key, item.alive)
-                else:
-                    self.handle(item.key, item.payload)
+            if item is not None and item.alive is not None:
+                self.liveliness(item.key, item.alive)
+            elif item is not None:
+                self.handle(item.key, item.payload)
 
     def liveliness(self, key: str, alive: bool) -> None:
         try:
