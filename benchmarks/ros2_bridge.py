@@ -6,12 +6,15 @@ loopback, real time. A ``zenoh-ros2-sdk`` process (``ros2_sdk_meter.py``) subscr
 through the bridge, and this process subscribes to the same perception and gyroscope keys in plain Zenoh. Each
 sample's trip is timed from the world's publication (its Zenoh timestamp) to each subscriber, side by side:
 the bridge's added latency is the ROS 2 trip minus the plain one. A third, plain Zenoh subscriber on the bridge's
-ROS 2 keys times arrival before decoding: the bridge's share without the SDK's. Lost: world samples the SDK never got.
+ROS 2 keys times arrival before decoding: the bridge's share without the SDK's. A trivial relay beside the bridge
+(this script with ``--relay``) re-puts the world's samples unchanged from its receiving thread: the floor of any
+bridge process, the extra hop through the router and a Python callback. Lost: world samples the SDK never got.
 
 Part 2, twenty rovers: the world alone (``--no-lander``, no agents: every rover's sensors still flow), the bridge and
 the SDK subscriber; the bridge's CPU time over a window, as a share of one core.
 
     python benchmarks/ros2_bridge.py [--quick] [--json FILE]
+    python benchmarks/ros2_bridge.py --relay ENDPOINT     (the relay; the benchmark starts it)
 
 Targets (issue): 0 samples lost on loopback; the bridge adds at most 2 ms at p99; 20 rovers under 20 % of a core.
 """
@@ -44,6 +47,7 @@ WORLD = "rosbench"
 TOPICS = {"perception": "scan", "gyroscope": "imu"}
 TARGET_ADDED_P99_MS = 2.0
 TARGET_CPU_SHARE = 0.20
+RELAY_PREFIX = "relay/"
 
 
 def _free_port() -> int:
@@ -75,26 +79,37 @@ def _ntp64_ns(ts: zenoh.Timestamp) -> int:
 
 
 class PlainMeter:
-    """Plain Zenoh subscribers on the world's perception and gyroscope keys: (topic, stamp ns) -> (sent, got)."""
+    """Plain Zenoh subscribers on the world's perception and gyroscope keys. A callback only notes the arrival, the
+    world's timestamp and the bytes; ``seen`` decodes them after the run, so no meter's decoding delays another's
+    samples: (topic, stamp ns) -> (sent, got)."""
 
-    def __init__(self, session: zenoh.Session, keys: Keyspace) -> None:
-        self.seen: dict[tuple[str, int], tuple[int, int]] = {}
+    def __init__(self, session: zenoh.Session, keys: Keyspace, prefix: str = "") -> None:
+        self.raw: list[tuple[str, bytes, int, int]] = []
         self.lock = threading.Lock()
-        self.subs = [session.declare_subscriber(keys.rovers(topic), self._on) for topic in TOPICS]
+        self.prefix = prefix
+        self.subs = [session.declare_subscriber(prefix + keys.rovers(topic), self._on) for topic in TOPICS]
 
     def _on(self, sample: zenoh.Sample) -> None:
         got = time.time_ns()
-        parts = str(sample.key_expr).split("/")
-        topic = TOPICS[parts[4]]
-        model = m.Perception if topic == "scan" else m.Gyroscope
-        stamp = codec.decode(model, sample.payload.to_bytes()).stamp
+        row = (str(sample.key_expr), sample.payload.to_bytes(), _ntp64_ns(sample.timestamp), got)
         with self.lock:
-            self.seen[(f"/rover_{parts[3]}/{topic}", round(stamp * 1e9))] = (_ntp64_ns(sample.timestamp), got)
+            self.raw.append(row)
+
+    def seen(self) -> dict[tuple[str, int], tuple[int, int]]:
+        with self.lock:
+            rows = list(self.raw)
+        out = {}
+        for key, payload, sent, got in rows:
+            parts = key.removeprefix(self.prefix).split("/")
+            topic = TOPICS[parts[4]]
+            stamp = codec.decode(m.Perception if topic == "scan" else m.Gyroscope, payload).stamp
+            out[(f"/rover_{parts[3]}/{topic}", round(stamp * 1e9))] = (sent, got)
+        return out
 
 
 class RawRosMeter:
     """Plain Zenoh subscribers on the bridge's scan and imu keys, timing arrival before any decoding: the bridge's
-    own share of the ROS 2 trip, without the SDK's."""
+    own share of the ROS 2 trip, without the SDK's. Decoded after the run, as ``PlainMeter``."""
 
     def __init__(self, session: zenoh.Session) -> None:
         here, saved = str(Path(__file__).resolve().parent), list(sys.path)
@@ -104,7 +119,7 @@ class RawRosMeter:
         finally:
             sys.path[:] = saved
 
-        self.seen: dict[tuple[str, int], int] = {}
+        self.raw: list[tuple[str, bytes, int]] = []
         self.lock = threading.Lock()
         self.types = {"scan": "sensor_msgs/msg/LaserScan", "imu": "sensor_msgs/msg/Imu"}
         self.decode = ros_types.typestore().deserialize_cdr
@@ -114,10 +129,42 @@ class RawRosMeter:
 
     def _on(self, sample: zenoh.Sample) -> None:
         got = time.time_ns()
-        parts = str(sample.key_expr).split("/")
-        stamp = self.decode(sample.payload.to_bytes(), self.types[parts[2]]).header.stamp
+        row = (str(sample.key_expr), sample.payload.to_bytes(), got)
         with self.lock:
-            self.seen[(f"/{parts[1]}/{parts[2]}", stamp.sec * 1_000_000_000 + stamp.nanosec)] = got
+            self.raw.append(row)
+
+    def seen(self) -> dict[tuple[str, int], int]:
+        with self.lock:
+            rows = list(self.raw)
+        out = {}
+        for key, payload, got in rows:
+            parts = key.split("/")
+            stamp = self.decode(payload, self.types[parts[2]]).header.stamp
+            out[(f"/{parts[1]}/{parts[2]}", stamp.sec * 1_000_000_000 + stamp.nanosec)] = got
+        return out
+
+
+def relay(endpoint: str) -> None:
+    """Re-put the world's perception and gyroscope samples unchanged under ``RELAY_PREFIX``, as they arrive, until
+    SIGTERM: a client of the router, as the bridge is."""
+    from bus.bus import zenoh_callback
+    from bus.process import stop_on_signals
+
+    conf = build_config(connect=[endpoint])
+    conf.insert_json5("mode", '"client"')
+    with zenoh.open(conf) as session, stop_on_signals() as stop:
+        publishers: dict[str, zenoh.Publisher] = {}
+
+        def forward(sample: zenoh.Sample) -> None:
+            key = RELAY_PREFIX + str(sample.key_expr)
+            if key not in publishers:
+                publishers[key] = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP)
+            publishers[key].put(sample.payload.to_bytes())
+
+        subs = [session.declare_subscriber(Keyspace(WORLD).rovers(t), zenoh_callback(forward)) for t in TOPICS]
+        stop.wait()
+        for sub in subs:
+            sub.undeclare()
 
 
 class SdkMeter:
@@ -143,10 +190,12 @@ def five_rovers(folder: Path, seconds: float) -> dict:
         bridge = _python("-m", "ros2_bridge", "--world", WORLD, "--connect", endpoint, "--params", str(SCENARIO),
                          log=folder / "bridge.log")
         procs.append(bridge)
+        procs.append(_python(str(Path(__file__).resolve()), "--relay", endpoint, log=folder / "relay.log"))
         sdk = SdkMeter(port, 5, folder / "sdk.log")
         procs.append(sdk.proc)
         with zenoh.open(build_config(connect=[endpoint])) as session:
             plain = PlainMeter(session, Keyspace(WORLD))
+            relayed = PlainMeter(session, Keyspace(WORLD), RELAY_PREFIX)
             raw = RawRosMeter(session)
             mission = _python("-m", "deploy.cli", "run", str(SCENARIO), "--connect", endpoint, "--world", WORLD,
                               "--max-sim-time", str(seconds), "--no-record", "--quiet", "--out", str(folder / "run"),
@@ -155,8 +204,7 @@ def five_rovers(folder: Path, seconds: float) -> dict:
             mission.wait(timeout=seconds * 4 + 120)
             time.sleep(1.0)  # the last samples' way through the bridge
             ros = sdk.results()
-            with plain.lock, raw.lock:
-                world, bridged = dict(plain.seen), dict(raw.seen)
+            world, bridged, floor = plain.seen(), raw.seen(), relayed.seen()
     finally:
         _stop(*reversed(procs))
     got = {(topic, stamp): at for topic, stamp, at in ros}
@@ -164,9 +212,11 @@ def five_rovers(folder: Path, seconds: float) -> dict:
     plain_ns = [world[k][1] - world[k][0] for k in world if k in got]
     ros_ns = [got[k] - world[k][0] for k in world if k in got]
     raw_ns = [bridged[k] - world[k][0] for k in world if k in bridged]
+    relay_ns = [floor[k][1] - world[k][0] for k in world if k in floor]
     return {"world_samples": len(world), "sdk_samples": len(got), "lost": len(lost),
             "lost_by_topic": sorted({k[0].rsplit("/", 1)[1] for k in lost}),
-            "plain": Summary.of(plain_ns), "ros2": Summary.of(ros_ns), "ros2_raw": Summary.of(raw_ns)}
+            "plain": Summary.of(plain_ns), "ros2": Summary.of(ros_ns), "ros2_raw": Summary.of(raw_ns),
+            "relay": Summary.of(relay_ns)}
 
 
 def twenty_rovers_cpu(folder: Path, seconds: float, rovers: int = 20) -> dict:
@@ -200,29 +250,35 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="an 8 s mission and a 6 s CPU window")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures here")
+    parser.add_argument("--relay", metavar="ENDPOINT", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.relay:
+        relay(args.relay)
+        return 0
     mission_s, window_s = (8.0, 6.0) if args.quick else (60.0, 60.0)
     with tempfile.TemporaryDirectory(prefix="ros2bench-") as tmp:
         folder = Path(tmp)
         five = five_rovers(folder, mission_s)
         cpu = twenty_rovers_cpu(folder, window_s)
-    plain, ros, raw = five["plain"], five["ros2"], five["ros2_raw"]
+    plain, ros, raw, floor = five["plain"], five["ros2"], five["ros2_raw"], five["relay"]
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end (other work included)")
     added = ros.p99_ms - plain.p99_ms
     print(f"5 rovers, real time, {mission_s:g} s: world published {five['world_samples']} scan+imu samples, the "
           f"ROS 2 subscriber got {five['sdk_samples']}, lost {five['lost']} {five['lost_by_topic'] or ''}")
     print(f"{'trip from the world':<28}{'p50 ms':>9}{'p90 ms':>9}{'p99 ms':>9}{'max ms':>9}")
-    rows = (("plain Zenoh subscriber", plain), ("ROS 2 key, plain Zenoh", raw), ("ROS 2 via the bridge (SDK)", ros))
+    rows = (("plain Zenoh subscriber", plain), ("ROS 2 key, plain Zenoh", raw), ("ROS 2 via the bridge (SDK)", ros),
+            ("trivial relay, plain Zenoh", floor))
     for name, s in rows:
         print(f"{name:<28}{s.p50_ms:>9.2f}{s.p90_ms:>9.2f}{s.p99_ms:>9.2f}{s.max_ms:>9.2f}")
     print(f"the bridge adds {added:.2f} ms at p99 to the SDK subscriber's trip, {raw.p99_ms - plain.p99_ms:.2f} ms to "
-          f"a plain subscriber's on its keys (target at most {TARGET_ADDED_P99_MS:g} ms)")
+          f"a plain subscriber's on its keys (target at most {TARGET_ADDED_P99_MS:g} ms); a trivial relay in its place "
+          f"adds {floor.p99_ms - plain.p99_ms:.2f} ms (the extra hop's floor)")
     print(f"{cpu['rovers']} rovers, real time: the bridge used {cpu['bridge_cpu_share']:.1%} of one core over "
           f"{cpu['window_s']:g} s (target under {TARGET_CPU_SHARE:.0%}); the ROS 2 subscriber got "
           f"{cpu['sdk_samples']} samples")
     if args.json:
         figures = {"five_rovers": {**five, "plain": vars(plain), "ros2": vars(ros), "ros2_raw": vars(raw),
-                                   "added_p99_ms": added},
+                                   "relay": vars(floor), "added_p99_ms": added},
                    "twenty_rovers": cpu}
         args.json.write_text(json.dumps(figures, indent=2) + "\n")
     return 0

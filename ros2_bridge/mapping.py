@@ -34,6 +34,8 @@ OCCUPANCY = {"unknown": -1, "free": 0, "rover": 0, "crater": 50, "obstacle": 100
 terrain is walkable but to be avoided when the way round is short."""
 LEVELS = {"running": 0, "completed": 0, "cancelled": 1, "collided": 2}
 """``DiagnosticStatus`` level (OK, WARN, ERROR) of a navigation outcome; a refused action is an ERROR."""
+KIND_CODES = {kind: float(i + 1) for i, kind in enumerate(HIT_KINDS)}
+"""A hit kind's ``intensities`` value in ``scan``."""
 STATUS_CHARGING, STATUS_DISCHARGING, STATUS_NOT_CHARGING = 1, 2, 3
 HEALTH_GOOD, HEALTH_DEAD = 1, 3
 
@@ -45,7 +47,7 @@ def scan(msg: m.Perception, rover_id: int, layout: RayLayout) -> Fields:
     kinds = [0.0] * layout.rays
     for i, distance, kind in zip(layout.indices(msg.angles_deg), msg.distances_m, msg.kinds, strict=True):
         if distance < ranges[i]:
-            ranges[i], kinds[i] = distance, float(HIT_KINDS.index(kind) + 1)
+            ranges[i], kinds[i] = distance, KIND_CODES[kind]
     half = math.radians(layout.fov_deg) / 2
     return {"header": fr.header(msg.stamp, fr.base_link(rover_id)), "angle_min": -half, "angle_max": half,
             "angle_increment": layout.step_rad, "time_increment": 0.0, "scan_time": layout.period_s,

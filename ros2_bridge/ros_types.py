@@ -53,14 +53,25 @@ Builder = Callable[[Any], Any]
 
 @cache
 def _builder(ros_type: str) -> Builder:
-    """A function dict -> message for one type, made once: the type's fields and how to convert each."""
+    """A function dict -> message for one type, made once: the type's fields and how to convert each. Plain values
+    are taken as given (a default for what is left out), nested messages and arrays through their converter."""
     store = typestore()
     cls = store.types[ros_type]
-    members = [(name, _converter(desc)) for name, desc in store.fielddefs[ros_type][1]]
+    plain: list[tuple[str, Any]] = []
+    converted: list[tuple[str, Builder]] = []
+    for name, desc in store.fielddefs[ros_type][1]:
+        if desc[0] == Nodetype.BASE:
+            plain.append((name, _DEFAULTS.get(desc[1][0], 0)))
+        else:
+            converted.append((name, _converter(desc)))
 
     def make(fields: Fields | None) -> Any:
         given = fields or {}
-        return cls(**{name: convert(given.get(name)) for name, convert in members})
+        values = {name: convert(given.get(name)) for name, convert in converted}
+        for name, default in plain:
+            value = given.get(name)
+            values[name] = default if value is None else value
+        return cls(**values)
 
     return make
 
@@ -68,7 +79,7 @@ def _builder(ros_type: str) -> Builder:
 def _converter(desc: tuple) -> Builder:
     node, detail = desc
     if node == Nodetype.NAME:
-        return lambda given: _builder(detail)(given)
+        return _builder(detail)
     if node == Nodetype.BASE:
         default = _DEFAULTS.get(detail[0], 0)
         return lambda given: default if given is None else given
