@@ -201,9 +201,10 @@ def _per_key(path: Path) -> dict[str, list[bytes]]:
     """Each key's payloads in order from the world's first running clock up to its final report. Before it the
     world announces itself with a stopped clock twice a second until every agent has connected, and after
     the report processes are being shut down: how many of either there are depends on wall-clock timing, not
-    on the simulation. So is a lockstep tick sent again because its acks were late: the copy is the same
-    bytes, right after the original. Each run names itself with a new run id (a restarted agent tells its
-    own run's state from an old one's by it): it is left out of the comparison."""
+    on the simulation. So is a lockstep tick sent again because its acks were late, and an agent's ack of a tick
+    it had acked already: the copy is the same bytes, right after the original on its key. Each run names itself
+    with a new run id (a restarted agent tells its own run's state from an old one's by it): it is left out of the
+    comparison."""
     sequences: dict[str, list[bytes]] = {}
     started = False
     for sample in read_samples(path):
@@ -215,8 +216,8 @@ def _per_key(path: Path) -> dict[str, list[bytes]]:
         payload = sample.payload
         if sample.key.endswith("/world/clock"):
             payload = codec.encode(decode(sample).model_copy(update={"run": ""}))
-            if sequence and sequence[-1] == payload:
-                continue
+        if sample.key.endswith(("/world/clock", "/ack")) and sequence and sequence[-1] == payload:
+            continue
         sequence.append(payload)
         if sample.key.endswith("/world/stats") and decode(sample).final:
             break
