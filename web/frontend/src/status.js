@@ -80,6 +80,8 @@ export class RunStatus {
     if (!this.viewer && !this.wasConnected) return ["connecting", "connecting…", "bad", ""];
     if (!this.viewer) return ["disconnected", "viewer disconnected, retrying…", "bad", ""];
     const replay = this.from.connected ? this.from.replay : null;
+    // A paused replay says so first, also when it was paused at its recording's end (a looping one starts over)
+    if (replay === "paused") return ["paused", "replay paused", "wait", "resume it here or in the replay's terminal"];
     if (this.ended) {
       const r = this.ended.report;
       return ["ended", replay ? "replay: run ended" : "run ended", "ended", `at t = ${formatStat("s", this.ended.stamp)} s: ` +
@@ -89,7 +91,6 @@ export class RunStatus {
       return ["no-router", `waiting for a world at ${this.from.router}`, "wait",
         "the view connects by itself when a world (lunarsim run) or a router starts there"];
     }
-    if (replay === "paused") return ["paused", "replay paused", "wait", "resume it here or in the replay's terminal"];
     const quiet = this.lastStateAt === null ? null : performance.now() - this.lastStateAt;
     if (replay) {
       const note = quiet === null ? "no world state from it yet" : quiet > SILENT_AFTER_MS ? `no world state for ${Math.round(quiet / 1000)} s` : "";
