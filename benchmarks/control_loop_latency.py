@@ -264,7 +264,6 @@ def measure_in_process(loops: int, warmup: int) -> list[int]:
         for _key, message in out:
             codec.encode(message)  # what the runtime's publish does with each reply
         elapsed = perf() - start
-        agent.catch_up()  # as the runtime does once the answer is out
         action = next((message for key, message in out if key == move_key), None)
         if action is None:
             raise BenchmarkError(f"in-process loop {i}: the agent answered {out!r} instead of a MoveAction")
