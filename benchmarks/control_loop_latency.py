@@ -13,7 +13,9 @@ floor that Zenoh alone sets. Interleaved loop by loop, both see the same machine
 ratio of the control loop's p50 and p99 to the floor's.
 
 A third figure runs the same loop against ``RoverAgent.handle`` in this process with no Zenoh at all
-(decode + decide + encode of the reply), to show how much of the round trip is transport.
+(decode + decide + encode of the reply), to show how much of the round trip is transport. Its loops keep the same
+``--gap-ms`` of quiet: after one, the agent's code runs from cold caches at several times its cost back to back,
+and so does the rover's over Zenoh.
 
     python benchmarks/control_loop_latency.py [--loops 1000] [--port P] [--json FILE]
     python benchmarks/control_loop_latency.py --quick     # 50 loops: a smoke check in seconds
@@ -247,8 +249,9 @@ def control_loop(i: int, link: RoverLink, world: ScriptedWorld, args: argparse.N
 # ---- in process: the agent alone ----
 
 
-def measure_in_process(loops: int, warmup: int) -> list[int]:
-    """The same loop through ``RoverAgent.handle``: decode the Perception, decide, encode the reply."""
+def measure_in_process(loops: int, warmup: int, gap_s: float) -> list[int]:
+    """The same loop through ``RoverAgent.handle``: decode the Perception, decide, encode the reply; ``gap_s`` of
+    quiet before each, as over Zenoh."""
     world = ScriptedWorld()
     agent = RoverAgent(ROVER_ID, ks.Keyspace(WORLD), RoverParams())
     move_key = agent.keys.rover(ROVER_ID, ks.MOVE_ACTION)
@@ -259,12 +262,12 @@ def measure_in_process(loops: int, warmup: int) -> list[int]:
     perf = time.perf_counter_ns
     for i in range(warmup + loops):
         payload = codec.encode(world.perception())
+        _pause(gap_s)
         start = perf()
         out = agent.handle(ks.PERCEPTION, payload)
         for _key, message in out:
             codec.encode(message)  # what the runtime's publish does with each reply
         elapsed = perf() - start
-        agent.catch_up()  # as the runtime does once the answer is out
         action = next((message for key, message in out if key == move_key), None)
         if action is None:
             raise BenchmarkError(f"in-process loop {i}: the agent answered {out!r} instead of a MoveAction")
@@ -335,7 +338,7 @@ def run(args: argparse.Namespace) -> int:
             elif session is not None:
                 session.close()
             children.stop(grace_s=5.0)  # SIGTERM, then SIGKILL after 5 s
-    local = measure_in_process(args.loops, args.warmup)
+    local = measure_in_process(args.loops, args.warmup, args.gap_ms / 1000)
     z, bare, loc = Summary.of(over_zenoh.samples_ns), Summary.of(over_zenoh.floor_ns), Summary.of(local)
     print_table(z, bare, loc, endpoint, over_zenoh.missed, args, ROVER_ID)
     if args.json:

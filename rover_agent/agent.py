@@ -90,7 +90,8 @@ class RoverAgent:
         return self.estimator.pose
 
     def catch_up(self) -> None:
-        """Map book-keeping deferred until the answer is out (``MapRecorder.fold_later``)."""
+        """Map book-keeping deferred until the answer is out (``MapRecorder.fold_later``): done first thing by the
+        next ``handle`` or ``on_clock``, so a caller need not call it, only may, where it has time to spare."""
         self.map.catch_up()
 
     def handle(self, topic: str, payload: bytes) -> list[Out]:

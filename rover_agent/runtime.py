@@ -23,6 +23,8 @@ def run(agents: RoverAgent | list[RoverAgent], bus: Bus, stop: threading.Event) 
 
     Each sample is handled on Zenoh's receiving thread as it arrives (``Bus.handle_directly``), in arrival order,
     and what the agent answers is published from there; this thread only watches the clock and waits for ``stop``.
+    The book-keeping an answer leaves (``RoverAgent.catch_up``) waits for the agent's next sample: done at once,
+    on whichever thread, it takes a core while the router and the world need theirs to carry the answer.
     A handler's exception stops the agent and is raised here, as it would be from a loop of its own."""
     agents = [agents] if isinstance(agents, RoverAgent) else agents
     keys = agents[0].keys
@@ -83,7 +85,6 @@ class _Handler:
         agent = self.by_prefix[prefix]
         for key, message in agent.handle(item.key[len(prefix):], item.payload):
             self.bus.publish(key, message)
-        agent.catch_up()  # the answer is out: now the book-keeping
 
     def check(self) -> None:
         with self._watch_lock:

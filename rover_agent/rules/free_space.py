@@ -3,6 +3,7 @@ to try (nearest the goal first, right before left as the report turns right). Pu
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable
 
@@ -23,6 +24,8 @@ def candidates(to_goal: float, window: float, scan: float, rejected: Iterable[fl
     out = [to_goal]
     for k in range(1, int(2 * window / scan) + 2):
         out += [to_goal + k * scan, to_goal - k * scan]
+    if not rejected:  # as a rule: a decision's time is better spent than on an empty check for each direction
+        return [a for a in out if abs(a) <= window]
     return [a for a in out if abs(a) <= window and all(abs(a - r) > scan / 2 for r in rejected)]
 
 
@@ -68,11 +71,18 @@ def ray_angles(fov_deg: float, count: int) -> list[float]:
     return [-fov_deg / 2 + fov_deg * i / (count - 1) for i in range(count)]
 
 
+@functools.lru_cache(maxsize=8)
+def _keyed_rays(fov_deg: float, count: int) -> tuple[tuple[float, float], ...]:
+    """Each ray's angle with the key a hit on it is matched by; the same for every scan of a rover, and computing
+    them was a third of a decision's time."""
+    return tuple((a, round(a, 3)) for a in ray_angles(fov_deg, count))
+
+
 def free_rays(hits: Iterable[Hit], perception: PerceptionParams) -> list[float]:
     """The angles of the rays that hit nothing within the perception radius: free ground for the rover's map."""
     seen = {round(h.angle_deg, 3) for h in hits}
-    rays = ray_angles(perception.field_of_view_degrees, perception.perception_granularity)
-    return [a for a in rays if round(a, 3) not in seen]
+    rays = _keyed_rays(perception.field_of_view_degrees, perception.perception_granularity)
+    return [a for a, key in rays if key not in seen]
 
 
 def rover_near(hits: Iterable[Hit], behaviour: BehaviourParams, step_m: float) -> bool:
