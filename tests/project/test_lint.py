@@ -16,32 +16,29 @@ def test_ruff_reports_nothing():
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
-def test_rover_agent_imports_stay_light():
-    """The flight-computer agent must not pull in NumPy or the world service (design doc)."""
-    code = ("import sys, rover_agent.commands.rover, rover_agent.runtime, rover_agent.agent; "
-            "heavy = [m for m in ('numpy', 'numba', 'world_service', 'rich', 'yaml_world') if m in sys.modules]; "
-            "print(','.join(heavy))")
+def loaded_after(setup: str, modules: tuple[str, ...]) -> list[str]:
+    """Which of ``modules`` a fresh interpreter has imported after running ``setup``."""
+    code = f"import sys\n{setup}\nprint(','.join(m for m in {modules!r} if m in sys.modules))"
     proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == "", f"rover agent imports {proc.stdout.strip()}"
+    return [m for m in proc.stdout.strip().split(",") if m]
+
+
+def test_rover_agent_imports_stay_light():
+    """The flight-computer agent must not pull in NumPy or the world service (design doc)."""
+    setup = "import rover_agent.commands.rover, rover_agent.runtime, rover_agent.agent"
+    assert loaded_after(setup, ("numpy", "numba", "world_service", "rich", "yaml_world")) == []
 
 
 def test_rover_agent_without_a_params_file_imports_no_yaml():
     """Without ``--params`` the agent has no file to read: it loads neither PyYAML nor the scenario models."""
-    code = ("import sys; from rover_agent.commands import rover; from rover_agent.registry import load_behaviour; "
-            "load_behaviour('default'); assert rover.rover_params(None).perception.perception_radius > 0; "
-            "assert rover._dispatch(None, [1]) == {}; "
-            "print(','.join(m for m in ('yaml', 'schemas.scenario') if m in sys.modules))")
-    proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == "", f"rover agent without --params imports {proc.stdout.strip()}"
+    setup = ("from rover_agent.commands import rover; from rover_agent.registry import load_behaviour; "
+             "load_behaviour('default'); assert rover.rover_params(None).perception.perception_radius > 0; "
+             "assert rover._dispatch(None, [1]) == {}")
+    assert loaded_after(setup, ("yaml", "schemas.scenario")) == []
 
 
 def test_the_lunarsim_parser_imports_no_web_server():
     """Every command imports every command module to build its parser; aiohttp (a fifth of a second) waits until
     a command serves a page, so ``lunarsim run`` starts its world that much sooner."""
-    code = ("import sys, deploy.cli; deploy.cli.build_parsers(); "
-            "print(','.join(m for m in ('aiohttp', 'numpy', 'numba') if m in sys.modules))")
-    proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == "", f"the parser imports {proc.stdout.strip()}"
+    assert loaded_after("import deploy.cli; deploy.cli.build_parsers()", ("aiohttp", "numpy", "numba")) == []
