@@ -58,7 +58,9 @@ def rover_agents(scenario: Scenario, keys: ks.Keyspace, rover_ids: list[int],
 
 
 def answer(agent: RoverAgent, samples: list[tuple[str, bytes]]) -> list[Out]:
-    """What the agent publishes on hearing ``samples`` (one round of ``Rounds``), as its Zenoh loop would."""
+    """What the agent publishes on hearing ``samples`` (one round of ``Rounds``), as its Zenoh loop would. Its last
+    scan is folded into its map at once (``catch_up``), which the loop leaves to the next sample: the same map
+    for every decision, and a current one wherever the mission ends."""
     out: list[Out] = []
     for topic, payload in samples:
         out += agent.on_clock(codec.decode(m.Clock, payload)) if topic == ks.CLOCK else agent.handle(topic, payload)

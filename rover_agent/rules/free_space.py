@@ -24,8 +24,6 @@ def candidates(to_goal: float, window: float, scan: float, rejected: Iterable[fl
     out = [to_goal]
     for k in range(1, int(2 * window / scan) + 2):
         out += [to_goal + k * scan, to_goal - k * scan]
-    if not rejected:  # as a rule: a decision's time is better spent than on an empty check for each direction
-        return [a for a in out if abs(a) <= window]
     return [a for a in out if abs(a) <= window and all(abs(a - r) > scan / 2 for r in rejected)]
 
 

@@ -16,6 +16,6 @@ def test_without_multicast_scouting_a_session_does_not_wait_for_scouting_answers
 
 
 def test_with_multicast_scouting_asked_for_zenoh_keeps_its_own_delay():
-    default = json.loads(build_config("peer", environ={}, scouting=True).get_json("scouting/delay"))
-    assert default != 0 and json.loads(build_config("peer", environ={}, scouting=True).get_json(
-        "scouting/multicast/enabled")) is True
+    conf = build_config("peer", environ={}, scouting=True)
+    assert json.loads(conf.get_json("scouting/delay")) != 0
+    assert json.loads(conf.get_json("scouting/multicast/enabled")) is True
