@@ -61,6 +61,8 @@ from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
+import msgspec
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
 import quick
@@ -106,7 +108,7 @@ def run_one(seed: int, kind: str | None, cap_s: float | None = None) -> dict:
         report = world.report()
     except Exception as exc:  # a bug in the behaviour or the wiring: record it, go on with the suite
         return {**result, "error": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - started}
-    return {**result, "wall_s": round(time.perf_counter() - started, 3), "report": report.model_dump(mode="json"),
+    return {**result, "wall_s": round(time.perf_counter() - started, 3), "report": msgspec.to_builtins(report),
             "rovers": _rovers(world, made, agents)}
 
 

@@ -24,6 +24,8 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
+import msgspec
+
 from bus.errors import UsageError
 from schemas import codec
 from schemas.messages import Message, model_for_key
@@ -57,15 +59,18 @@ class Sample:
 
 
 def schema_for(model: type[Message]) -> bytes:
-    """JSON Schema of a payload as it travels: the codec's ``[version, fields]`` envelope around the model."""
+    """JSON Schema of a payload as it travels: the codec's ``[version, fields]`` envelope around the model, the
+    models it refers to under ``$defs``."""
+    (fields,), defs = msgspec.json.schema_components([model], ref_template="#/$defs/{name}")
     schema = {
         "title": model.__name__,
         "description": (model.__doc__ or "").strip().splitlines()[0] if model.__doc__ else model.__name__,
         "type": "array",
         "prefixItems": [{"const": codec.SCHEMA_VERSION, "description": "schema version"},
-                        model.model_json_schema()],
+                        fields],
         "minItems": 2,
         "maxItems": 2,
+        "$defs": defs,
     }
     return json.dumps(schema, separators=(",", ":")).encode()
 
@@ -203,7 +208,7 @@ def escaped(text: str, limit: int = 60) -> str:
 
 
 def decode(sample: Sample) -> Message | None:
-    """The pydantic message of a sample, or None for keys without a model (raises codec.DecodeError)."""
+    """The message of a sample, or None for keys without a model (raises codec.DecodeError)."""
     model = model_for_key(sample.key)
     return codec.decode(model, sample.payload) if model else None
 

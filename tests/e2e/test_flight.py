@@ -18,7 +18,7 @@ from bus.zenoh_config import build_config
 from deploy.flight import build_wheel as flight
 from schemas.keyspace import Keyspace
 
-THIRD_PARTY = {"zenoh", "msgpack", "pydantic", "yaml", "serial"}
+THIRD_PARTY = {"zenoh", "msgspec", "pydantic", "yaml", "serial"}
 """What the flight wheel's dependencies provide (pyserial only with its ``serial`` extra)."""
 PROJECT_ROOTS = {"schemas", "bus", "shared", "rover_agent", "lander_agent", "world_service", "scenarios", "harness",
                  "sessions", "hardware", "web", "deploy"}
