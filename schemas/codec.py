@@ -77,7 +77,8 @@ def _version_refusal(name: str, version: object) -> str:
     return f"{name}: schema version {version!r} is not supported (this build speaks {SCHEMA_VERSION})"
 
 
-_NAMED = re.compile(r"^Object (?:missing required|contains unknown) field `([^`]*)`$")
+_NAMED = re.compile(r"^Object (missing required|contains unknown) field `([^`]*)`$")
+_NAMED_PROBLEM = {"missing required": "required field missing", "contains unknown": "unknown field"}
 
 
 def field_problem(exc: msgspec.ValidationError, prefix: str = "$") -> str:
@@ -88,7 +89,7 @@ def field_problem(exc: msgspec.ValidationError, prefix: str = "$") -> str:
         problem, where = str(exc), prefix + "`"
     parts = re.sub(r"\[(\d+)\]", r".\1", where.removesuffix("`").removeprefix(prefix)).strip(".")
     if (named := _NAMED.match(problem)) is not None:  # a field missing or unknown: the path names it
-        parts = f"{parts}.{named[1]}".strip(".")
+        parts, problem = f"{parts}.{named[2]}".strip("."), _NAMED_PROBLEM[named[1]]
     return f"{parts or '<root>'}: {problem}"
 
 

@@ -2,7 +2,7 @@
 
 What a recording holds, so any MCAP tool can read it without our code:
 - one channel per key expression (the channel's topic is the key), message encoding ``msgpack``;
-- each channel's schema, encoding ``jsonschema``: the pydantic model's JSON Schema wrapped in our
+- each channel's schema, encoding ``jsonschema``: the message model's JSON Schema (msgspec's) wrapped in our
   codec's envelope ``[schema_version, {fields}]``; keys that carry no LunarSim message get none;
 - per message, ``log_time`` = when the recorder received it and ``publish_time`` = the publisher's
   Zenoh timestamp (the receive time where a publisher sent none), both in Unix nanoseconds;
@@ -61,7 +61,8 @@ class Sample:
 def schema_for(model: type[Message]) -> bytes:
     """JSON Schema of a payload as it travels: the codec's ``[version, fields]`` envelope around the model, the
     models it refers to under ``$defs``."""
-    (fields,), defs = msgspec.json.schema_components([model], ref_template="#/$defs/{name}")
+    _, defs = msgspec.json.schema_components([model], ref_template="#/$defs/{name}")
+    fields = defs.pop(model.__name__)
     schema = {
         "title": model.__name__,
         "description": (model.__doc__ or "").strip().splitlines()[0] if model.__doc__ else model.__name__,
@@ -70,7 +71,7 @@ def schema_for(model: type[Message]) -> bytes:
                         fields],
         "minItems": 2,
         "maxItems": 2,
-        "$defs": defs,
+        **({"$defs": defs} if defs else {}),
     }
     return json.dumps(schema, separators=(",", ":")).encode()
 
