@@ -100,4 +100,8 @@ def checked(message: M) -> M:
     a trust boundary (a driver's reading, a user's command, a ROS 2 sample, a page's request) goes through here
     before it is used or sent, so it is refused where the bad value came in, not counted as a rejection by every
     receiver."""
-    return decode(type(message), encode(message))
+    try:
+        payload = encode(message)
+    except TypeError as exc:  # a value of a type the wire does not carry
+        raise DecodeError(f"{type(message).__name__}: {exc}") from None
+    return decode(type(message), payload)

@@ -333,3 +333,33 @@ def test_radio_garbage_is_rejected():
     for payload in [b"", *(rng.randbytes(rng.randint(1, 64)) for _ in range(300))]:
         with pytest.raises(codec.DecodeError):
             radio.unpack(payload)
+
+
+# ---- checked: a message built from untrusted values ----
+
+
+def test_checked_gives_the_message_a_receiver_would_decode():
+    """Built from a user's or a driver's values: ints and NumPy scalars become the floats the model holds, lists
+    its tuples, exactly as a receiver would see them."""
+    import numpy as np
+
+    built = m.MissionDirection(goal_index=np.int64(1), goals_total=2, kind="waypoint", bearing_deg=np.float64(90.5),
+                               distance_m=3, station=[1, 2])
+    message = codec.checked(built)
+    assert message == m.MissionDirection(goal_index=1, goals_total=2, kind="waypoint", bearing_deg=90.5,
+                                         distance_m=3.0, station=(1.0, 2.0))
+    assert type(message.goal_index) is int and type(message.distance_m) is float
+    assert isinstance(message.station, tuple)
+
+
+@pytest.mark.parametrize(("message", "fragment"), [
+    (m.MoveAction(x=1e12, z=0.0), "MoveAction: x: Expected `float` <= "),
+    (m.MoveAction(x=math.nan, z=0.0), "MoveAction: x: "),
+    (m.PhotoAction(label="a\nb"), "PhotoAction: label: "),
+    (m.GroundCommand(command="stop", rover_id=-1), "GroundCommand: rover_id: "),
+    (m.MoveAction(x=object(), z=0.0), "MoveAction: cannot encode object"),
+], ids=lambda v: type(v).__name__ if isinstance(v, m.Message) else None)
+def test_checked_refuses_what_a_receiver_would_refuse_naming_the_field(message, fragment):
+    with pytest.raises(codec.DecodeError) as info:
+        codec.checked(message)
+    assert fragment in str(info.value)
