@@ -13,6 +13,7 @@ import json
 import logging
 import math
 import os
+import resource
 import threading
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,8 +95,9 @@ RECORD_BYTES = 4096
 """A state is written with one ``pwrite`` at the file's start, within one page: Linux checks for a fatal signal
 between the pages of a write, never within one, so a process killed mid-write leaves the previous state or the new
 one, never half of each. A state is far smaller (every string in it is a bounded wire label)."""
-MAX_OPEN_FILES = 128
-"""State files a process holds open at once; one with more agents opens the others for each write."""
+MAX_OPEN_FILES = max(16, min(1024, resource.getrlimit(resource.RLIMIT_NOFILE)[0] // 4))
+"""State files a process holds open at once, a quarter of what it may open (Zenoh and the rest keep theirs); one
+with more agents opens the others for each write."""
 
 
 class StateFile:
