@@ -275,6 +275,8 @@ class RoverAgent:
 
     def _on_gyroscope(self, msg: m.Gyroscope) -> list[Out]:
         self.senses.pitch = (msg.pitch_deg, msg.stamp)
+        if msg.heading_deg is not None:
+            self.senses.heading = (msg.heading_deg, msg.stamp)
         self.now = max(self.now, msg.stamp)
         return []
 
@@ -295,6 +297,8 @@ class RoverAgent:
         standing = self.actions.in_flight is None and self.pose is not None and self.actions.settled_by(msg.stamp)
         if standing:  # where the estimate says it stands: correct it, then map what it sees from there
             self.estimator.localise(msg.stamp, hits, self.state, self.senses.partners)
+            if (sun := self.senses.heading) is not None and self.actions.settled_by(sun[1]):
+                self.estimator.sun(sun[0])
             self.estimator.note_sure()
             self.map.fold_later(self.pose.x, self.pose.z, self.pose.heading, hits)
         # answered with perception, which the lockstep world always waits for

@@ -138,8 +138,12 @@ class ActionRejected(Message):
 
 
 class Gyroscope(Message):
+    """The rover's inertial sensors: pitch, and with a sun sensor (``PerceptionParams.sun_sensor``) the heading."""
+
     stamp: Seconds
     pitch_deg: Degrees = Field(description="positive nose up")
+    heading_deg: Degrees | None = Field(None, description="the sun sensor's heading in the lander frame (0 = +z, 90 = "
+                                        "+x), with its noise; none without a sun sensor")
 
 
 # ---- power (report 7.1.2, needs N9 and N10) ----

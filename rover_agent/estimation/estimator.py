@@ -80,6 +80,8 @@ class Estimator:
         """Where the estimate was last sure (``fix_search``): told where it stands, or fixed since."""
         self.shared_at = -math.inf
         """When the rover last told its estimate."""
+        self.sun_due = False
+        """An action has ended since the last sun sensor reading was fused (``sun``)."""
 
     @property
     def pose(self) -> Pose | None:
@@ -103,7 +105,7 @@ class Estimator:
 
     def completed(self, start: Pose, decision: MoveTo | Rotate) -> None:
         """A move or rotate that started at ``start`` has ended as asked."""
-        loc = self._from(start)
+        loc, self.sun_due = self._from(start), True
         if isinstance(decision, MoveTo):
             loc.moved(start, decision.x, decision.z)
         else:
@@ -112,6 +114,7 @@ class Estimator:
     def stopped_early(self, start: Pose, x: float, z: float, angle_deg: float) -> None:
         """A move that started at ``start`` stopped where its ``CancelResult`` says."""
         self._from(start).stopped_early(start, x, z, angle_deg)
+        self.sun_due = True
 
     def _from(self, start: Pose) -> Localisation:
         """The estimate an action's end moves (one at the action's start if the agent had none)."""
@@ -139,6 +142,17 @@ class Estimator:
 
         for seen, mate in match_teammates(centres, mates, partners, stamp, p.communication.comm_range, distance):
             loc.observe(teammate_landmark(seen, mate, stamp, top_speed))
+
+    def sun(self, heading_deg: float) -> None:
+        """Correct the heading with a sun sensor reading taken standing still, one a stop: the agent hands the
+        latest reading taken since the action ended; more readings of the same stop would add no news of the
+        heading the next action turns, only trust in one reading's error (a real sensor's readings of one stop
+        share its mounting and the sun's tabled azimuth)."""
+        loc = self.localisation
+        if loc is None or loc.exact or not self.sun_due:
+            return
+        self.sun_due = False
+        loc.observe_heading(heading_deg, self.params.perception.sun_sensor_noise_std_deg)
 
     def heard(self, sender: int, estimate: radio.PoseEstimate, now: float) -> None:
         """Keep a teammate's latest estimate. Dropped, and counted as rejected: one from the lander, from this
