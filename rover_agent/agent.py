@@ -238,6 +238,7 @@ class RoverAgent:
         goal = self.mission.direction(msg, self.now)
         if goal is None:
             return []
+        self.estimator.learn(goal)
         fix = self.estimator.fix
         fix.active = fix.active and current is not None and goal.index == current.index
         if not fix.active:  # a station for the goal the rover goes by the lander for: taken up later

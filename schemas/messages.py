@@ -232,6 +232,9 @@ class MissionDirection(Message):
                           "lander runs through relays holding on the way to it")
     relay_for: GoalPlace | None = Field(None, description="for a relay: the goal it holds the route for, which it "
                                         "walks on to at the last goal once cut off from the lander")
+    rim: tuple[Metres, Metres, Distance] | None = Field(
+        None, description="at a crater goal, the crater as the mission plan has it: its centre's offset (x, z) in "
+        "metres from the goal, lander axes, and the radius at which its terrain begins (the outer foot of the rim)")
 
 
 class Calibration(Message):

@@ -35,6 +35,8 @@ from rover_agent.estimation.sightings import (
     lander_centre,
     lander_landmark,
     match_teammates,
+    rim_centre,
+    rim_landmark,
     rover_centres,
     teammate_landmark,
 )
@@ -80,6 +82,8 @@ class Estimator:
         """Where the estimate was last sure (``fix_search``): told where it stands, or fixed since."""
         self.shared_at = -math.inf
         """When the rover last told its estimate."""
+        self.rims: dict[int, tuple[float, float, float]] = {}
+        """The craters of the crater goals given so far (``learn``), by goal index."""
         self.sun_due = False
         """An action has ended since the last sun sensor reading was fused (``sun``)."""
 
@@ -130,6 +134,8 @@ class Estimator:
         centre = lander_centre(hits)
         if centre is not None:  # the only thing of its kind: no match to doubt, so no gate
             loc.observe(lander_landmark(centre), gate=None)
+        if self.rims and any(h.kind == "crater_terrain" for h in hits):
+            self._rim_seen(loc, hits)
         if not self.teammates or state in NOT_FROM_TEAMMATES:
             return
         p = self.params
@@ -153,6 +159,20 @@ class Estimator:
             return
         self.sun_due = False
         loc.observe_heading(heading_deg, self.params.perception.sun_sensor_noise_std_deg)
+
+    def learn(self, goal: Goal) -> None:
+        """Keep a crater goal's crater (``Goal.rim``): its rim, seen from outside, fixes the estimate on the way
+        to it and on from it, far from the lander."""
+        if goal.rim is not None:
+            self.rims[goal.index] = goal.rim
+
+    def _rim_seen(self, loc: Localisation, hits: tuple[Hit, ...]) -> None:
+        """Correct the estimate with the rim of a known crater in view: the one whose fitted centre lies nearest
+        where the estimate expects it (gated: crater terrain of a crater not in the plan fits none)."""
+        marks = [rim_landmark(centre, rim) for rim in set(self.rims.values())
+                 if (centre := rim_centre(hits, rim[2])) is not None]
+        if marks:
+            loc.observe(min(marks, key=loc.mahalanobis))
 
     def heard(self, sender: int, estimate: radio.PoseEstimate, now: float) -> None:
         """Keep a teammate's latest estimate. Dropped, and counted as rejected: one from the lander, from this
