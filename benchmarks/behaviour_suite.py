@@ -43,6 +43,10 @@ held-out set before it, for reference).
     python benchmarks/behaviour_suite.py [--set dev|held-out|old-held-out] [--seeds A-B] [--kind K] [--jobs 2]
                                          [--json FILE]
     python benchmarks/behaviour_suite.py --quick    # two missions cut at 30 simulated seconds: a smoke check
+    python benchmarks/behaviour_suite.py --noise high --sun-sensor   # the high-noise missions, with a sun sensor
+
+``--noise LEVEL`` runs only the set's missions drawn with that noise; ``--sun-sensor`` gives every rover an
+absolute heading sensor (``PerceptionParams.sun_sensor``, off in the generated missions as in the report's rover).
 
 With ``--json``, the file holds the missions finished so far while the suite runs (``"partial": true``), so a run
 cut short can still be tabled with ``--table``.
