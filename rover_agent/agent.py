@@ -319,6 +319,8 @@ class RoverAgent:
                  and self.actions.settled_by(self.senses.pitch[1]))
         if not ready:
             return ask
+        if (look := self.estimator.look_back(self.mission.goal, self.params.perception.perception_radius)) is not None:
+            return ask + self._act(Rotate(look))  # a crater's rim behind it: turn to see it (``rim_look``)
         self.detours.before_decision(self.now)
         return ask + self._act(self.behaviour.decide(self.view(msg.stamp, self.pose, hits)))
 

@@ -26,6 +26,7 @@ import math
 from bus.rejections import Rejections
 from rover_agent.actions.in_flight import InFlight
 from rover_agent.decisions import Goal, Hit, MoveTo, Rotate
+from rover_agent.estimation import rim_look
 from rover_agent.estimation.fix_search import FixSearch
 from rover_agent.estimation.lander_fix import LanderFix
 from rover_agent.estimation.pose_filter import Localisation, NoiseModel
@@ -84,6 +85,8 @@ class Estimator:
         """When the rover last told its estimate."""
         self.rims: dict[int, tuple[float, float, float]] = {}
         """The craters of the crater goals given so far (``learn``), by goal index."""
+        self.looked_back: set[int] = set()
+        """Goal indexes of craters whose rim the rover has turned to look at on leaving (``look_back``)."""
         self.sun_due = False
         """An action has ended since the last sun sensor reading was fused (``sun``)."""
 
@@ -165,6 +168,19 @@ class Estimator:
         to it and on from it, far from the lander."""
         if goal.rim is not None:
             self.rims[goal.index] = goal.rim
+
+    def look_back(self, goal: Goal | None, radius: float) -> float | None:
+        """The turn (degrees) to face the rim of a crater goal left behind, once, when the rover stands just outside
+        it (``rim_look.turn``); None: no look due."""
+        loc = self.localisation
+        if loc is None or goal is None:
+            return None
+        due = rim_look.turn(loc, self.rims, goal.index, self.looked_back, radius)
+        if due is None:
+            return None
+        index, turn = due
+        self.looked_back.add(index)
+        return turn
 
     def _rim_seen(self, loc: Localisation, hits: tuple[Hit, ...]) -> None:
         """Correct the estimate with the rim of a known crater in view: the one whose fitted centre lies nearest

@@ -8,7 +8,9 @@ import math
 
 from bus.rejections import Rejections
 from rover_agent.decisions import Goal, Hit, MoveTo
+from rover_agent.estimation import rim_look
 from rover_agent.estimation.estimator import Estimator
+from rover_agent.estimation.pose_filter import Localisation, NoiseModel
 from rover_agent.estimation.sightings import rim_centre
 from rover_agent.mission.goals import Mission
 from schemas import messages as m
@@ -68,3 +70,32 @@ def test_the_lander_tells_the_crater_of_a_crater_goal_and_the_rover_keeps_it():
                                                 distance_m=100.0, rim=(2.0, -1.0, 19.5)), 0.0)
     assert goal is not None and goal.rim is not None
     assert [round(v, 6) for v in goal.rim] == [102.0, -1.0, 19.5]
+
+
+def unsure_heading(x: float, z: float, heading: float, heading_std_deg: float) -> Localisation:
+    return Localisation(Pose(x, z, heading), NoiseModel(0.05, math.radians(1.0)),
+                        [[4.0, 0.0, 0.0], [0.0, 4.0, 0.0], [0.0, 0.0, math.radians(heading_std_deg) ** 2]])
+
+
+def test_a_rover_just_out_of_a_crater_it_left_turns_once_to_look_at_its_rim():
+    rims = {0: (0.0, 0.0, 35.0)}  # the first goal's crater; the rover is on its way to goal 1
+    walking_out = unsure_heading(0.0, 38.0, 0.0, 4.0)  # 3 m outside the rim, facing away from it
+    looked: set[int] = set()
+    assert rim_look.turn(walking_out, rims, 1, looked, 10.0) == (0, -180.0)
+    assert rim_look.turn(walking_out, rims, 0, set(), 10.0) is None  # still bound for that crater: nothing left
+    assert rim_look.turn(unsure_heading(0.0, 38.0, 0.0, 1.0), rims, 1, set(), 10.0) is None  # sure of its heading
+    assert rim_look.turn(unsure_heading(0.0, 35.5, 0.0, 4.0), rims, 1, set(), 10.0) is None  # not out of it yet
+    assert rim_look.turn(unsure_heading(0.0, 50.0, 0.0, 4.0), rims, 1, set(), 10.0) is None  # the rim out of view
+    sideways = set()
+    assert rim_look.turn(unsure_heading(0.0, 38.0, 200.0, 4.0), rims, 1, sideways, 10.0) is None  # in view: no turn
+    assert sideways == {0}
+
+
+def test_the_estimator_looks_back_once_a_crater():
+    params = RoverParams(navigation={"slip_std": 0.05, "heading_noise_std_deg": 1.0})
+    est = Estimator(1, params, Rejections(logging.getLogger("test")))
+    est.resume(Pose(0.0, 38.0, 0.0), [[4.0, 0.0, 0.0], [0.0, 4.0, 0.0], [0.0, 0.0, math.radians(4.0) ** 2]])
+    est.learn(Goal(0, 2, "crater", 0.0, 0.0, rim=(0.0, 0.0, 35.0)))
+    onward = Goal(1, 2, "waypoint", 0.0, 150.0)
+    assert abs(est.look_back(onward, 10.0)) == 180.0
+    assert est.look_back(onward, 10.0) is None
