@@ -1,5 +1,6 @@
 """The agent's pose estimate: the filter (``pose_filter``) fed by the ends of actions, by what perception shows of
-the lander and of teammates (``sightings``), and by the estimates teammates in radio range tell (report 7.2.2);
+the lander, of teammates and of the rims of its crater goals (``sightings``), by the estimates teammates in radio
+range tell (report 7.2.2) and, when the rover carries one, by a sun sensor's heading (``sun``);
 and the way by the lander a rover too unsure for its next waypoint takes first (``lander_fix``).
 
 ``pose`` is the estimate's mean: everything that reads the rover's pose (the behaviour, the map, the saved state)

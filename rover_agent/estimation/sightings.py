@@ -1,4 +1,6 @@
-"""What perception shows of things whose place the rover knows: the lander, and rovers whose estimates it heard.
+"""What perception shows of things whose place the rover knows: the lander, rovers whose estimates it heard, and
+the rim of a crater whose place and size the mission plan gives (``rim_centre``: a circle of known radius fitted
+to its crater terrain hits).
 
 Perception gives, for each ray that met something, its angle, distance and kind (report 10.1.3), so a thing is a
 run of hits on its near side. Lander and rovers are upright cylinders: their centre, the point the filter needs
