@@ -138,8 +138,12 @@ class ActionRejected(Message):
 
 
 class Gyroscope(Message):
+    """The rover's inertial sensors: pitch, and with a sun sensor (``PerceptionParams.sun_sensor``) the heading."""
+
     stamp: Seconds
     pitch_deg: Degrees = Field(description="positive nose up")
+    heading_deg: Degrees | None = Field(None, description="the sun sensor's heading in the lander frame (0 = +z, 90 = "
+                                        "+x), with its noise; none without a sun sensor")
 
 
 # ---- power (report 7.1.2, needs N9 and N10) ----
@@ -228,6 +232,9 @@ class MissionDirection(Message):
                           "lander runs through relays holding on the way to it")
     relay_for: GoalPlace | None = Field(None, description="for a relay: the goal it holds the route for, which it "
                                         "walks on to at the last goal once cut off from the lander")
+    rim: tuple[Metres, Metres, Distance] | None = Field(
+        None, description="at a crater goal, the crater as the mission plan has it: its centre's offset (x, z) in "
+        "metres from the goal, lander axes, and the radius at which its terrain begins (the outer foot of the rim)")
 
 
 class Calibration(Message):

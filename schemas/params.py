@@ -81,6 +81,12 @@ class PerceptionParams(Params):
     publish_frequency: Rate = Field(5.0, description="perception rate, Hz")
     gyroscope_frequency: Rate = Field(20.0, description="gyroscope rate, Hz")
     gyroscope_noise_std_deg: float = Field(0.0, ge=0, le=10, description="1-sigma pitch noise")
+    sun_sensor: bool = Field(
+        False, description="an absolute heading sensor (a sun sensor, as small planetary rovers carry: the sun's "
+        "bearing in the rover's frame against its known azimuth gives the heading in the lander frame), read with "
+        "the gyroscope; false: the rover has none and only dead-reckons its heading (the report's Lunar Zebro)")
+    sun_sensor_noise_std_deg: float = Field(2.0, ge=0, le=45, description="1-sigma error of each sun sensor heading "
+                                            "reading, independent reading to reading")
 
     @property
     def ray_step_deg(self) -> float:
