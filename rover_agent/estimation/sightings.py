@@ -165,27 +165,13 @@ def rim_landmark(centre: tuple[float, float], rim: tuple[float, float, float]) -
 def _fit_known_radius(pts: list[tuple[float, float]], radius: float) -> tuple[float, float] | None:
     """Least squares (Gauss-Newton) centre of a circle of known radius through points on its near side, from the
     centre straight behind the nearest point; None if it does not settle."""
-    nx, nz = min(pts, key=lambda p: math.hypot(*p))
-    d = max(math.hypot(nx, nz), 1e-9)
-    cx, cz = nx + radius * nx / d, nz + radius * nz / d
+    cx, cz = _circle_start(pts, radius)
     for _ in range(20):
-        jtj, jtr = [[0.0, 0.0], [0.0, 0.0]], [0.0, 0.0]
-        for x, z in pts:
-            dist = math.hypot(x - cx, z - cz)
-            if dist < 1e-9:
-                return None
-            g, res = ((cx - x) / dist, (cz - z) / dist), dist - radius
-            for i in range(2):
-                jtr[i] += g[i] * res
-                for j in range(2):
-                    jtj[i][j] += g[i] * g[j]
-        det = jtj[0][0] * jtj[1][1] - jtj[0][1] * jtj[1][0]
-        if abs(det) < 1e-12:
+        step = _circle_step(pts, cx, cz, radius)
+        if step is None:
             return None
-        sx = (jtj[1][1] * jtr[0] - jtj[0][1] * jtr[1]) / det
-        sz = (jtj[0][0] * jtr[1] - jtj[1][0] * jtr[0]) / det
-        cx, cz = cx - sx, cz - sz
-        if math.hypot(sx, sz) < 1e-6:
+        cx, cz = cx - step[0], cz - step[1]
+        if math.hypot(*step) < 1e-6:
             return cx, cz
     return None
 
@@ -231,26 +217,39 @@ def _solve3(m: list[list[float]], v: list[float]) -> list[float] | None:
 def _known_circle(pts: list[tuple[float, float]], radius: float) -> tuple[float, float]:
     """The centre of a circle of known radius whose near side the points lie on: a radius behind the nearest
     point, then refined (Gauss-Newton) when two points or more pin it down better."""
+    cx, cz = start = _circle_start(pts, radius)
+    if len(pts) < 2:
+        return start
+    for _ in range(5):
+        step = _circle_step(pts, cx, cz, radius)
+        if step is None:
+            break
+        cx, cz = cx - step[0], cz - step[1]
+    return (cx, cz) if math.dist((cx, cz), start) <= radius else start
+
+
+def _circle_start(pts: list[tuple[float, float]], radius: float) -> tuple[float, float]:
+    """A radius straight behind the nearest point: where a circle's centre is, seen from its near side."""
     nx, nz = min(pts, key=lambda p: math.hypot(*p))
     d = max(math.hypot(nx, nz), 1e-9)  # a hit at no distance (rounded to the millimetre): no way to look
-    cx, cz = nx + radius * nx / d, nz + radius * nz / d
-    if len(pts) < 2:
-        return cx, cz
-    start = (cx, cz)
-    for _ in range(5):
-        jtj, jtr = [[0.0, 0.0], [0.0, 0.0]], [0.0, 0.0]
-        for x, z in pts:
-            dist = math.hypot(x - cx, z - cz)
-            if dist < 1e-9:
-                continue
-            g, res = ((cx - x) / dist, (cz - z) / dist), dist - radius
-            for i in range(2):
-                jtr[i] += g[i] * res
-                for j in range(2):
-                    jtj[i][j] += g[i] * g[j]
-        det = jtj[0][0] * jtj[1][1] - jtj[0][1] * jtj[1][0]
-        if abs(det) < 1e-12:
-            break
-        cx -= (jtj[1][1] * jtr[0] - jtj[0][1] * jtr[1]) / det
-        cz -= (jtj[0][0] * jtr[1] - jtj[1][0] * jtr[0]) / det
-    return (cx, cz) if math.dist((cx, cz), start) <= radius else start
+    return nx + radius * nx / d, nz + radius * nz / d
+
+
+def _circle_step(pts: list[tuple[float, float]], cx: float, cz: float,
+                 radius: float) -> tuple[float, float] | None:
+    """One Gauss-Newton step of a known-radius circle's centre (to subtract); None when the points leave it
+    unknown (the normal equations are singular). A point at the centre has no direction and is left out."""
+    jtj, jtr = [[0.0, 0.0], [0.0, 0.0]], [0.0, 0.0]
+    for x, z in pts:
+        dist = math.hypot(x - cx, z - cz)
+        if dist < 1e-9:
+            continue
+        g, res = ((cx - x) / dist, (cz - z) / dist), dist - radius
+        for i in range(2):
+            jtr[i] += g[i] * res
+            for j in range(2):
+                jtj[i][j] += g[i] * g[j]
+    det = jtj[0][0] * jtj[1][1] - jtj[0][1] * jtj[1][0]
+    if abs(det) < 1e-12:
+        return None
+    return (jtj[1][1] * jtr[0] - jtj[0][1] * jtr[1]) / det, (jtj[0][0] * jtr[1] - jtj[1][0] * jtr[0]) / det
