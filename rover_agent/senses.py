@@ -1,7 +1,6 @@
 """The rover's latest readings of itself and of its radio: pitch (and heading, with a sun sensor), battery,
-temperature, sunlight, and which radios
-are in direct range (``CommPartners``). Power sensors come only from a world with a sun. Each handler answers
-nothing: what the readings mean is for the agent's next decision."""
+temperature, sunlight, and which radios are in direct range (``CommPartners``). Power sensors come only from a
+world with a sun. Each handler answers nothing: what the readings mean is for the agent's next decision."""
 
 from __future__ import annotations
 

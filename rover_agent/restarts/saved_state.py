@@ -119,9 +119,9 @@ class StateFile:
         data = state.to_json().encode()
         if len(data) > RECORD_BYTES:
             raise ValueError(f"a saved state of {len(data)} bytes is over {RECORD_BYTES}")
-        padded = data.ljust(min(max(self.size, len(data)), RECORD_BYTES))
+        padded = data.ljust(self.size)  # the file never holds more than a page (truncated on opening if it did)
         os.pwrite(self.fd, padded, 0)
-        self.size = max(self.size, len(padded))
+        self.size = len(padded)
 
     def still_there(self) -> bool:
         """Whether the path still names this file (not removed or replaced since it was opened)."""
