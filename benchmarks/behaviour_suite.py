@@ -37,7 +37,7 @@ one with a rover out of range, a team of twelve). It needs no router, ports or p
 
 Each mission stops at a simulated-time cap (``sim_cap``: from the longest rover's ideal path) so a rover that
 never finishes cannot hang the suite; the world's watchdog counts a rover stuck after 300 s without progress.
-Seed sets are fixed: tune on DEVELOPMENT, then report HELD_OUT, which tuning must not look at (OLD_HELD_OUT, the
+Seed sets are fixed: tune on DEVELOPMENT, then report HELD_OUT, which tuning must not look at (USED_HELD_OUT, the
 held-out sets before it, for reference).
 
     python benchmarks/behaviour_suite.py [--set dev|held-out|used-900000|used-500000] [--seeds A-B] [--kind K]
