@@ -37,12 +37,16 @@ one with a rover out of range, a team of twelve). It needs no router, ports or p
 
 Each mission stops at a simulated-time cap (``sim_cap``: from the longest rover's ideal path) so a rover that
 never finishes cannot hang the suite; the world's watchdog counts a rover stuck after 300 s without progress.
-Seed sets are fixed: tune on DEVELOPMENT, then report HELD_OUT, which tuning must not look at (OLD_HELD_OUT, the
-held-out set before it, for reference).
+Seed sets are fixed: tune on DEVELOPMENT, then report HELD_OUT, which tuning must not look at (USED_HELD_OUT, the
+held-out sets before it, for reference).
 
-    python benchmarks/behaviour_suite.py [--set dev|held-out|old-held-out] [--seeds A-B] [--kind K] [--jobs 2]
-                                         [--json FILE]
+    python benchmarks/behaviour_suite.py [--set dev|held-out|used-900000|used-500000] [--seeds A-B] [--kind K]
+                                         [--jobs 2] [--json FILE]
     python benchmarks/behaviour_suite.py --quick    # two missions cut at 30 simulated seconds: a smoke check
+    python benchmarks/behaviour_suite.py --noise high --sun-sensor   # the high-noise missions, with a sun sensor
+
+``--noise LEVEL`` runs only the set's missions drawn with that noise; ``--sun-sensor`` gives every rover an
+absolute heading sensor (``PerceptionParams.sun_sensor``, off in the generated missions as in the report's rover).
 
 With ``--json``, the file holds the missions finished so far while the suite runs (``"partial": true``), so a run
 cut short can still be tabled with ``--table``.
@@ -51,13 +55,14 @@ cut short can still be tabled with ``--table``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import math
 import statistics
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
@@ -70,18 +75,18 @@ from behaviour_tables import aggregate, print_failures, print_table
 
 from harness.loopback import run_mission_agents
 from rover_agent.agent import RoverAgent
-from scenarios.generator import GeneratedScenario, generate
+from scenarios.generator import CLASS_VALUES, GeneratedScenario, generate
 from schemas.scenario import Scenario
 from world_service.outcome import statistics as stats
 from world_service.sim import World
 
 DEVELOPMENT = range(0, 200)
-HELD_OUT = range(900_000, 900_200)
+HELD_OUT = range(730_000, 730_200)
 """Fixed before any tuning it measures: run it once, at the end of a round of changes, never to tune on."""
-OLD_HELD_OUT = range(500_000, 500_200)
-"""The held-out set before ``HELD_OUT``, run once (docs/benchmarks.md has its figures): kept to compare with them,
-no longer held out."""
-SETS = {"dev": DEVELOPMENT, "held-out": HELD_OUT, "old-held-out": OLD_HELD_OUT}
+USED_HELD_OUT = {"used-900000": range(900_000, 900_200), "used-500000": range(500_000, 500_200)}
+"""Earlier held-out sets, each run once (docs/benchmarks.md has their figures): kept to compare with them, no longer
+held out."""
+SETS = {"dev": DEVELOPMENT, "held-out": HELD_OUT, **USED_HELD_OUT}
 BASE_CAP_S, CAP_S_PER_M, MAX_CAP_S = 600.0, 3.0, 1800.0
 """Simulated-time cap: 600 s (twice the watchdog's stall time) plus 3 s a metre of the longest ideal path."""
 SHOWN_FAILURES = 25
@@ -97,10 +102,13 @@ def sim_cap(scenario: Scenario, cap_s: float | None = None) -> float:
     return min(MAX_CAP_S, BASE_CAP_S + CAP_S_PER_M * longest)
 
 
-def run_one(seed: int, kind: str | None, cap_s: float | None = None) -> dict:
-    """One generated mission in lockstep; never raises (an error is a result of its own)."""
+def run_one(seed: int, kind: str | None, cap_s: float | None = None, sun_sensor: bool = False) -> dict:
+    """One generated mission in lockstep; never raises (an error is a result of its own). ``sun_sensor``: every
+    rover carries one (``PerceptionParams.sun_sensor``), the rest of the mission as generated."""
     logging.disable(logging.WARNING)  # the world's per-sample warnings would drown the progress lines
     made = generate(seed, kind)
+    if sun_sensor:
+        made = with_sun_sensor(made)
     result = {"seed": seed, "name": made.scenario.name, "classes": made.classes, "cap_s": sim_cap(made.scenario, cap_s)}
     started = time.perf_counter()
     try:
@@ -110,6 +118,13 @@ def run_one(seed: int, kind: str | None, cap_s: float | None = None) -> dict:
         return {**result, "error": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - started}
     return {**result, "wall_s": round(time.perf_counter() - started, 3), "report": msgspec.to_builtins(report),
             "rovers": _rovers(world, made, agents)}
+
+
+def with_sun_sensor(made: GeneratedScenario) -> GeneratedScenario:
+    params = made.scenario.rover_params
+    perception = msgspec.structs.replace(params.perception, sun_sensor=True)
+    scenario = made.scenario.with_overrides(rover_params=msgspec.structs.replace(params, perception=perception))
+    return dataclasses.replace(made, scenario=scenario)
 
 
 def _estimate_error(agent: RoverAgent, scenario: Scenario, x: float, z: float) -> float | None:
@@ -192,12 +207,12 @@ def describe_seeds(name: str, seeds: range) -> str:
     return f"set: none ({span} lie outside the {name} set {fixed.start}-{fixed.stop - 1})"
 
 
-def run_all(seeds: range, kind: str | None, jobs: int, cap_s: float | None = None,
-            keep: Callable[[list[dict]], None] | None = None) -> list[dict]:
+def run_all(seeds: Iterable[int], kind: str | None, jobs: int, cap_s: float | None = None,
+            keep: Callable[[list[dict]], None] | None = None, sun_sensor: bool = False) -> list[dict]:
     """Every mission's results, in seed order; ``keep`` is handed those so far after each one."""
     results = []
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(run_one, seed, kind, cap_s) for seed in seeds]
+        futures = [pool.submit(run_one, seed, kind, cap_s, sun_sensor) for seed in seeds]
         for done, future in enumerate(as_completed(futures), 1):
             row = future.result()
             results.append(row)
@@ -229,6 +244,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--table", type=Path, metavar="FILE", help="print the tables of a --json FILE, run nothing")
     parser.add_argument("--sim-cap", type=float, metavar="S", help="stop every mission after S simulated seconds "
                         "(default: from its longest ideal path; a mission cut short counts its rovers as they stand)")
+    parser.add_argument("--sun-sensor", action="store_true", help="every rover carries a sun sensor, an absolute "
+                        "heading sensor (PerceptionParams.sun_sensor; off in the generated missions)")
+    parser.add_argument("--noise", choices=CLASS_VALUES["noise"], help="only the seeds drawn with this noise level")
     args = quick.parse_args(parser, QUICK, argv)
     if args.table:
         return print_saved(args.table, args.show_failures)
@@ -239,17 +257,20 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         parser.error(str(exc))
     seeds = args.seeds or SETS[args.set]
+    chosen = [s for s in seeds if generate(s, args.kind).classes["noise"] == args.noise] if args.noise else seeds
     machine = host.describe()
     print(host.line(machine))
-    print(describe_seeds(args.set, seeds) + (f", kind {args.kind}" if args.kind else "") + f", {args.jobs} jobs")
+    print(describe_seeds(args.set, seeds) + (f", kind {args.kind}" if args.kind else "")
+          + (f", noise {args.noise} only ({len(chosen)} missions)" if args.noise else "")
+          + (", every rover with a sun sensor" if args.sun_sensor else "") + f", {args.jobs} jobs")
     started = time.perf_counter()
     about = {"host": machine, "set": args.set, "seeds": [seeds.start, seeds.stop - 1], "kind": args.kind,
-             "jobs": args.jobs}
+             "noise": args.noise, "sun_sensor": args.sun_sensor, "jobs": args.jobs}
 
     def keep(rows: list[dict]) -> None:  # a run cut short leaves the missions it finished (``--table`` reads them)
         args.json.write_text(json.dumps({**about, "partial": True, "missions": rows}, indent=1) + "\n")
 
-    results = run_all(seeds, args.kind, args.jobs, args.sim_cap, keep if args.json else None)
+    results = run_all(chosen, args.kind, args.jobs, args.sim_cap, keep if args.json else None, args.sun_sensor)
     wall = time.perf_counter() - started
     agg = aggregate(results)
     print()

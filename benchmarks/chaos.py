@@ -42,8 +42,8 @@ from sessions.format import read_samples
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIO = REPO / "scenarios" / "crater_observation.yaml"
-QUICK = {"losses": [0.05], "outage": 0.5, "restarts": 1, "record_s": 2.0, "time_scale": 4.0, "rovers": 1,
-         "max_sim_time": 30.0}
+QUICK = {"losses": [0.05], "outage": 0.5, "restarts": 1, "record_s": 2.0, "time_scale": 6.0, "rovers": 1,
+         "max_sim_time": 20.0}
 
 
 def main(argv: list[str] | None = None) -> int:

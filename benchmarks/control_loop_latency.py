@@ -34,6 +34,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -351,17 +352,22 @@ def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
-    signal.signal(signal.SIGTERM, _interrupt)  # a terminated benchmark cleans up as on Ctrl-C
+def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace, interrupted: str) -> int:
+    """``run(args)`` as a command: a terminated benchmark cleans up as on Ctrl-C, a failure is one ``error:`` line
+    and exit 1, an interrupt says ``interrupted`` and exits 130."""
+    signal.signal(signal.SIGTERM, _interrupt)
     try:
         return run(args)
     except (BenchmarkError, RouterUnreachable) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+        print(interrupted, file=sys.stderr)
         return 130
+
+
+def main(argv: list[str] | None = None) -> int:
+    return guarded(run, parse_args(argv), "interrupted")
 
 
 if __name__ == "__main__":

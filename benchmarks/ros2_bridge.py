@@ -248,14 +248,14 @@ def twenty_rovers_cpu(folder: Path, seconds: float, rovers: int = 20) -> dict:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="an 8 s mission and a 6 s CPU window")
+    parser.add_argument("--quick", action="store_true", help="a 3 s mission and a 2 s CPU window")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures here")
     parser.add_argument("--relay", metavar="ENDPOINT", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.relay:
         relay(args.relay)
         return 0
-    mission_s, window_s = (8.0, 6.0) if args.quick else (60.0, 60.0)
+    mission_s, window_s = (3.0, 2.0) if args.quick else (60.0, 60.0)
     with tempfile.TemporaryDirectory(prefix="ros2bench-") as tmp:
         folder = Path(tmp)
         five = five_rovers(folder, mission_s)

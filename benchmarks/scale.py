@@ -38,7 +38,6 @@ import os
 import platform
 import resource
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -49,7 +48,7 @@ from pathlib import Path
 
 import host
 import scale_witness
-from control_loop_latency import BenchmarkError
+from control_loop_latency import BenchmarkError, guarded
 from proc_meter import ProcessMeter, cpu_seconds
 from scale_args import parse_args
 from scale_cluster import WORLD, Cluster, Plan, Setting, periods, progress, sampled_ids
@@ -69,7 +68,7 @@ from scale_observe import (
 from scale_report import holds, median_run, print_report, refine, slopes, targets
 
 from bus import priority
-from bus.zenoh_config import RouterUnreachable, build_config, open_session
+from bus.zenoh_config import build_config, open_session
 from schemas import keyspace as ks
 from schemas.scenario import Scenario, dump_scenario, load_scenario
 from world_service.clock import CLOCK_HZ, ticks_per_period
@@ -365,21 +364,8 @@ def step_down(args: argparse.Namespace, s: Setting, rows: list[dict], tried: lis
     return None
 
 
-def _interrupt(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt
-
-
 def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv, __doc__.split("\n\n")[0])
-    signal.signal(signal.SIGTERM, _interrupt)  # a terminated benchmark stops its processes as on Ctrl-C
-    try:
-        return run(args)
-    except (BenchmarkError, RouterUnreachable) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("interrupted: every process it started is stopped", file=sys.stderr)
-        return 130
+    return guarded(run, parse_args(argv, __doc__.split("\n\n")[0]), "interrupted: every process it started is stopped")
 
 
 if __name__ == "__main__":

@@ -58,10 +58,13 @@ class MissionPlan:
         shared = kind in ("waypoint", "crater") and len(self._team(rover_id, index)) > 1
         relayed = chain is not None and kind != "relay"
         station = self.stations.get((index, goal), {}).get(rover_id) if shared else None
+        crater = self.scenario.crater_of(goal) if kind == "crater" else None
+        rim = None if crater is None else (round(crater.x - goal.x, 3), round(crater.z - goal.z, 3),
+                                           round(crater.outer_radius, 3))
         return m.MissionDirection(goal_index=index, goals_total=self.missions.final_index(rover_id) + 1,
                                   kind=kind, bearing_deg=round(bearing_deg(x, z), 6),
                                   distance_m=round(math.hypot(x, z), 6), station=station, shared=shared,
-                                  relayed=relayed, relay_for=relay_for)
+                                  relayed=relayed, relay_for=relay_for, rim=rim)
 
     def _team(self, rover_id: int, index: int) -> list[int]:
         """The rovers that share this rover's goal ``index`` and stand at stations there, in formation at a

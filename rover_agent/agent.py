@@ -238,6 +238,7 @@ class RoverAgent:
         goal = self.mission.direction(msg, self.now)
         if goal is None:
             return []
+        self.estimator.learn(goal)
         fix = self.estimator.fix
         fix.active = fix.active and current is not None and goal.index == current.index
         if not fix.active:  # a station for the goal the rover goes by the lander for: taken up later
@@ -275,6 +276,8 @@ class RoverAgent:
 
     def _on_gyroscope(self, msg: m.Gyroscope) -> list[Out]:
         self.senses.pitch = (msg.pitch_deg, msg.stamp)
+        if msg.heading_deg is not None:
+            self.senses.heading = (msg.heading_deg, msg.stamp)
         self.now = max(self.now, msg.stamp)
         return []
 
@@ -295,6 +298,8 @@ class RoverAgent:
         standing = self.actions.in_flight is None and self.pose is not None and self.actions.settled_by(msg.stamp)
         if standing:  # where the estimate says it stands: correct it, then map what it sees from there
             self.estimator.localise(msg.stamp, hits, self.state, self.senses.partners)
+            if (sun := self.senses.heading) is not None and self.actions.settled_by(sun[1]):
+                self.estimator.sun(sun[0])
             self.estimator.note_sure()
             self.map.fold_later(self.pose.x, self.pose.z, self.pose.heading, hits)
         # answered with perception, which the lockstep world always waits for
@@ -314,6 +319,8 @@ class RoverAgent:
                  and self.actions.settled_by(self.senses.pitch[1]))
         if not ready:
             return ask
+        if (look := self.estimator.look_back(self.mission.goal, self.params.perception.perception_radius)) is not None:
+            return ask + self._act(Rotate(look))  # a crater's rim behind it: turn to see it (``rim_look``)
         self.detours.before_decision(self.now)
         return ask + self._act(self.behaviour.decide(self.view(msg.stamp, self.pose, hits)))
 

@@ -23,6 +23,7 @@ class Goal:
     station: tuple[float, float] | None = None  # this rover's spot at a shared goal, offset from it
     shared: bool = False  # a waypoint or crater the team shares: the lander gives out stations on request
     relayed: bool = False  # a daisy chain stands for this goal: the radio route runs through relays before it
+    rim: tuple[float, float, float] | None = None  # a crater goal's crater: centre (lander frame), terrain's radius
 
     @property
     def final(self) -> bool:

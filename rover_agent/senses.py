@@ -1,6 +1,6 @@
-"""The rover's latest readings of itself and of its radio: pitch, battery, temperature, sunlight, and which radios
-are in direct range (``CommPartners``). Power sensors come only from a world with a sun. Each handler answers
-nothing: what the readings mean is for the agent's next decision."""
+"""The rover's latest readings of itself and of its radio: pitch (and heading, with a sun sensor), battery,
+temperature, sunlight, and which radios are in direct range (``CommPartners``). Power sensors come only from a
+world with a sun. Each handler answers nothing: what the readings mean is for the agent's next decision."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ from schemas.messages import Out
 class Senses:
     pitch: tuple[float, float] = (0.0, -1.0)
     """(degrees, stamp)."""
+    heading: tuple[float, float] | None = None
+    """The sun sensor's latest heading reading (degrees, stamp); None without a sun sensor."""
     battery: m.Battery | None = None
     temperature: m.Temperature | None = None
     sunlit: bool | None = None

@@ -137,8 +137,12 @@ class ActionRejected(Message, kw_only=True):
 
 
 class Gyroscope(Message, kw_only=True):
+    """The rover's inertial sensors: pitch, and with a sun sensor (``PerceptionParams.sun_sensor``) the heading."""
+
     stamp: Seconds
     pitch_deg: Annotated[Degrees, Meta(description="positive nose up")]
+    heading_deg: Annotated[Degrees | None, Meta(description="the sun sensor's heading in the lander frame (0 = +z, "
+                                                "90 = +x), with its noise; none without a sun sensor")] = None
 
 
 # ---- power (report 7.1.2, needs N9 and N10) ----
@@ -227,6 +231,9 @@ class MissionDirection(Message, kw_only=True):
                                   "lander runs through relays holding on the way to it")] = False
     relay_for: Annotated[GoalPlace | None, Meta(description="for a relay: the goal it holds the route for, which it "
                                                 "walks on to at the last goal once cut off from the lander")] = None
+    rim: Annotated[tuple[Metres, Metres, Distance] | None, Meta(
+        description="at a crater goal, the crater as the mission plan has it: its centre's offset (x, z) in metres "
+        "from the goal, lander axes, and the radius at which its terrain begins (the outer foot of the rim)")] = None
 
 
 class Calibration(Message, kw_only=True):

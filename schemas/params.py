@@ -20,7 +20,7 @@ class Params(Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
 
     Structs check their bounds when converted, not when built: parameters from a file go through the scenario
     loader (``schemas.scenario``, ``schemas.scenario_types``), from anywhere else through
-    ``schemas.checked.checked``. Cross-field rules live in ``__post_init__``, which runs on both."""
+    ``schemas.codec.checked``. Cross-field rules live in ``__post_init__``, which runs on both."""
 
 
 class SpawnParams(Params, kw_only=True):
@@ -89,6 +89,13 @@ class PerceptionParams(Params, kw_only=True):
     publish_frequency: Annotated[Rate, Meta(description="perception rate, Hz")] = 5.0
     gyroscope_frequency: Annotated[Rate, Meta(description="gyroscope rate, Hz")] = 20.0
     gyroscope_noise_std_deg: Annotated[float, Meta(ge=0, le=10, description="1-sigma pitch noise")] = 0.0
+    sun_sensor: Annotated[bool, Meta(
+        description="an absolute heading sensor (a sun sensor, as small planetary rovers carry: the sun's bearing in "
+        "the rover's frame against its known azimuth gives the heading in the lander frame), read with the "
+        "gyroscope; false: the rover has none and only dead-reckons its heading (the report's Lunar Zebro)")] = False
+    sun_sensor_noise_std_deg: Annotated[float, Meta(
+        ge=0, le=45, description="1-sigma error of each sun sensor heading reading, independent reading to "
+        "reading")] = 2.0
 
     @property
     def ray_step_deg(self) -> float:

@@ -1,5 +1,6 @@
 """The agent's pose estimate: the filter (``pose_filter``) fed by the ends of actions, by what perception shows of
-the lander and of teammates (``sightings``), and by the estimates teammates in radio range tell (report 7.2.2);
+the lander, of teammates and of the rims of its crater goals (``sightings``), by the estimates teammates in radio
+range tell (report 7.2.2) and, when the rover carries one, by a sun sensor's heading (``sun``);
 and the way by the lander a rover too unsure for its next waypoint takes first (``lander_fix``).
 
 ``pose`` is the estimate's mean: everything that reads the rover's pose (the behaviour, the map, the saved state)
@@ -26,6 +27,7 @@ import math
 from bus.rejections import Rejections
 from rover_agent.actions.in_flight import InFlight
 from rover_agent.decisions import Goal, Hit, MoveTo, Rotate
+from rover_agent.estimation import rim_look
 from rover_agent.estimation.fix_search import FixSearch
 from rover_agent.estimation.lander_fix import LanderFix
 from rover_agent.estimation.pose_filter import Localisation, NoiseModel
@@ -35,6 +37,8 @@ from rover_agent.estimation.sightings import (
     lander_centre,
     lander_landmark,
     match_teammates,
+    rim_centre,
+    rim_landmark,
     rover_centres,
     teammate_landmark,
 )
@@ -80,6 +84,12 @@ class Estimator:
         """Where the estimate was last sure (``fix_search``): told where it stands, or fixed since."""
         self.shared_at = -math.inf
         """When the rover last told its estimate."""
+        self.rims: dict[int, tuple[float, float, float]] = {}
+        """The craters of the crater goals given so far (``learn``), by goal index."""
+        self.looked_back: set[int] = set()
+        """Goal indexes of craters whose rim the rover has turned to look at on leaving (``look_back``)."""
+        self.sun_due = False
+        """An action has ended since the last sun sensor reading was fused (``sun``)."""
 
     @property
     def pose(self) -> Pose | None:
@@ -103,7 +113,7 @@ class Estimator:
 
     def completed(self, start: Pose, decision: MoveTo | Rotate) -> None:
         """A move or rotate that started at ``start`` has ended as asked."""
-        loc = self._from(start)
+        loc, self.sun_due = self._from(start), True
         if isinstance(decision, MoveTo):
             loc.moved(start, decision.x, decision.z)
         else:
@@ -112,6 +122,7 @@ class Estimator:
     def stopped_early(self, start: Pose, x: float, z: float, angle_deg: float) -> None:
         """A move that started at ``start`` stopped where its ``CancelResult`` says."""
         self._from(start).stopped_early(start, x, z, angle_deg)
+        self.sun_due = True
 
     def _from(self, start: Pose) -> Localisation:
         """The estimate an action's end moves (one at the action's start if the agent had none)."""
@@ -127,6 +138,8 @@ class Estimator:
         centre = lander_centre(hits)
         if centre is not None:  # the only thing of its kind: no match to doubt, so no gate
             loc.observe(lander_landmark(centre), gate=None)
+        if self.rims and any(h.kind == "crater_terrain" for h in hits):
+            self._rim_seen(loc, hits)
         if not self.teammates or state in NOT_FROM_TEAMMATES:
             return
         p = self.params
@@ -139,6 +152,44 @@ class Estimator:
 
         for seen, mate in match_teammates(centres, mates, partners, stamp, p.communication.comm_range, distance):
             loc.observe(teammate_landmark(seen, mate, stamp, top_speed))
+
+    def sun(self, heading_deg: float) -> None:
+        """Correct the heading with a sun sensor reading taken standing still, one a stop: the agent hands the
+        latest reading taken since the action ended; more readings of the same stop would add no news of the
+        heading the next action turns, only trust in one reading's error (a real sensor's readings of one stop
+        share its mounting and the sun's tabled azimuth)."""
+        loc = self.localisation
+        if loc is None or loc.exact or not self.sun_due:
+            return
+        self.sun_due = False
+        loc.observe_heading(heading_deg, self.params.perception.sun_sensor_noise_std_deg)
+
+    def learn(self, goal: Goal) -> None:
+        """Keep a crater goal's crater (``Goal.rim``): its rim, seen from outside, fixes the estimate on the way
+        to it and on from it, far from the lander."""
+        if goal.rim is not None:
+            self.rims[goal.index] = goal.rim
+
+    def look_back(self, goal: Goal | None, radius: float) -> float | None:
+        """The turn (degrees) to face the rim of a crater goal left behind, once, when the rover stands just outside
+        it (``rim_look.turn``); None: no look due."""
+        loc = self.localisation
+        if loc is None or goal is None:
+            return None
+        due = rim_look.turn(loc, self.rims, goal.index, self.looked_back, radius)
+        if due is None:
+            return None
+        index, turn = due
+        self.looked_back.add(index)
+        return turn
+
+    def _rim_seen(self, loc: Localisation, hits: tuple[Hit, ...]) -> None:
+        """Correct the estimate with the rim of a known crater in view: the one whose fitted centre lies nearest
+        where the estimate expects it (gated: crater terrain of a crater not in the plan fits none)."""
+        marks = [rim_landmark(centre, rim) for rim in set(self.rims.values())
+                 if (centre := rim_centre(hits, rim[2])) is not None]
+        if marks:
+            loc.observe(min(marks, key=loc.mahalanobis))
 
     def heard(self, sender: int, estimate: radio.PoseEstimate, now: float) -> None:
         """Keep a teammate's latest estimate. Dropped, and counted as rejected: one from the lander, from this

@@ -224,6 +224,24 @@ class Localisation:
         self._shift(x)
         return True
 
+    def observe_heading(self, heading_deg: float, std_deg: float) -> bool:
+        """Correct the estimate with an absolute heading reading (a sun sensor's) of 1-sigma ``std_deg``: the
+        heading is the error that grows lateral drift with every metre walked, and its covariance with the position
+        (a heading off has swung the walk so far aside) corrects the position along with it. False when nothing
+        changed (an exact heading, or a reading with no noise on a heading the rover is sure of)."""
+        if self.cov[2][2] <= 0.0 or not math.isfinite(heading_deg):
+            return False
+        y = math.radians((heading_deg - self.pose.heading + 180.0) % 360.0 - 180.0)
+        s = self.cov[2][2] + math.radians(std_deg) ** 2
+        k = [self.cov[i][2] / s for i in range(3)]
+        before = self.pose, self.cov
+        self.cov = symmetric([[self.cov[i][j] - k[i] * self.cov[2][j] for j in range(3)] for i in range(3)])
+        self._shift([k[i] * y for i in range(3)])
+        if not self._sane():
+            self.pose, self.cov = before
+            return False
+        return True
+
     def _sane(self) -> bool:
         """A pose and covariance that are numbers, with no negative variance."""
         values = [self.pose.x, self.pose.z, self.pose.heading, *(v for row in self.cov for v in row)]

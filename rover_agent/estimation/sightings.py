@@ -1,4 +1,6 @@
-"""What perception shows of things whose place the rover knows: the lander, and rovers whose estimates it heard.
+"""What perception shows of things whose place the rover knows: the lander, rovers whose estimates it heard, and
+the rim of a crater whose place and size the mission plan gives (``rim_centre``: a circle of known radius fitted
+to its crater terrain hits).
 
 Perception gives, for each ray that met something, its angle, distance and kind (report 10.1.3), so a thing is a
 run of hits on its near side. Lander and rovers are upright cylinders: their centre, the point the filter needs
@@ -39,6 +41,17 @@ IN_RANGE_MARGIN_M = 2.0
 second; rovers walk at most 3.5 m/s, and rarely straight apart)."""
 ESTIMATE_MAX_AGE_S = 1.0
 """A teammate's estimate older than this is not matched: it walks up to 3.5 m a second."""
+RIM_SIGHTING_SHARE = 0.05
+RIM_SIGHTING_LEAST_M = 1.0
+"""1-sigma error of a crater's centre fitted to its rim, on each axis: this share of the radius at which its
+terrain begins, at least the least. An assumption for a real rim, which is no perfect circle, and for the plan's
+measure of it from orbit (the simulated rim is exact)."""
+MIN_RIM_HITS = 4
+MIN_RIM_ARC_DEG = 10.0
+"""A rim fit needs this many crater terrain hits spanning at least this angle seen from the centre: a shorter arc
+of a wide crater is nearly straight, and leaves where along it the centre lies to the noise."""
+MAX_RIM_RMS_M = 0.1
+"""A rim fit whose hits stray from the circle by more than this is no fit (two craters' rims in view, say)."""
 
 
 @dataclass(frozen=True)
@@ -122,6 +135,47 @@ def teammate_landmark(centre: tuple[float, float], mate: Teammate, now: float, t
     return Landmark(centre, (e.x, e.z), cov, ROVER_SIGHTING_STD_M, shared=True)
 
 
+def rim_centre(hits: tuple[Hit, ...], edge_radius: float) -> tuple[float, float] | None:
+    """A crater's centre, rover-relative, from the crater terrain hits of its rim seen from outside: a circle of
+    the radius at which its terrain begins (``edge_radius``, from the mission plan) fitted to them; None for too
+    few hits, too short an arc, or a poor fit."""
+    pts = [point(h) for h in hits if h.kind == "crater_terrain" and h.distance_m > 0.0]
+    if len(pts) < MIN_RIM_HITS:
+        return None
+    centre = _fit_known_radius(pts, edge_radius)
+    if centre is None:
+        return None
+    cx, cz = centre
+    rms = math.sqrt(sum((math.hypot(x - cx, z - cz) - edge_radius) ** 2 for x, z in pts) / len(pts))
+    bearings = [math.atan2(x - cx, z - cz) for x, z in pts]
+    mid = math.atan2(sum(math.sin(b) for b in bearings), sum(math.cos(b) for b in bearings))
+    spread = [abs((b - mid + math.pi) % (2 * math.pi) - math.pi) for b in bearings]
+    arc = math.degrees(2 * max(spread))
+    if rms > MAX_RIM_RMS_M or arc < MIN_RIM_ARC_DEG or math.hypot(cx, cz) <= edge_radius:
+        return None
+    return cx, cz
+
+
+def rim_landmark(centre: tuple[float, float], rim: tuple[float, float, float]) -> Landmark:
+    """A crater's rim seen: its centre, where the mission plan puts it (``Goal.rim``)."""
+    std = max(RIM_SIGHTING_LEAST_M, RIM_SIGHTING_SHARE * rim[2])
+    return Landmark(centre, (rim[0], rim[1]), [[0.0, 0.0], [0.0, 0.0]], std)
+
+
+def _fit_known_radius(pts: list[tuple[float, float]], radius: float) -> tuple[float, float] | None:
+    """Least squares (Gauss-Newton) centre of a circle of known radius through points on its near side, from the
+    centre straight behind the nearest point; None if it does not settle."""
+    cx, cz = _circle_start(pts, radius)
+    for _ in range(20):
+        step = _circle_step(pts, cx, cz, radius)
+        if step is None:
+            return None
+        cx, cz = cx - step[0], cz - step[1]
+        if math.hypot(*step) < 1e-6:
+            return cx, cz
+    return None
+
+
 def lander_landmark(centre: tuple[float, float]) -> Landmark:
     """The lander seen: the origin of the frame every rover navigates in, known exactly."""
     return Landmark(centre, (0.0, 0.0), [[0.0, 0.0], [0.0, 0.0]], LANDER_SIGHTING_STD_M)
@@ -163,26 +217,39 @@ def _solve3(m: list[list[float]], v: list[float]) -> list[float] | None:
 def _known_circle(pts: list[tuple[float, float]], radius: float) -> tuple[float, float]:
     """The centre of a circle of known radius whose near side the points lie on: a radius behind the nearest
     point, then refined (Gauss-Newton) when two points or more pin it down better."""
+    cx, cz = start = _circle_start(pts, radius)
+    if len(pts) < 2:
+        return start
+    for _ in range(5):
+        step = _circle_step(pts, cx, cz, radius)
+        if step is None:
+            break
+        cx, cz = cx - step[0], cz - step[1]
+    return (cx, cz) if math.dist((cx, cz), start) <= radius else start
+
+
+def _circle_start(pts: list[tuple[float, float]], radius: float) -> tuple[float, float]:
+    """A radius straight behind the nearest point: where a circle's centre is, seen from its near side."""
     nx, nz = min(pts, key=lambda p: math.hypot(*p))
     d = max(math.hypot(nx, nz), 1e-9)  # a hit at no distance (rounded to the millimetre): no way to look
-    cx, cz = nx + radius * nx / d, nz + radius * nz / d
-    if len(pts) < 2:
-        return cx, cz
-    start = (cx, cz)
-    for _ in range(5):
-        jtj, jtr = [[0.0, 0.0], [0.0, 0.0]], [0.0, 0.0]
-        for x, z in pts:
-            dist = math.hypot(x - cx, z - cz)
-            if dist < 1e-9:
-                continue
-            g, res = ((cx - x) / dist, (cz - z) / dist), dist - radius
-            for i in range(2):
-                jtr[i] += g[i] * res
-                for j in range(2):
-                    jtj[i][j] += g[i] * g[j]
-        det = jtj[0][0] * jtj[1][1] - jtj[0][1] * jtj[1][0]
-        if abs(det) < 1e-12:
-            break
-        cx -= (jtj[1][1] * jtr[0] - jtj[0][1] * jtr[1]) / det
-        cz -= (jtj[0][0] * jtr[1] - jtj[1][0] * jtr[0]) / det
-    return (cx, cz) if math.dist((cx, cz), start) <= radius else start
+    return nx + radius * nx / d, nz + radius * nz / d
+
+
+def _circle_step(pts: list[tuple[float, float]], cx: float, cz: float,
+                 radius: float) -> tuple[float, float] | None:
+    """One Gauss-Newton step of a known-radius circle's centre (to subtract); None when the points leave it
+    unknown (the normal equations are singular). A point at the centre has no direction and is left out."""
+    jtj, jtr = [[0.0, 0.0], [0.0, 0.0]], [0.0, 0.0]
+    for x, z in pts:
+        dist = math.hypot(x - cx, z - cz)
+        if dist < 1e-9:
+            continue
+        g, res = ((cx - x) / dist, (cz - z) / dist), dist - radius
+        for i in range(2):
+            jtr[i] += g[i] * res
+            for j in range(2):
+                jtj[i][j] += g[i] * g[j]
+    det = jtj[0][0] * jtj[1][1] - jtj[0][1] * jtj[1][0]
+    if abs(det) < 1e-12:
+        return None
+    return (jtj[1][1] * jtr[0] - jtj[0][1] * jtr[1]) / det, (jtj[0][0] * jtr[1] - jtj[1][0] * jtr[0]) / det

@@ -74,8 +74,9 @@ class Mission:
         if not self.relay.note(msg):
             return None
         rad = math.radians(msg.bearing_deg)
-        goal = Goal(msg.goal_index, msg.goals_total, msg.kind, msg.distance_m * math.sin(rad),
-                    msg.distance_m * math.cos(rad), msg.station, msg.shared, msg.relayed)
+        x, z = msg.distance_m * math.sin(rad), msg.distance_m * math.cos(rad)
+        rim = None if msg.rim is None else (x + msg.rim[0], z + msg.rim[1], msg.rim[2])
+        goal = Goal(msg.goal_index, msg.goals_total, msg.kind, x, z, msg.station, msg.shared, msg.relayed, rim)
         current = self.goal
         if current is not None and goal.index < current.index:
             return None

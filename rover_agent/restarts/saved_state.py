@@ -13,8 +13,9 @@ import json
 import logging
 import math
 import os
+import resource
 import threading
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 from shared.pose import Pose
@@ -43,7 +44,12 @@ class SavedState:
     cov: list[list[float]] | None = None  # the pose estimate's covariance (``estimation.pose_filter``)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self))
+        flight = self.flight
+        return json.dumps({
+            "run": self.run, "pose": _pose(self.pose), "next_action": self.next_action, "cov": self.cov,
+            "flight": None if flight is None else {"action_id": flight.action_id, "kind": flight.kind,
+                                                   "start": _pose(flight.start), "x": flight.x, "z": flight.z,
+                                                   "degrees": flight.degrees}})
 
     @classmethod
     def from_json(cls, text: str) -> SavedState:
@@ -81,11 +87,60 @@ def _a_covariance(cov: list[list[float]]) -> bool:
             and det >= -1e-9 * scale ** 3)
 
 
+def _pose(pose: Pose) -> dict[str, float]:
+    return {"x": pose.x, "z": pose.z, "heading": pose.heading}
+
+
+RECORD_BYTES = 4096
+"""A state is written with one ``pwrite`` at the file's start, within one page: Linux checks for a fatal signal
+between the pages of a write, never within one, so a process killed mid-write leaves the previous state or the new
+one, never half of each. A state is far smaller (every string in it is a bounded wire label)."""
+MAX_OPEN_FILES = max(16, min(1024, resource.getrlimit(resource.RLIMIT_NOFILE)[0] // 4))
+"""State files a process holds open at once, a quarter of what it may open (Zenoh and the rest keep theirs); one
+with more agents opens the others for each write."""
+
+
+class StateFile:
+    """One agent's state file, held open and overwritten in place.
+
+    A write and rename per save (the usual atomic replace) cost about a millisecond here and more on an SD card,
+    with every action of every agent; one ``pwrite`` costs microseconds. The text is padded with blanks to the
+    longest state the file has held, which JSON reads past, so the file never needs truncating."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        self.size = os.fstat(self.fd).st_size
+        if self.size > RECORD_BYTES:  # no state of ours: what lies past the record would follow it in the file
+            os.ftruncate(self.fd, 0)
+            self.size = 0
+
+    def write(self, state: SavedState) -> None:
+        data = state.to_json().encode()
+        if len(data) > RECORD_BYTES:
+            raise ValueError(f"a saved state of {len(data)} bytes is over {RECORD_BYTES}")
+        padded = data.ljust(self.size)  # the file never holds more than a page (truncated on opening if it did)
+        os.pwrite(self.fd, padded, 0)
+        self.size = len(padded)
+
+    def still_there(self) -> bool:
+        """Whether the path still names this file (not removed or replaced since it was opened)."""
+        try:
+            return os.stat(self.path).st_ino == os.fstat(self.fd).st_ino
+        except OSError:
+            return False
+
+    def close(self) -> None:
+        os.close(self.fd)
+
+
 def save_state(path: Path, state: SavedState) -> None:
-    """Atomic: a process killed mid-write leaves the previous state, never half a file."""
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(state.to_json())
-    os.replace(tmp, path)
+    """One state written to ``path`` (tests, tools); agents save through ``StateWriter``, which keeps files open."""
+    file = StateFile(path)
+    try:
+        file.write(state)
+    finally:
+        file.close()
 
 
 def load_state(path: Path) -> SavedState | None:
@@ -102,13 +157,14 @@ def load_state(path: Path) -> SavedState | None:
 class StateWriter:
     """Saves states on a thread of its own, the latest state per file, so an agent never waits for storage.
 
-    A write and rename take milliseconds on an SD card or an overlay file system, and an agent saves with every
-    action: written inline, that delays every answer it sends (and every lockstep tick). One writer serves every
-    agent of the process; ``flush`` writes what is left when the agent stops.
+    An agent saves with every action, and a process may run hundreds of agents: each file stays open
+    (``StateFile``, up to ``MAX_OPEN_FILES``) and is overwritten in place. One writer serves every agent of the
+    process; ``flush`` writes what is left when the agent stops.
     """
 
     def __init__(self) -> None:
         self._pending: dict[Path, SavedState] = {}
+        self._files: dict[Path, StateFile] = {}
         self._wake = threading.Condition()
         self._writing = threading.Lock()  # a flush must not overtake a write of an older state
         self._thread: threading.Thread | None = None
@@ -130,9 +186,27 @@ class StateWriter:
                 taken, self._pending = list(self._pending.items()), {}
             for path, state in taken:
                 try:
-                    save_state(path, state)
-                except OSError as exc:
+                    self._file(path).write(state)
+                except (OSError, ValueError) as exc:
+                    self._forget(path)
                     log.warning("could not save the rover state to %s: %s", path, exc)
+
+    def _file(self, path: Path) -> StateFile:
+        """The open file of ``path``; opened again when someone removed or replaced it meanwhile."""
+        file = self._files.get(path)
+        if file is not None and not file.still_there():
+            self._forget(path)
+            file = None
+        if file is None:
+            if len(self._files) >= MAX_OPEN_FILES:
+                self._forget(next(iter(self._files)))
+            file = self._files[path] = StateFile(path)
+        return file
+
+    def _forget(self, path: Path) -> None:
+        file = self._files.pop(path, None)
+        if file is not None:
+            file.close()
 
     def _run(self) -> None:
         while True:

@@ -27,6 +27,8 @@ from schemas.scenario import Scenario, load_scenario
 REPORT_SCENARIOS = ("crater_observation", "crater_and_return", "maze", "maze_crater_return")
 """The report's editor profiles (appendix C.3, figures 27-30), with their shipped noise."""
 LAUNCHER_ONLY = {"wall_time_s", "map_corridor_mapped", "map_obstacles_found", "map_obstacle_precision"}
+EQUAL_FOR_S = 90.0
+"""Simulated seconds of a mission an episode and ``lunarsim run --lockstep`` are compared over."""
 
 
 def crater_env(**kwargs) -> LunarSimEnv:
@@ -175,11 +177,13 @@ def test_the_shipped_agent_as_a_policy_scores_as_the_in_process_mission(name):
 @pytest.mark.e2e
 @pytest.mark.parametrize("name", REPORT_SCENARIOS)
 def test_an_episode_equals_lunarsim_run_lockstep_of_the_same_seed(tmp_path, name):
+    """The first minute and a half: every step of it is compared, and whole missions are equal in process
+    (the test above) as in process and through processes (``test_loopback_equals_processes``)."""
     scenario_file = SCENARIOS / f"{name}.yaml"
-    env = LunarSimEnv(load_scenario(scenario_file), max_sim_time=600.0)
+    env = LunarSimEnv(load_scenario(scenario_file), max_sim_time=EQUAL_FOR_S)
     report, _ = run_episode(env, AgentPolicy(), seed=11)
     processes, _ = run_cli_mission(tmp_path / "run", str(scenario_file), "--lockstep", "--seed", "11", "--quiet",
-                                   "--no-record", "--max-sim-time", "600", "--port", str(free_port()))
+                                   "--no-record", "--max-sim-time", str(EQUAL_FOR_S), "--port", str(free_port()))
     in_env = msgspec.to_builtins(report)
     for field in LAUNCHER_ONLY:
         in_env.pop(field)

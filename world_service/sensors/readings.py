@@ -1,5 +1,6 @@
 """What the rovers' own sensors read each tick and the world publishes to each agent: perception scans
-(``perception``), staggered over the perception period, and the gyroscope's pitch with its seeded noise.
+(``perception``), staggered over the perception period, and the gyroscope's pitch with its seeded noise (with a sun
+sensor, the heading too, with its own seeded noise: the true heading goes no further than this module).
 """
 
 from __future__ import annotations
@@ -58,5 +59,15 @@ class Sensors:
         if noise > 0:
             pitch = pitch + self.rng.normal(0.0, noise, len(pitch))
         stamp = self.clock.sim_time
-        return [(self.keys.rover(b.id, ks.GYROSCOPE), m.Gyroscope(stamp=stamp, pitch_deg=p))
-                for b, p in zip(bodies, np.round(pitch, 4).tolist(), strict=True)]
+        headings = self._sun_headings(hs)
+        return [(self.keys.rover(b.id, ks.GYROSCOPE), m.Gyroscope(stamp=stamp, pitch_deg=p, heading_deg=h))
+                for b, p, h in zip(bodies, np.round(pitch, 4).tolist(), headings, strict=True)]
+
+    def _sun_headings(self, hs: np.ndarray) -> list[float | None]:
+        """Each rover's sun sensor reading: its true heading with the sensor's noise (drawn after the pitch's, only
+        when the rovers carry one, so worlds without it draw as before), in [0, 360); None without a sensor."""
+        p = self.params.perception
+        if not p.sun_sensor:
+            return [None] * len(hs)
+        noisy = hs + self.rng.normal(0.0, p.sun_sensor_noise_std_deg, len(hs)) if p.sun_sensor_noise_std_deg > 0 else hs
+        return np.round(np.mod(noisy, 360.0), 4).tolist()

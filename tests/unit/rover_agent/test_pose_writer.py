@@ -4,7 +4,14 @@ from __future__ import annotations
 
 from procs import wait_for
 
-from rover_agent.restarts.saved_state import SavedState, StateWriter, load_state
+from rover_agent.restarts.saved_state import (
+    MAX_OPEN_FILES,
+    RECORD_BYTES,
+    SavedState,
+    StateWriter,
+    load_state,
+    save_state,
+)
 from shared.pose import Pose
 
 
@@ -45,3 +52,45 @@ def test_a_pose_that_cannot_be_written_is_logged_and_the_writer_goes_on(tmp_path
     good = tmp_path / "rover4.json"
     writer.save(good, _state(7.0, 8.0, 9.0))
     wait_for(lambda: load_pose(good) == Pose(7.0, 8.0, 9.0), 10, "the next pose on disk")
+
+
+def test_a_shorter_state_over_a_longer_one_reads_back_whole(tmp_path):
+    """States are overwritten in place, padded to the longest one written: the shorter one reads back alone."""
+    path = tmp_path / "rover5.json"
+    long = SavedState("a-run-with-a-long-name" * 2, Pose(123456.789, -98765.4321, 359.999),
+                      next_action=10**15, cov=[[1.5, 0.1, 0.0], [0.1, 2.5, 0.0], [0.0, 0.0, 0.25]])
+    writer = StateWriter()
+    writer.save(path, long)
+    writer.flush()
+    writer.save(path, _state(1.0, 2.0, 3.0))
+    writer.flush()
+    assert load_state(path) == _state(1.0, 2.0, 3.0)
+    assert path.stat().st_size == len(long.to_json()), "padded, not truncated"
+
+
+def test_a_state_file_removed_while_its_agent_runs_is_written_again(tmp_path):
+    writer = StateWriter()
+    path = tmp_path / "rover6.json"
+    writer.save(path, _state(1.0, 1.0, 1.0))
+    writer.flush()
+    path.unlink()
+    writer.save(path, _state(2.0, 2.0, 2.0))
+    writer.flush()
+    assert load_pose(path) == Pose(2.0, 2.0, 2.0)
+
+
+def test_a_file_longer_than_any_state_is_replaced_not_followed(tmp_path):
+    path = tmp_path / "rover7.json"
+    path.write_text("x" * (RECORD_BYTES + 100))
+    save_state(path, _state(3.0, 4.0, 5.0))
+    assert load_pose(path) == Pose(3.0, 4.0, 5.0)
+
+
+def test_more_agents_than_open_files_keep_every_state(tmp_path):
+    writer = StateWriter()
+    files = [tmp_path / f"rover{i}.json" for i in range(MAX_OPEN_FILES + 20)]
+    for step in range(2):
+        for i, path in enumerate(files):
+            writer.save(path, _state(float(step), float(i), 0.0))
+        writer.flush()
+    assert all(load_pose(p) == Pose(1.0, float(i), 0.0) for i, p in enumerate(files))

@@ -700,3 +700,21 @@ def test_ground_rising_too_steeply_is_perceived_as_terrain():
     ahead = [(d, k) for a, d, k in hits if abs(a) < 3]
     # the bowl wall (2 depth r / R^2 per metre) passes tan(25 deg) near r = 7.8 m
     assert ahead and ahead[0][1] == "terrain" and 6.5 <= ahead[0][0] <= 9.0
+
+
+def _gyroscopes(world: World) -> list[m.Gyroscope]:
+    return [codec.decode(m.Gyroscope, codec.encode(msg)) for _ in range(20) for key, msg in world.step()
+            if key == KEYS.rover(1, ks.GYROSCOPE)]
+
+
+def test_the_gyroscope_carries_a_heading_only_from_a_sun_sensor_and_with_its_noise():
+    without = _gyroscopes(World(_scenario(rovers=((0.0, 0.0, 30.0),)), KEYS))
+    assert without and all(g.heading_deg is None for g in without)
+    exact = _gyroscopes(World(_scenario(rovers=((0.0, 0.0, 30.0),), perception={
+        "sun_sensor": True, "sun_sensor_noise_std_deg": 0.0}), KEYS))
+    assert [g.heading_deg for g in exact] == [pytest.approx(30.0)] * len(exact)
+    noisy = _gyroscopes(World(_scenario(rovers=((0.0, 0.0, 30.0),), perception={
+        "sun_sensor": True, "sun_sensor_noise_std_deg": 2.0}), KEYS))
+    errors = [wrap_deg(g.heading_deg - 30.0) for g in noisy]
+    assert len(set(errors)) == len(errors)  # a fresh draw each reading
+    assert 0.5 < float(np.std(errors)) < 4.0 and all(abs(e) < 10.0 for e in errors)
