@@ -66,6 +66,8 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
+import msgspec
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
 import quick
@@ -114,14 +116,14 @@ def run_one(seed: int, kind: str | None, cap_s: float | None = None, sun_sensor:
         report = world.report()
     except Exception as exc:  # a bug in the behaviour or the wiring: record it, go on with the suite
         return {**result, "error": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - started}
-    return {**result, "wall_s": round(time.perf_counter() - started, 3), "report": report.model_dump(mode="json"),
+    return {**result, "wall_s": round(time.perf_counter() - started, 3), "report": msgspec.to_builtins(report),
             "rovers": _rovers(world, made, agents)}
 
 
 def with_sun_sensor(made: GeneratedScenario) -> GeneratedScenario:
     params = made.scenario.rover_params
-    perception = params.perception.model_copy(update={"sun_sensor": True})
-    scenario = made.scenario.with_overrides(rover_params=params.model_copy(update={"perception": perception}))
+    perception = msgspec.structs.replace(params.perception, sun_sensor=True)
+    scenario = made.scenario.with_overrides(rover_params=msgspec.structs.replace(params, perception=perception))
     return dataclasses.replace(made, scenario=scenario)
 
 

@@ -22,9 +22,9 @@ RESEND_S = 1.0
 def build_command(command: str, rover: int | None = None, x: float | None = None, z: float | None = None,
                   kind: str = "waypoint", seconds: float | None = None):
     """A GroundCommand with a fresh request id; UsageError names what a command lacks or which value is out of
-    bounds (also for the web page)."""
-    from pydantic import ValidationError
-
+    bounds (also for the web page): the command is built from a user's values, so it is checked here
+    (``codec.checked``), not by the lander that would refuse it."""
+    from schemas import codec
     from schemas import messages as m
 
     if command == "set-target" and (x is None or z is None):
@@ -34,11 +34,10 @@ def build_command(command: str, rover: int | None = None, x: float | None = None
     if command == "seek" and seconds is None:
         raise UsageError("seek needs --seconds S")
     try:
-        return m.GroundCommand(request_id=uuid.uuid4().hex, command=command.replace("-", "_"), rover_id=rover, x=x,
-                               z=z, kind=kind, seconds=seconds)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        raise UsageError(f"--{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
+        return codec.checked(m.GroundCommand(request_id=uuid.uuid4().hex, command=command.replace("-", "_"),
+                                             rover_id=rover, x=x, z=z, kind=kind, seconds=seconds))
+    except codec.DecodeError as exc:
+        raise UsageError(f"--{str(exc).removeprefix('GroundCommand: ')}") from None
 
 
 def send(bus: Bus, keys: Keyspace, command: m.GroundCommand) -> None:

@@ -147,13 +147,15 @@ def read_run(folder: Path, run: int) -> dict:
     """A run's report.json as batch.json lists it. Raises OSError when there is none (the run did not finish) and
     ValueError when it is not a mission report (cut short, edited, another program's), so that no half-read report
     reaches the aggregate."""
+    import msgspec
+
     from schemas.truth import MissionReport
 
     report = json.loads((folder / "report.json").read_text())
     if not isinstance(report, dict):
         raise ValueError(f"a JSON {type(report).__name__}, not a mission report")
-    known = {k: v for k, v in report.items() if k in MissionReport.model_fields}
-    MissionReport.model_validate(known)  # fields a newer version added are kept, not refused
+    known = {k: v for k, v in report.items() if k in MissionReport.__struct_fields__}
+    msgspec.convert(known, MissionReport)  # fields a newer version added are kept, not refused
     return {**report, "run": run, "photos_at_lander": _photos_archived(folder)}
 
 

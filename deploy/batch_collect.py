@@ -147,15 +147,16 @@ def _recorded_lockstep(folder: Path) -> bool | None:
 
 
 def _why(exc: Exception) -> str:
-    """One line for a report that does not read: pydantic's first complaint, the JSON parser's, or the system's."""
+    """One line for a report that does not read: the report model's first complaint, the JSON parser's, or the
+    system's."""
+    import msgspec
+
+    from schemas.codec import field_problem
+
     if isinstance(exc, OSError):
         return exc.strerror or str(exc)
-    errors = getattr(exc, "errors", None)
-    if callable(errors):
-        first = errors()[0]
-        where = ".".join(str(part) for part in first["loc"]) or "the report"
-        more = len(errors()) - 1
-        return f"{where}: {first['msg']}" + (f" (and {more} more)" if more else "")
+    if isinstance(exc, msgspec.ValidationError):
+        return field_problem(exc).replace("<root>", "the report", 1)
     return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
 
 

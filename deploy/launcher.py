@@ -20,6 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import msgspec
+
 from bus import priority, process
 from bus.zenoh_config import DEFAULT_PORT
 from deploy.agent_lag import AgentLag
@@ -124,13 +126,14 @@ def import_map_figures_meanwhile() -> None:
 def with_map_figures(report, scenario, folder: Path):
     """The report scoring the lander's traverse map (``world_service.outcome.map_truth``), when the lander wrote one."""
     from lander_agent import mapping
+    from schemas import codec
     from world_service.outcome.map_truth import map_figures
 
     path = folder / mapping.NPZ_FILE
     if not path.is_file():
         return report
     spec, classes = mapping.load(path)
-    return report.model_copy(update=map_figures(scenario, spec, classes).report_fields())
+    return codec.checked(msgspec.structs.replace(report, **map_figures(scenario, spec, classes).report_fields()))
 
 
 class Mission:
@@ -164,9 +167,9 @@ class Mission:
         if report is None:
             self.console.print("[yellow]stopped before the world reported any statistics: no report.json[/]")
             return code or 1
-        report = report.model_copy(update={"wall_time_s": round(time.monotonic() - started, 3)})
+        report = msgspec.structs.replace(report, wall_time_s=round(time.monotonic() - started, 3))
         report = with_map_figures(report, self.scenario, self.out)
-        (self.out / "report.json").write_text(json.dumps(report.model_dump(), indent=2) + "\n")
+        (self.out / "report.json").write_text(json.dumps(msgspec.to_builtins(report), indent=2) + "\n")
         self.console.print(summary_table(report))
         if behind := self.lag.summary():
             self.console.print(f"[yellow]{behind}[/]")

@@ -1,6 +1,6 @@
 """The documentation's generated pages, so they cannot drift from what they describe: the home page from the
 README, and references from the code: every key and the message it carries (``schemas``), every scenario field
-with its default and bounds (the pydantic models, also as a JSON Schema for editors), every command's help (the
+with its default and bounds (the models, also as a JSON Schema for editors), every command's help (the
 argparse parsers), and the packages' diagram from their imports. ``tests/project/test_docs.py`` fails when the
 checked-in pages differ from what this writes.
 
@@ -18,6 +18,7 @@ import typing
 from pathlib import Path
 from typing import Annotated, Union, get_args, get_origin
 
+import msgspec
 from pydantic import BaseModel
 
 HELP_COLUMNS = "100"
@@ -97,7 +98,7 @@ def keyspace_page() -> str:
     queue = [*m.TOPIC_MODELS.values(), *m.LANDER_TOPIC_MODELS.values(), *m.WORLD_TOPIC_MODELS.values(),
              *m.GROUND_TOPIC_MODELS.values()]
     while queue:  # payloads, then the models nested in them (a state's rovers, the statistics' report)
-        model = queue.pop(0)
+        model = _described(queue.pop(0))
         if model.__name__ not in seen:
             seen.add(model.__name__)
             lines += _model_section(model, f"### {model.__name__}")
@@ -134,13 +135,23 @@ def scenario_page() -> str:
 
 def scenario_schema() -> str:
     from schemas.scenario import Scenario
+    from schemas.scenario_types import StructDefaults
 
-    return json.dumps(Scenario.model_json_schema(), indent=2, sort_keys=True) + "\n"
+    schema = Scenario.model_json_schema(schema_generator=StructDefaults)
+    return json.dumps(schema, indent=2, sort_keys=True) + "\n"
+
+
+def _described(model: type) -> type[BaseModel]:
+    """The pydantic model whose fields describe ``model``: itself, or a Struct's mirror (``schemas.scenario_types``),
+    which reads the Struct's own types, bounds, defaults and descriptions."""
+    from schemas.scenario_types import mirror
+
+    return mirror(model) if issubclass(model, msgspec.Struct) else model
 
 
 def _nested_model(annotation: object) -> type[BaseModel] | None:
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel | msgspec.Struct):
+        return _described(annotation)
     for arg in typing.get_args(annotation):
         found = _nested_model(arg)
         if found is not None:
@@ -203,7 +214,7 @@ def _number(value: float) -> str:
 
 
 def _short(value: object) -> str:
-    if isinstance(value, BaseModel):
+    if isinstance(value, BaseModel | msgspec.Struct):
         return "{...}"
     text = repr(value)
     return text if len(text) <= 40 else text[:37] + "..."

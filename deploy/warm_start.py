@@ -1,10 +1,10 @@
 """Start many agent processes from a warm interpreter: each is forked from a server that has already imported
 the agent's code, instead of a fresh Python importing it again.
 
-A rover agent spends most of its start-up importing (pydantic building its models, YAML, Zenoh's bindings):
-about 0.3 CPU seconds, which 100 rovers starting at once on two cores turn into a 25 s wait. Forked from a
-warm server, a rover starts with those modules in memory (shared copy-on-write) and only opens its own Zenoh
-session. It is still its own OS process, with its own session, liveliness token, log, exit code and command
+A rover agent spends most of its start-up importing (its own modules, the message models, Zenoh's bindings):
+a fraction of a CPU second, which 100 rovers starting at once on two cores turn into a wait of many seconds.
+Forked from a warm server, a rover starts with those modules in memory (shared copy-on-write) and only opens its
+own Zenoh session. It is still its own OS process, with its own session, liveliness token, log, exit code and command
 line (``python -m rover_agent --id 3 ...`` in ps), killed and reaped like any other. The server holds no Zenoh
 session and no thread, so forking it is safe; it is the standard library's (``multiprocessing``'s
 ``forkserver``), started once per launcher.

@@ -36,6 +36,7 @@ from schemas.messages import Out
 log = logging.getLogger("lunarsim.bridge")
 
 T = TypeVar("T")
+M = TypeVar("M", bound=m.Message)
 
 GYROSCOPE_PERIOD_S = 1 / 20
 PERCEPTION_PERIOD_S = 1 / 5
@@ -153,7 +154,10 @@ class Bridge:
         except DriverError as exc:
             self._driver_failed("photo", exc)
             return [self._reject("photo", "blocked", f"no photo: {exc}")]
-        return [(self.key(ks.PHOTO), m.Photo(stamp=self.clock.now(), label=msg.label, png=png))]
+        photo = self._checked("photo", lambda: m.Photo(stamp=self.clock.now(), label=msg.label, png=png))
+        if photo is None:
+            return [self._reject("photo", "blocked", "the driver's photo is not a PNG the interface allows")]
+        return [(self.key(ks.PHOTO), photo)]
 
     def _on_comm_out(self, msg: m.OutboundComm) -> list[Out]:
         if msg.channel != "comm_in":
@@ -195,7 +199,8 @@ class Bridge:
             out += self._radio_in()
         if "partners" in self.periodic.due and self.periodic.take("partners", now) and running:
             ids = self._call("radio partners", self.driver.radio.partners)
-            out += [] if ids is None else [(self.key(ks.COMM_PARTNERS), m.CommPartners(ids=ids))]
+            partners = None if ids is None else self._checked("radio partners", lambda: m.CommPartners(ids=ids))
+            out += [] if partners is None else [(self.key(ks.COMM_PARTNERS), partners)]
         if "clock" in self.periodic.due and self.periodic.take("clock", now):
             out.append((self.keys.clock, self.clock.next_tick()))
         return out
@@ -217,28 +222,29 @@ class Bridge:
         imu = self._call("gyroscope", self.driver.imu)
         if imu is None or not self._fresh("gyroscope", imu.stamp):
             return []
+        msg = self._checked("gyroscope", lambda: m.Gyroscope(stamp=self.clock.now(), pitch_deg=imu.pitch_deg))
+        if msg is None:
+            return []
         self.pitch = imu.pitch_deg
-        return [(self.key(ks.GYROSCOPE), m.Gyroscope(stamp=self.clock.now(), pitch_deg=imu.pitch_deg))]
+        return [(self.key(ks.GYROSCOPE), msg)]
 
     def _perception(self) -> list[Out]:
         scan = self._call("perception", self.driver.perception)
         if scan is None or not self._fresh("perception", scan.stamp):
             return []
-        try:
-            msg = m.Perception(stamp=self.clock.now(), angles_deg=[h.angle_deg for h in scan.hits],
-                               distances_m=[h.distance_m for h in scan.hits], kinds=[h.kind for h in scan.hits])
-        except ValueError as exc:  # pydantic's ValidationError: a kind or number the interface does not allow
-            self._driver_failed("perception", DriverError(f"invalid scan: {exc}"))
-            return []
-        return [(self.key(ks.PERCEPTION), msg)]
+        msg = self._checked("perception", lambda: m.Perception(
+            stamp=self.clock.now(), angles_deg=[h.angle_deg for h in scan.hits],
+            distances_m=[h.distance_m for h in scan.hits], kinds=[h.kind for h in scan.hits]))
+        return [] if msg is None else [(self.key(ks.PERCEPTION), msg)]
 
     def _telemetry(self) -> list[Out]:
         odo = self._call("odometry", self.driver.odometry)
         if odo is None or not self._fresh("odometry", odo.stamp):
             return []
-        return [(self.key(ks.TELEMETRY), m.Telemetry(stamp=self.clock.now(), x=odo.x, z=odo.z,
-                                                      heading_deg=odo.heading_deg, pitch_deg=self.pitch,
-                                                      moving=odo.moving))]
+        msg = self._checked("odometry", lambda: m.Telemetry(stamp=self.clock.now(), x=odo.x, z=odo.z,
+                                                            heading_deg=odo.heading_deg, pitch_deg=self.pitch,
+                                                            moving=odo.moving))
+        return [] if msg is None else [(self.key(ks.TELEMETRY), msg)]
 
     def _radio_in(self) -> list[Out]:
         received = self._call("radio receive", self.driver.radio.receive) or []
@@ -246,9 +252,9 @@ class Bridge:
 
     def _delivery(self, t: Transmission) -> list[Out]:
         """Where the world would deliver a transmission: comm_in as InboundComm, the lander's channels as is."""
-        if t.channel == "comm_in":
-            return [(self.key(ks.COMM_IN), m.InboundComm(sender=t.sender, payload=t.payload))]
         try:
+            if t.channel == "comm_in":
+                return [(self.key(ks.COMM_IN), codec.checked(m.InboundComm(sender=t.sender, payload=t.payload)))]
             if t.sender != ks.LANDER_ID:
                 raise ValueError(f"rover {t.sender} may not send on channel {t.channel!r}")
             return [(self.key(t.channel), codec.decode(m.RADIO_CHANNEL_MODELS[t.channel], t.payload))]
@@ -307,6 +313,16 @@ class Bridge:
             return fn()
         except DriverError as exc:
             self._driver_failed(what, exc)
+            return None
+
+    def _checked(self, what: str, build: Callable[[], M]) -> M | None:
+        """The message ``build`` makes of the driver's values, checked as a receiver would (a Struct does not check
+        its bounds when built): a kind or number the interface does not allow is the driver's failure, not a
+        sample."""
+        try:
+            return codec.checked(build())
+        except ValueError as exc:  # codec.DecodeError, or a message's own cross-field rule
+            self._driver_failed(what, DriverError(f"invalid {what}: {exc}"))
             return None
 
     def _driver_failed(self, what: str, exc: Exception) -> None:

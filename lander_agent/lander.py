@@ -10,6 +10,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import msgspec
+
 from bus.rejections import Rejections
 from lander_agent.archive import PhotoArchive
 from lander_agent.mapping import TraverseMap
@@ -64,8 +66,8 @@ class Lander:
     def broadcast(self, now: float) -> list[Out]:
         out = [self._transmit([rid], cal, "calibration") for rid, cal in self.plan.calibration.items()]
         out += [self._transmit(rids, d, "mission_direction") for d, rids in self.plan.directions().items()]
-        status = self.plan.status(now, self.partners).model_copy(update={"rejected": self.rejected.reported,
-                                                                           "map_lost": self.map_lost})
+        status = msgspec.structs.replace(self.plan.status(now, self.partners), rejected=self.rejected.reported,
+                                         map_lost=self.map_lost)
         out.append((self.keys.lander(ks.STATUS), status))
         return out
 

@@ -1,8 +1,9 @@
 """ROS 2 messages into LunarSim: what a ROS node may ask of a rover or of the ground, as LunarSim's messages.
 
 Pure: a decoded ROS dict in, LunarSim messages out, or ``ValueError`` saying why it is refused (a frame other than
-the one the topic takes, a value outside the message model's bounds, a non-finite number). Action ids are the
-caller's (``ros2_bridge.translator``): the world matches each action's answers to its id.
+the one the topic takes, a value outside the message model's bounds, a non-finite number). Each message is built
+from a ROS node's values, so each goes through ``codec.checked`` (a Struct checks nothing when built). Action ids
+are the caller's (``ros2_bridge.translator``): the world matches each action's answers to its id.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ros2_bridge import frames as fr
+from schemas import codec
 from schemas import messages as m
 from schemas.frames import wrap_deg
 
@@ -59,7 +61,7 @@ def move_goal(fields: Fields, rover_id: int) -> Goal:
             raise ValueError("a goal at the rover's own place with no orientation asks for nothing")
         return Goal(None, _check_turn(-wanted))
     rel_x, rel_z = fr.base_link_to_relative(x, y)
-    m.MoveAction(x=rel_x, z=rel_z)  # the model's bounds, refused here rather than by the world
+    codec.checked(m.MoveAction(x=rel_x, z=rel_z))  # the model's bounds, refused here rather than by the world
     turn = None
     if wanted is not None:
         after = wrap_deg(-(wanted - math.degrees(math.atan2(y, x))))
@@ -68,21 +70,22 @@ def move_goal(fields: Fields, rover_id: int) -> Goal:
 
 
 def _check_turn(degrees: float) -> float:
-    return m.RotateAction(degrees=wrap_deg(degrees)).degrees
+    return codec.checked(m.RotateAction(degrees=wrap_deg(degrees))).degrees
 
 
 def speed(fields: Fields) -> m.SpeedAction:
     """``std_msgs/UInt8``: the speed level, 1 to 3."""
-    return m.SpeedAction(level=int(fields["data"]))
+    return codec.checked(m.SpeedAction(level=int(fields["data"])))
 
 
 def photo_request(fields: Fields) -> m.PhotoAction:
     """``std_msgs/String``: the photo's label (printable, at most ``MAX_LABEL`` characters)."""
-    return m.PhotoAction(label=fields["data"])
+    return codec.checked(m.PhotoAction(label=fields["data"]))
 
 
 def ground_goal(fields: Fields) -> m.GroundCommand:
     """``PointStamped`` in ``map``: the ground's new target for every rover (``set_target``, a waypoint)."""
     _frame(fields, fr.MAP_FRAME)
     x, y = _finite(fields["point"]["x"], fields["point"]["y"])
-    return m.GroundCommand(request_id=f"ros2-{uuid.uuid4().hex[:12]}", command="set_target", x=x, z=y)
+    return codec.checked(m.GroundCommand(request_id=f"ros2-{uuid.uuid4().hex[:12]}", command="set_target", x=x,
+                                         z=y))

@@ -229,7 +229,7 @@ class Translator:
         if spec is tp.STATE:
             if rid not in self.driven:
                 raise ValueError(f"rover {rid} is not driven from ROS 2 (--drive): its agent says its state")
-            side.state = m.RoverStatus(stamp=0, state=fields["data"]).state
+            side.state = codec.checked(m.RoverStatus(stamp=0, state=fields["data"])).state
             return [self._status(rid, side)]
         if spec is tp.TAKE_PHOTO:
             label = inbound.photo_request(fields).label

@@ -13,7 +13,7 @@ cannot drift from the contract.
 
 from __future__ import annotations
 
-from typing import get_args
+from typing import get_args, get_type_hints
 
 import numpy as np
 from gymnasium import spaces
@@ -25,9 +25,9 @@ from schemas.params import RoverParams
 
 HEARD_TOPICS = (ks.CLOCK, *SUBSCRIBED_TOPICS)
 """Every topic the world sends a rover, and the clock."""
-NAV_ACTIONS = get_args(m.NavigationStatus.model_fields["action"].annotation)
-NAV_OUTCOMES = get_args(m.NavigationStatus.model_fields["outcome"].annotation)
-REJECT_REASONS = get_args(m.ActionRejected.model_fields["reason"].annotation)
+NAV_ACTIONS = get_args(get_type_hints(m.NavigationStatus)["action"])
+NAV_OUTCOMES = get_args(get_type_hints(m.NavigationStatus)["outcome"])
+REJECT_REASONS = get_args(get_type_hints(m.ActionRejected)["reason"])
 DIRECTION_KINDS = get_args(m.DirectionKind)
 COMMANDS = ("none", "move", "rotate", "cancel", "photo")
 GOAL_REPORTS = ("none", "reached", "stuck")

@@ -17,6 +17,8 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing.connection import Connection
 
+import msgspec
+
 from rover_env.env import LunarSimEnv
 from rover_env.policy import Policy, run_episode
 
@@ -52,7 +54,7 @@ class _Worker:
         observations, rewards, terminations, truncations, infos = self.env.step(actions)
         if self.env.agents:
             return observations, rewards, terminations, truncations, infos
-        ended = {"seed": self.seed, "report": self.env.report().model_dump()}
+        ended = {"seed": self.seed, "report": msgspec.to_builtins(self.env.report())}
         self.seed += self.stride
         observations, reset_infos = self.reset()
         return observations, rewards, terminations, truncations, {**reset_infos, EPISODE: ended}
@@ -121,4 +123,4 @@ def evaluate(make_env: Callable[[], LunarSimEnv], make_policy: Callable[[], Poli
 def _episode(make_env: Callable[[], LunarSimEnv], make_policy: Callable[[], Policy], seed: int) -> dict:
     env = make_env()
     report, returns = run_episode(env, make_policy(), seed)
-    return {"seed": seed, "report": report.model_dump(), "returns": returns, "rounds": env.cycles}
+    return {"seed": seed, "report": msgspec.to_builtins(report), "returns": returns, "rounds": env.cycles}

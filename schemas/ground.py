@@ -3,16 +3,16 @@ their answers. Part of the wire contract; every payload is ``schemas.messages.X`
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from msgspec import Meta, field
 
 from schemas.base import GoalKind, Message
-from schemas.scenario_limits import Coordinate
 from schemas.wire_limits import (
     MAX_CELL_M,
     MAX_MAP_BYTES,
     MAX_TARGETS,
+    Coordinate,
     Count,
     GoalIndex,
     Label,
@@ -24,19 +24,20 @@ from schemas.wire_limits import (
 )
 
 
-class LanderStatus(Message):
+class LanderStatus(Message, kw_only=True):
     stamp: Seconds
     phase: Literal["dispatch", "calibration", "migration", "observation", "complete"]
-    rover_goals: dict[RoverId, GoalIndex] = Field(default_factory=dict, max_length=MAX_TARGETS,
-                                                  description="rover id -> goal index")
-    connected: RoverIds = Field(default_factory=list)
-    relay_chain: RoverIds = Field(default_factory=list)
-    rejected: Count = Field(0, description="samples the lander has rejected since it started")
-    map_lost: bool = Field(False, description="the lander joined this run under way without a saved state of it: "
-                           "its plan and traverse map began again")
+    rover_goals: Annotated[dict[RoverId, GoalIndex], Meta(max_length=MAX_TARGETS,
+                                                          description="rover id -> goal index")] = field(
+        default_factory=dict)
+    connected: RoverIds = field(default_factory=list)
+    relay_chain: RoverIds = field(default_factory=list)
+    rejected: Annotated[Count, Meta(description="samples the lander has rejected since it started")] = 0
+    map_lost: Annotated[bool, Meta(description="the lander joined this run under way without a saved state of it: "
+                                   "its plan and traverse map began again")] = False
 
 
-class LanderMap(Message):
+class LanderMap(Message, kw_only=True):
     """The lander's traverse map (``lander_agent.mapping``): one class code per cell, for viewers and the recorder.
 
     Cell (row j, column i) covers [origin_x + i * cell_m, + cell_m) x [origin_z + j * cell_m, + cell_m), in map
@@ -45,19 +46,17 @@ class LanderMap(Message):
     """
 
     stamp: Seconds
-    cell_m: float = Field(gt=0, le=MAX_CELL_M)
+    cell_m: Annotated[float, Meta(gt=0, le=MAX_CELL_M)]
     origin_x: Coordinate
     origin_z: Coordinate
-    width: int = Field(ge=1, le=MAX_MAP_BYTES)
-    height: int = Field(ge=1, le=MAX_MAP_BYTES)
-    classes: list[Label] = Field(max_length=256)
-    cells: bytes = Field(max_length=MAX_MAP_BYTES)
+    width: Annotated[int, Meta(ge=1, le=MAX_MAP_BYTES)]
+    height: Annotated[int, Meta(ge=1, le=MAX_MAP_BYTES)]
+    classes: Annotated[list[Label], Meta(max_length=256)]
+    cells: Annotated[bytes, Meta(max_length=MAX_MAP_BYTES)]
 
-    @model_validator(mode="after")
-    def _bounded_grid(self) -> LanderMap:
+    def __post_init__(self) -> None:
         if self.width * self.height > MAX_MAP_BYTES:
             raise ValueError(f"a {self.width} x {self.height} grid is more than {MAX_MAP_BYTES:,} cells")
-        return self
 
 
 MISSION_COMMANDS = ("set_target", "stop", "return")
@@ -68,7 +67,7 @@ PLAYBACK_COMMANDS = ("pause", "resume", "step", "seek")
 """Carried out by a replay: ``step`` publishes the next sample, ``seek`` jumps to ``seconds`` in."""
 
 
-class GroundCommand(Message):
+class GroundCommand(Message, kw_only=True):
     """From the ground station. Mission commands go to the lander; targets are in map (scenario) coordinates.
 
     Each process carries out the commands that are its own and ignores the rest.
@@ -76,14 +75,14 @@ class GroundCommand(Message):
 
     request_id: Label = ""
     command: Literal["set_target", "stop", "return", "snapshot", "pause", "resume", "step", "seek"]
-    rover_id: RoverId | None = Field(None, description="None: every rover (set_target only)")
-    x: Coordinate | None = Field(None, description="set_target: the target in map coordinates, m")
+    rover_id: Annotated[RoverId | None, Meta(description="None: every rover (set_target only)")] = None
+    x: Annotated[Coordinate | None, Meta(description="set_target: the target in map coordinates, m")] = None
     z: Coordinate | None = None
     kind: GoalKind = "waypoint"
-    seconds: Stamp | None = Field(None, description="seek: seconds from the start of the recording")
+    seconds: Annotated[Stamp | None, Meta(description="seek: seconds from the start of the recording")] = None
 
 
-class CommandResult(Message):
+class CommandResult(Message, kw_only=True):
     request_id: Label
     accepted: bool
     detail: Text = ""

@@ -8,14 +8,13 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import Literal
+from typing import Annotated, Literal
 
-import msgpack
-from pydantic import Field, model_validator
+import msgspec
+from msgspec import Meta
 
 from schemas import codec
 from schemas.messages import Message
-from schemas.scenario_limits import Coordinate
 from schemas.wire_limits import (
     COV_ROUNDING_M2,
     MAX_ACKED_SEQS,
@@ -24,6 +23,7 @@ from schemas.wire_limits import (
     MAX_MAP_REPORT_CELLS,
     MAX_PNG_BYTES,
     MAX_VARIANCE_M2,
+    Coordinate,
     Count,
     GoalIndex,
     Label,
@@ -32,37 +32,37 @@ from schemas.wire_limits import (
 )
 
 
-class GoalReport(Message):
+class GoalReport(Message, kw_only=True):
     """A rover tells the lander it finished (or gave up on) a goal, so the lander sends the next one."""
 
     goal_index: GoalIndex
     outcome: Literal["reached", "stuck", "relay"]
-    photos_pending: Count = Field(0, description="its crater photos not yet acknowledged: a daisy chain "
-                                "stands until they are in")
+    photos_pending: Annotated[Count, Meta(description="its crater photos not yet acknowledged: a daisy chain "
+                                          "stands until they are in")] = 0
 
 
-class PhotoReport(Message):
+class PhotoReport(Message, kw_only=True):
     """A crater photo on its way to the lander; the rover holds it until a PhotoAck comes back."""
 
     goal_index: GoalIndex
     label: Label
     stamp: Seconds
-    png: bytes = Field(max_length=MAX_PNG_BYTES)
+    png: Annotated[bytes, Meta(max_length=MAX_PNG_BYTES)]
 
 
-class PhotoAck(Message):
+class PhotoAck(Message, kw_only=True):
     """The lander archived these photos (by label): the rover may forget them."""
 
-    labels: list[Label] = Field(max_length=MAX_LABELS)
+    labels: Annotated[list[Label], Meta(max_length=MAX_LABELS)]
 
 
-class CraterFound(Message):
+class CraterFound(Message, kw_only=True):
     """Told to the rovers in range when a rover stands on the rim of the crater of a goal (report 6.4)."""
 
     goal_index: GoalIndex
 
 
-class MapReport(Message):
+class MapReport(Message, kw_only=True):
     """Map cells a rover perceived, in the lander's frame (lander at the origin, the map's axes), for the
     lander's traverse map (``lander_agent.mapping``). The rover holds it until a MapAck names its ``seq``.
 
@@ -72,19 +72,17 @@ class MapReport(Message):
     """
 
     seq: Count
-    cell_m: float = Field(gt=0, le=MAX_CELL_M)
+    cell_m: Annotated[float, Meta(gt=0, le=MAX_CELL_M)]
     x: Coordinate
     z: Coordinate
-    cells: bytes = Field(max_length=4 * MAX_MAP_REPORT_CELLS)
-    kinds: bytes = Field(max_length=MAX_MAP_REPORT_CELLS)
+    cells: Annotated[bytes, Meta(max_length=4 * MAX_MAP_REPORT_CELLS)]
+    kinds: Annotated[bytes, Meta(max_length=MAX_MAP_REPORT_CELLS)]
 
-    @model_validator(mode="after")
-    def _one_kind_per_cell(self) -> MapReport:
+    def __post_init__(self) -> None:
         if len(self.cells) != 4 * len(self.kinds):
             raise ValueError(f"cells holds {len(self.cells)} bytes for {len(self.kinds)} kinds (4 bytes a cell)")
         if any(k >= len(MAP_KINDS) for k in self.kinds):
             raise ValueError(f"kinds: a code outside 0..{len(MAP_KINDS) - 1}")
-        return self
 
     @classmethod
     def build(cls, seq: int, cell_m: float, x: float, z: float, cells: list[tuple[int, int, int]]) -> MapReport:
@@ -104,13 +102,13 @@ MAP_KINDS = ("free", "obstacle", "crater")
 the lander), or crater terrain (crater ground or ground too steep to climb)."""
 
 
-class MapAck(Message):
+class MapAck(Message, kw_only=True):
     """The lander folded these map reports (by ``seq``) into its map: the rover may forget them."""
 
-    seqs: list[Count] = Field(max_length=MAX_ACKED_SEQS)
+    seqs: Annotated[list[Count], Meta(max_length=MAX_ACKED_SEQS)]
 
 
-class StationRequest(Message):
+class StationRequest(Message, kw_only=True):
     """A rover near a waypoint or crater its team shares asks the lander for its station there (need N7).
 
     Stations go out in the order rovers ask, each on the asking rover's side: at a waypoint from the inside of
@@ -126,7 +124,7 @@ class StationRequest(Message):
 
 
 
-class PoseEstimate(Message):
+class PoseEstimate(Message, kw_only=True):
     """A rover's estimate of its own place, for the rovers in range that may see it (report 7.2.2: rovers exchange
     position estimates). Lander frame; ``cov_*``: its covariance, square metres; ``stamp``: when it held (simulated
     seconds); ``moving``: the rover was walking then, or may have set off since, so it may be elsewhere by now
@@ -135,23 +133,21 @@ class PoseEstimate(Message):
     stamp: Stamp
     x: Coordinate
     z: Coordinate
-    cov_xx: float = Field(ge=0, le=MAX_VARIANCE_M2)
-    cov_xz: float = Field(ge=-MAX_VARIANCE_M2, le=MAX_VARIANCE_M2)
-    cov_zz: float = Field(ge=0, le=MAX_VARIANCE_M2)
+    cov_xx: Annotated[float, Meta(ge=0, le=MAX_VARIANCE_M2)]
+    cov_xz: Annotated[float, Meta(ge=-MAX_VARIANCE_M2, le=MAX_VARIANCE_M2)]
+    cov_zz: Annotated[float, Meta(ge=0, le=MAX_VARIANCE_M2)]
     moving: bool = False
 
-    @model_validator(mode="after")
-    def _a_covariance(self) -> PoseEstimate:
+    def __post_init__(self) -> None:
         """Positive semi-definite, give or take the sender's rounding of each entry: a receiver fuses it as the
         noise of a sighting, and one that is not a covariance turns the receiver's own variances negative."""
         bound = math.sqrt((self.cov_xx + COV_ROUNDING_M2) * (self.cov_zz + COV_ROUNDING_M2)) + COV_ROUNDING_M2
         if abs(self.cov_xz) > bound:
             raise ValueError(f"cov_xz {self.cov_xz} makes no covariance with cov_xx {self.cov_xx} and cov_zz "
                              f"{self.cov_zz}")
-        return self
 
 
-class StopCommand(Message):
+class StopCommand(Message, kw_only=True):
     """The lander tells a rover to stop where it is until it is given a new goal (need N6)."""
 
 
@@ -163,13 +159,13 @@ _TAGS = {model: tag for tag, model in RADIO_TYPES.items()}
 
 
 def pack(message: Message) -> bytes:
-    return msgpack.packb([_TAGS[type(message)], codec.encode(message)], use_bin_type=True)
+    return msgspec.msgpack.encode((_TAGS[type(message)], codec.encode(message)))
 
 
 def unpack(payload: bytes) -> Message:
     try:
-        tag, body = msgpack.unpackb(payload, raw=False)
-    except Exception as exc:
+        tag, body = msgspec.msgpack.decode(payload)
+    except Exception as exc:  # not msgpack, or not a pair
         raise codec.DecodeError(f"radio payload: not a [tag, body] pair ({type(exc).__name__})") from None
     model = RADIO_TYPES.get(tag) if isinstance(tag, str) else None
     if model is None or not isinstance(body, bytes):

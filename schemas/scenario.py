@@ -11,6 +11,7 @@ import math
 from pathlib import Path
 from typing import Annotated, Literal, TypeVar
 
+import msgspec
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
 
@@ -18,9 +19,11 @@ from schemas import scenario_limits as limits
 from schemas.params import RoverParams, SpawnParams
 from schemas.scenario_errors import ScenarioError, error_lines, format_error
 from schemas.scenario_files import check_mesh, read_yaml
-from schemas.scenario_limits import BehaviourSpec, Coordinate, SafeName, clip
+from schemas.scenario_limits import clip
+from schemas.scenario_types import BehaviourSpec, Coordinate, SafeName, mirror, struct_field, to_struct
 
 M = TypeVar("M", bound=BaseModel)
+S = TypeVar("S", bound=msgspec.Struct)
 Side = Annotated[float, Field(gt=0, le=limits.MAX_TERRAIN_SIDE_M)]
 
 
@@ -217,8 +220,8 @@ class Scenario(Spec):
     craters: list[Crater] = Field(default_factory=list, max_length=limits.MAX_CRATERS)
     obstacles: Obstacles = Obstacles()
     mission: list[Goal] = Field(min_length=1, max_length=limits.MAX_GOALS)
-    rover_params: RoverParams = RoverParams()
-    spawn: SpawnParams | None = Field(None, description="Table 3; used by --rovers N")
+    rover_params: struct_field(RoverParams) = RoverParams()
+    spawn: struct_field(SpawnParams) | None = Field(None, description="Table 3; used by --rovers N")
     formation: Formation = Formation()
     behaviour: BehaviourSpec = Field("default", description="default, straight, an installed plugin's name or "
                                       "package.module:Class (importable from the folder lunarsim runs in)")
@@ -374,7 +377,7 @@ def load_rover_params(path: str | Path | None) -> RoverParams:
     data = read_yaml(path, "rover parameters") or {}
     if isinstance(data, dict) and ("rover_params" in data or "mission" in data):
         data = data.get("rover_params") or {}
-    return _validated(RoverParams, data, path)
+    return _validated_struct(RoverParams, data, path)
 
 
 def _validated(model: type[M], data: object, path: str | Path) -> M:
@@ -382,3 +385,8 @@ def _validated(model: type[M], data: object, path: str | Path) -> M:
         return model.model_validate(data)
     except ValidationError as exc:
         raise ScenarioError(format_error(str(path), exc, model)) from None
+
+
+def _validated_struct(struct: type[S], data: object, path: str | Path) -> S:
+    """A Struct from a user's file, validated by its mirror (``schemas.scenario_types``): the loader's messages."""
+    return to_struct(struct, _validated(mirror(struct), data, path))

@@ -10,10 +10,12 @@ import difflib
 import types
 import typing
 
+import msgspec
 from pydantic import BaseModel, ValidationError
 
 from schemas.errors import EXIT_USAGE, LunarSimError
 from schemas.scenario_limits import clip
+from schemas.scenario_types import mirror
 
 LINE_CHARS = 1000
 """Longest problem line: a message that repeats values it did not clip is cut here all the same."""
@@ -99,7 +101,10 @@ def fields_at(model: type[BaseModel], loc: tuple) -> set[str]:
 
 
 def _models(annotation: object) -> set[type[BaseModel]]:
-    """The pydantic models an annotation holds, through Optional, unions, lists, tuples and Annotated."""
+    """The pydantic models an annotation holds, through Optional, unions, lists, tuples and Annotated; a msgspec
+    Struct (a scenario's ``rover_params``) as its mirror, which has its fields."""
+    if isinstance(annotation, type) and issubclass(annotation, msgspec.Struct):
+        return {mirror(annotation)}
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return {annotation}
     if typing.get_origin(annotation) is None and not isinstance(annotation, types.UnionType):

@@ -2,16 +2,14 @@
 found later as a process killed for memory, a world that never ticks, or a run folder written outside ``runs/``.
 
 The bounds are generous, not physical: each one only rules out values no mission on this simulator could use.
-Kept free of the scenario models so ``schemas.params`` can use them too.
+Kept free of the scenario models and of pydantic so ``schemas.params`` and the wire limits can use them too; the
+pydantic types built on them are in ``schemas.scenario_types``.
 """
 
 from __future__ import annotations
 
 import math
 import re
-from typing import Annotated
-
-from pydantic import AfterValidator, Field
 
 MAX_ROVERS = 1000
 """Rovers in one scenario (``rovers``, ``--rovers``, ``spawn.rover_count``): each is an OS process's worth of
@@ -87,9 +85,6 @@ MAP_MARGIN_M = 30.0
 MAP_BYTES_PER_CELL = 8
 """A traverse-map cell: the lander's five seen-as flags and its class, the world's truth masks when scoring."""
 
-Rate = Annotated[float, Field(gt=0, le=MAX_RATE_HZ)]
-Coordinate = Annotated[float, Field(ge=-COORDINATE_LIMIT_M, le=COORDINATE_LIMIT_M)]
-
 _SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,80}")
 
 
@@ -99,15 +94,13 @@ def clip(text: str, limit: int = MAX_ECHO_CHARS) -> str:
     return text if len(text) <= limit else text[:limit] + "..."
 
 
-def _safe_name(name: str) -> str:
+def safe_name(name: str) -> str:
     """The name becomes a run folder (``runs/<name>-<time>``) and a file stem, so it may hold no path."""
     if not _SAFE_NAME.fullmatch(name) or ".." in name:
         raise ValueError(f"{clip(repr(name))} is not a safe name: use letters, digits, '_', '-' or '.' (no '..', "
                          "no folders), starting with a letter or digit, at most 81 characters")
     return name
 
-
-SafeName = Annotated[str, AfterValidator(_safe_name)]
 
 _PLUGIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 
@@ -124,9 +117,6 @@ def behaviour_spec(spec: str) -> str:
         raise ValueError(f"{clip(repr(spec))} is not a behaviour: give a name (default, straight, an installed "
                          "plugin) or 'package.module:Class'")
     return spec
-
-
-BehaviourSpec = Annotated[str, AfterValidator(behaviour_spec)]
 
 
 def mesh_suffix(path: str) -> str:

@@ -5,16 +5,20 @@ well-formed value must still fit what the receiver does with it: an integer the 
 every rover, a label that can be logged and shown, bytes that fit in memory a thousand rovers over. A value out of
 these bounds fails the message model's validation, and the receiver counts it as any other rejected sample.
 
+The bounds are msgspec ``Meta`` annotations, what the wire models (msgspec Structs) check on decoding; the pydantic
+scenario models that hold a wire type take it through ``schemas.scenario_types``, which reads the same ``Meta``.
+
 Bounds are generous, not physical, as in ``schemas.scenario_limits``: each only rules out what no mission uses.
 """
 
 from __future__ import annotations
 
+import sys
 from typing import Annotated
 
-from pydantic import Field
+from msgspec import Meta
 
-from schemas.scenario_limits import COORDINATE_LIMIT_M, MAX_ROVERS
+from schemas.scenario_limits import COORDINATE_LIMIT_M, MAX_RATE_HZ, MAX_ROVERS
 
 COUNT_LIMIT = 2**31 - 1
 """A counter a process reports (samples rejected, photos pending): summed over every rover and the lander, the total
@@ -75,24 +79,43 @@ long mission's rotations to add up without the estimate failing to travel."""
 _NO_CONTROL = r"^[^\x00-\x1f\x7f]*$"
 """Printable text: no newline, escape or other control character that would forge a log line or a table row."""
 
-Count = Annotated[int, Field(ge=0, le=COUNT_LIMIT)]
-Tally = Annotated[int, Field(ge=0, lt=2**63)]
+Count = Annotated[int, Meta(ge=0, le=COUNT_LIMIT)]
+Tally = Annotated[int, Meta(ge=0, le=2**63 - 1)]
 """A sum of counts (the world's counters over every rover): what int64 holds."""
-GoalIndex = Annotated[int, Field(ge=0, lt=INDEX_LIMIT)]
-GoalCount = Annotated[int, Field(ge=1, le=INDEX_LIMIT)]
-RoverId = Annotated[int, Field(ge=0, le=MAX_ID)]
-ActionId = Annotated[int, Field(ge=0, lt=ACTION_ID_LIMIT)]
-Tick = Annotated[int, Field(ge=0, lt=2**63)]
-Seconds = Annotated[float, Field(ge=-SECONDS_LIMIT, le=SECONDS_LIMIT)]
-Stamp = Annotated[float, Field(ge=0, le=SECONDS_LIMIT)]
-"""Simulated time since the start. (A bound given again in a field's own ``Field`` does not narrow an annotated
-type's: pydantic keeps the type's, so each bound a field needs is a type of its own here.)"""
-Degrees = Annotated[float, Field(ge=-ANGLE_LIMIT_DEG, le=ANGLE_LIMIT_DEG)]
-Metres = Annotated[float, Field(ge=-DISTANCE_LIMIT_M, le=DISTANCE_LIMIT_M)]
-Distance = Annotated[float, Field(ge=0, le=DISTANCE_LIMIT_M)]
-Text = Annotated[str, Field(max_length=MAX_TEXT, pattern=_NO_CONTROL)]
-Label = Annotated[str, Field(max_length=MAX_LABEL, pattern=_NO_CONTROL)]
-RoverIds = Annotated[list[RoverId], Field(max_length=MAX_TARGETS)]
+GoalIndex = Annotated[int, Meta(ge=0, lt=INDEX_LIMIT)]
+GoalCount = Annotated[int, Meta(ge=1, le=INDEX_LIMIT)]
+RoverId = Annotated[int, Meta(ge=0, le=MAX_ID)]
+ActionId = Annotated[int, Meta(ge=0, le=ACTION_ID_LIMIT - 1)]
+Tick = Annotated[int, Meta(ge=0, le=2**63 - 1)]
+Seconds = Annotated[float, Meta(ge=-SECONDS_LIMIT, le=SECONDS_LIMIT)]
+Stamp = Annotated[float, Meta(ge=0, le=SECONDS_LIMIT)]
+"""Simulated time since the start."""
+Degrees = Annotated[float, Meta(ge=-ANGLE_LIMIT_DEG, le=ANGLE_LIMIT_DEG)]
+Metres = Annotated[float, Meta(ge=-DISTANCE_LIMIT_M, le=DISTANCE_LIMIT_M)]
+Distance = Annotated[float, Meta(ge=0, le=DISTANCE_LIMIT_M)]
+Text = Annotated[str, Meta(max_length=MAX_TEXT, pattern=_NO_CONTROL)]
+Label = Annotated[str, Meta(max_length=MAX_LABEL, pattern=_NO_CONTROL)]
+RoverIds = Annotated[list[RoverId], Meta(max_length=MAX_TARGETS)]
+Coordinate = Annotated[float, Meta(ge=-COORDINATE_LIMIT_M, le=COORDINATE_LIMIT_M)]
+"""A position in the lander's or the map's frame, m."""
+Rate = Annotated[float, Meta(gt=0, le=MAX_RATE_HZ)]
+"""A sensor or status rate, Hz."""
+FLOAT_MAX = sys.float_info.max
+
+
+def finite(**meta: object) -> Meta:
+    """A float's ``Meta`` with both sides bounded: msgspec has no switch for nan and inf, but a nan fails every
+    bound and an inf a side bounded by ``FLOAT_MAX``, so a side the field leaves open gets that bound.
+    ``schemas.scenario_types`` reads ``FLOAT_MAX`` as pydantic's ``allow_inf_nan=False``."""
+    if "ge" not in meta and "gt" not in meta:
+        meta["ge"] = -FLOAT_MAX
+    if "le" not in meta and "lt" not in meta:
+        meta["le"] = FLOAT_MAX
+    return Meta(**meta)  # type: ignore[arg-type]
+
+
+Finite = Annotated[float, finite()]
+"""A float with no bound of its own: any finite value (a nan compares false with every check a receiver makes)."""
 
 
 def saturate(count: int) -> int:

@@ -2,7 +2,7 @@
 
 What a recording holds, so any MCAP tool can read it without our code:
 - one channel per key expression (the channel's topic is the key), message encoding ``msgpack``;
-- each channel's schema, encoding ``jsonschema``: the pydantic model's JSON Schema wrapped in our
+- each channel's schema, encoding ``jsonschema``: the message model's JSON Schema (msgspec's) wrapped in our
   codec's envelope ``[schema_version, {fields}]``; keys that carry no LunarSim message get none;
 - per message, ``log_time`` = when the recorder received it and ``publish_time`` = the publisher's
   Zenoh timestamp (the receive time where a publisher sent none), both in Unix nanoseconds;
@@ -23,6 +23,8 @@ from dataclasses import dataclass
 from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
+
+import msgspec
 
 from bus.errors import UsageError
 from schemas import codec
@@ -57,15 +59,19 @@ class Sample:
 
 
 def schema_for(model: type[Message]) -> bytes:
-    """JSON Schema of a payload as it travels: the codec's ``[version, fields]`` envelope around the model."""
+    """JSON Schema of a payload as it travels: the codec's ``[version, fields]`` envelope around the model, the
+    models it refers to under ``$defs``."""
+    _, defs = msgspec.json.schema_components([model], ref_template="#/$defs/{name}")
+    fields = defs.pop(model.__name__)
     schema = {
         "title": model.__name__,
         "description": (model.__doc__ or "").strip().splitlines()[0] if model.__doc__ else model.__name__,
         "type": "array",
         "prefixItems": [{"const": codec.SCHEMA_VERSION, "description": "schema version"},
-                        model.model_json_schema()],
+                        fields],
         "minItems": 2,
         "maxItems": 2,
+        **({"$defs": defs} if defs else {}),
     }
     return json.dumps(schema, separators=(",", ":")).encode()
 
@@ -203,7 +209,7 @@ def escaped(text: str, limit: int = 60) -> str:
 
 
 def decode(sample: Sample) -> Message | None:
-    """The pydantic message of a sample, or None for keys without a model (raises codec.DecodeError)."""
+    """The message of a sample, or None for keys without a model (raises codec.DecodeError)."""
     model = model_for_key(sample.key)
     return codec.decode(model, sample.payload) if model else None
 

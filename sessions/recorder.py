@@ -30,6 +30,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import msgspec
 import zenoh
 
 from bus import process
@@ -209,7 +210,7 @@ def session_metadata(world: str, scenario_file: Path | None) -> dict[str, str]:
         info["scenario"] = scenario_file.read_text(encoding="utf-8")
         info["scenario_name"] = scenario.name
         info["seed"] = str(scenario.seed)
-        info["rover_params"] = json.dumps(scenario.rover_params.model_dump())
+        info["rover_params"] = json.dumps(msgspec.to_builtins(scenario.rover_params))
     return info
 
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Iterable
 
+import msgspec
+
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -54,4 +56,4 @@ def _with_map_figures(report: m.MissionReport, scenario: Scenario, payload: byte
         spec, classes = mapping.from_message(codec.decode(m.LanderMap, payload))
     except (codec.DecodeError, ValueError):
         return report
-    return report.model_copy(update=map_figures(scenario, spec, classes).report_fields())
+    return codec.checked(msgspec.structs.replace(report, **map_figures(scenario, spec, classes).report_fields()))

@@ -13,6 +13,7 @@ import time
 from collections import Counter
 from dataclasses import dataclass, field
 
+import msgspec
 import numpy as np
 
 from lander_agent import mapping
@@ -123,15 +124,15 @@ def state_json(state: m.WorldState) -> dict:
                "to_goal": round(r.distance_to_goal_m, 2), "covered": round(r.distance_covered_m, 2),
                "alive": r.alive, "stale": r.telemetry_stale, **power_json(r)} for r in state.rovers]
     return {"type": "state", "stamp": state.stamp, "rovers": rovers, "links": [list(p) for p in state.comm_links],
-            "relays": state.relays, "counters": state.counters.model_dump(), "completed_at": state.completed_at}
+            "relays": state.relays, "counters": msgspec.to_builtins(state.counters), "completed_at": state.completed_at}
 
 
 def stats_json(stats: m.WorldStats) -> dict:
-    return {"type": "stats", "stamp": stats.stamp, "final": stats.final, "report": stats.report.model_dump()}
+    return {"type": "stats", "stamp": stats.stamp, "final": stats.final, "report": msgspec.to_builtins(stats.report)}
 
 
 def lander_json(status: m.LanderStatus) -> dict:
-    return {"type": "lander", **status.model_dump()}
+    return {"type": "lander", **msgspec.to_builtins(status)}
 
 
 def map_json(msg: m.LanderMap) -> dict:

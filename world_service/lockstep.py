@@ -21,6 +21,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+import msgspec
+
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.messages import Out
@@ -98,7 +100,7 @@ class LockstepTick:
         self.note(samples)
         self.waiting = set(self.plan.ask(self.world.clock.tick, present))
         clock = next(message for key, message in out if key == clock_key)
-        self.clock = clock.model_copy(update={"acks": sorted(self.waiting)}) if self.waiting else None
+        self.clock = msgspec.structs.replace(clock, acks=sorted(self.waiting)) if self.waiting else None
         return samples, self.clock
 
     @property

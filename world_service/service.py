@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import msgspec
+
 from bus import priority, snapshot
 from bus.bus import Bus, Received
 from bus.process import freeze_start_up_heap
@@ -181,7 +183,7 @@ def serve(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading
     declare_io(bus, world.keys, world)
     report = run(world, bus, settings, stop, camera)
     if report_file is not None:
-        report_file.write_text(json.dumps(report.model_dump(), indent=2) + "\n")
+        report_file.write_text(json.dumps(msgspec.to_builtins(report), indent=2) + "\n")
     if lingering:
         linger(world, bus, report, stop)
     return report

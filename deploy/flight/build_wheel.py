@@ -2,10 +2,10 @@
 
 It holds only what runs on the rover: the rover agent, the hardware driver bridge and its drivers, the message
 schemas, and the Zenoh plumbing and pure code (``shared``) they share. No world service, no rendering, no NumPy or
-trimesh: its dependencies are Zenoh, msgpack, pydantic and PyYAML (pyserial with the ``serial`` extra, for the
-reference driver). The modules are the project's own files, staged into a temporary project and built with pip, so
-there is one copy of every line; ``FLIGHT_PACKAGES`` is the whole list, and tests check that nothing in it
-imports anything outside it.
+trimesh: its dependencies are Zenoh and msgspec, and pydantic and PyYAML for a ``--params`` file (pyserial with
+the ``serial`` extra, for the reference driver). The modules are the project's own files, staged into a temporary
+project and built with pip, so there is one copy of every line; ``FLIGHT_PACKAGES`` is the whole list, and tests
+check that nothing in it imports anything outside it.
 
     python -m deploy.flight.build_wheel -o dist/     # from the checkout
     pip install dist/lunarsim_rover-*.whl            # then: lunarsim-rover --id 3 --connect tcp/...:7447
@@ -28,7 +28,7 @@ DIST_NAME = "lunarsim-rover"
 FLIGHT_PACKAGES = ("schemas", "bus", "shared", "rover_agent", "hardware")
 """The packages the rover carries, whole, with their subpackages: the layout keeps ground-side code out of them
 (``tests/project/test_layout.py``)."""
-DEPENDENCIES = ("eclipse-zenoh>=1.10,<2", "msgpack>=1.0", "pydantic>=2.6,<3", "pyyaml>=6")
+DEPENDENCIES = ("eclipse-zenoh>=1.10,<2", "msgspec>=0.19", "pydantic>=2.6,<3", "pyyaml>=6")
 EXTRAS = {"serial": ("pyserial>=3.5",)}
 SCRIPTS = {"lunarsim-rover": "rover_agent.commands.rover:main", "lunarsim-bridge": "hardware.commands.bridge:main"}
 DATA = {"share/lunarsim": ("deploy/zenoh/client.json5",),

@@ -10,6 +10,8 @@ from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import msgspec
+
 from bus import process
 
 if TYPE_CHECKING:
@@ -54,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     for note in _notes(recording, malformed):
         print(f"warning: {note}", flush=True)
     if args.json:
-        args.json.write_text(json.dumps(report.model_dump(), indent=2) + "\n")
+        args.json.write_text(json.dumps(msgspec.to_builtins(report), indent=2) + "\n")
         console.print(f"statistics written to {args.json}")
     if not args.no_plot:
         from sessions.plot import draw_trajectories

@@ -231,6 +231,25 @@ def test_the_bridge_keeps_the_worlds_action_rules(emulator):
         driver.close()
 
 
+def test_the_bridge_counts_readings_the_interface_does_not_allow_as_driver_failures(emulator):
+    """The bridge builds its messages from the driver's values (a Struct checks nothing when built), so it checks
+    each: a nan pitch or an unknown kind of hit is the driver's failure, counted, never a sample sent."""
+    driver = load_driver(f"hardware_faulty:GarbledSensorsDriver?port={emulator.path}")
+    try:
+        bridge = Bridge(driver, Keyspace("unit"), 1, MissionClock(own=True))
+        out: list[m.Message] = []
+
+        def both_failed() -> bool:
+            out.extend(msg for _, msg in bridge.poll())
+            return bridge.errors["gyroscope"] >= 1 and bridge.errors["perception"] >= 1
+
+        wait_for(both_failed, 10, "the bridge to count the garbled gyroscope and perception")
+        assert not any(isinstance(msg, m.Gyroscope | m.Perception) for msg in out)
+        assert any(isinstance(msg, m.Telemetry) for msg in out)  # the rest of the driver still reaches the rover
+    finally:
+        driver.close()
+
+
 # ---- the line protocol ----
 
 

@@ -4,6 +4,7 @@ suite's figures are the product's, not a model of it."""
 
 from __future__ import annotations
 
+import msgspec
 import pytest
 from procs import SCENARIOS, free_port, run_cli_mission
 
@@ -18,7 +19,7 @@ LAUNCHER_ONLY = {"wall_time_s", "map_corridor_mapped", "map_obstacles_found", "m
 
 def _compare(tmp_path, scenario_file, max_sim_time: float) -> dict:
     scenario = load_scenario(scenario_file)
-    in_process = run_mission(scenario, max_sim_time).report().model_dump()
+    in_process = msgspec.to_builtins(run_mission(scenario, max_sim_time).report())
     processes, _ = run_cli_mission(tmp_path / "run", str(scenario_file), "--lockstep", "--quiet", "--no-record",
                                    "--max-sim-time", str(max_sim_time), "--port", str(free_port()))
     for field in LAUNCHER_ONLY:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import re
 from functools import partial
 
+import msgspec
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import data_equivalence
@@ -183,7 +184,7 @@ def test_an_episode_equals_lunarsim_run_lockstep_of_the_same_seed(tmp_path, name
     report, _ = run_episode(env, AgentPolicy(), seed=11)
     processes, _ = run_cli_mission(tmp_path / "run", str(scenario_file), "--lockstep", "--seed", "11", "--quiet",
                                    "--no-record", "--max-sim-time", str(EQUAL_FOR_S), "--port", str(free_port()))
-    in_env = report.model_dump()
+    in_env = msgspec.to_builtins(report)
     for field in LAUNCHER_ONLY:
         in_env.pop(field)
         processes.pop(field)
@@ -225,7 +226,7 @@ def test_many_seeds_in_worker_processes_score_as_one_process_does():
     assert [r["seed"] for r in results] == [3, 4]
     for result in results:
         report, returns = run_episode(make(), AgentPolicy(), seed=result["seed"])
-        assert result["report"] == report.model_dump() and result["returns"] == returns
+        assert result["report"] == msgspec.to_builtins(report) and result["returns"] == returns
 
 
 def test_a_workers_error_reaches_the_caller_named_and_every_worker_is_stopped():

@@ -186,7 +186,7 @@ def test_corrupt_reports_are_counted_and_named_not_a_traceback(sweep, tmp_path):
     collected = json.loads((folder / "batch.json").read_text())
     names = [f"run-002-seed{BASE_SEED + 1}", f"run-003-seed{BASE_SEED + 2}"]
     assert collected["unreadable"] == names and collected["aggregate"]["runs"] == 1
-    assert "report.json unreadable: scenario: Field required (and" in collected["failed"][1]["error"]
+    assert "report.json unreadable: scenario: required field missing" in collected["failed"][1]["error"]
     assert f"2 report(s) unreadable ({', '.join(names)})" in stdout
 
     for path in folder.glob("run-*/report.json"):

@@ -12,6 +12,7 @@ import json
 import math
 import re
 
+import msgspec
 import pytest
 import zenoh
 from procs import SCENARIOS, lunarsim, stop, wait_for
@@ -174,7 +175,7 @@ def test_the_header_says_when_the_world_goes_silent_or_the_run_ends(router, tmp_
             assert page_value(page, "lunarsim.run.status") == "live"
             assert page.inner_text("#conn") == "live" and page.get_attribute("#conn", "class") == "ok"
             assert page.inner_text("#rovers td[data-field=goal]") == "1"  # goal_index 0 is the first goal
-            last = _rover(4.0).model_copy(update={"goal_index": 1})  # inside the table's redraw period, then quiet
+            last = msgspec.structs.replace(_rover(4.0), goal_index=1)  # inside the table's redraw period, then quiet
             _publish(session, keys.state, m.WorldState(stamp=4.0, rovers=[last]))
             wait_for(lambda: page.inner_text("#rovers td[data-field=goal]") == "2", 5, "the last state in the table")
             wait_for(lambda: page_value(page, "lunarsim.run.status") == "silent", 10, "the silence noticed")
@@ -200,8 +201,8 @@ def test_the_header_says_when_the_world_goes_silent_or_the_run_ends(router, tmp_
             assert (cell("average_path_efficiency"), cell("worst_rover_connected_fraction")) == ("0.88", "97.3%")
             assert (cell("rovers_reached_final_goal"), cell("rover_collisions"), cell("complete")) == ("1", "0", "yes")
             assert cell("mission_duration_s") == "64.3"
-            short = report.model_copy(update={"average_path_efficiency": 1.5234, "rovers_holding_relay_spots": 2,
-                                              "reached_path_efficiency": None, "rovers_reached_final_goal": 0})
+            short = msgspec.structs.replace(report, average_path_efficiency=1.5234, rovers_holding_relay_spots=2,
+                        reached_path_efficiency=None, rovers_reached_final_goal=0)
             _publish(session, keys.stats, m.WorldStats(stamp=65.0, report=short, final=True))
             wait_for(lambda: "above 1" in cell("average_path_efficiency"), 10, "the note on an efficiency above 1")
             assert cell("average_path_efficiency") == "1.52 (above 1: rovers stopped short)"

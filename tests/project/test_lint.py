@@ -38,6 +38,30 @@ def test_rover_agent_without_a_params_file_imports_no_yaml():
     assert loaded_after(setup, ("yaml", "schemas.scenario")) == []
 
 
+FLIGHT_PATH = """
+from bus import process
+from rover_agent.commands import rover
+from rover_agent import runtime
+from rover_agent.agent import RoverAgent
+from rover_agent.registry import load_behaviour
+from schemas import codec, keyspace as ks, messages as m
+params = rover.rover_params(None)
+agent = RoverAgent(1, ks.Keyspace("w"), params, load_behaviour("default")(1, params))
+agent.on_clock(codec.decode(m.Clock, codec.encode(m.Clock(tick=0, sim_time=0.0, time_scale=1.0, run="r"))))
+out = agent.handle(ks.PERCEPTION, codec.encode(m.Perception(stamp=0.1, angles_deg=[0.0], distances_m=[3.0],
+                                                            kinds=["obstacle"])))
+assert agent.handle(ks.PERCEPTION, b"garbage") == [] and agent.rejected.total == 1
+assert all(codec.encode(message) for _, message in out)
+"""
+
+
+def test_the_rover_agents_flight_path_imports_no_pydantic():
+    """A flight computer's agent without ``--params``: start, a clock, a perception and a refused sample through the
+    codec. Pydantic (its core and the validators it builds) was half the agent's memory: the wire models are msgspec
+    Structs, and only the scenario models, for files, are pydantic."""
+    assert loaded_after(FLIGHT_PATH, ("pydantic", "pydantic_core", "msgpack", "yaml", "schemas.scenario")) == []
+
+
 def test_the_lunarsim_parser_imports_no_web_server():
     """Every command imports every command module to build its parser; aiohttp (a fifth of a second) waits until
     a command serves a page, so ``lunarsim run`` starts its world that much sooner."""

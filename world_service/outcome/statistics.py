@@ -27,6 +27,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from schemas import codec
 from schemas.messages import MISSION_COMMANDS, GroundCommand, MissionReport, WorldCounters, WorldState
 from schemas.scenario import Goal, Scenario
 from shared.mission import CommandRefused, RoverMissions
@@ -114,7 +115,7 @@ def build_report(
     total = float(sum(distances))
     average = total / len(distances) if distances else 0.0
     path = mission_path_length(scenario)
-    return MissionReport(
+    return codec.checked(MissionReport(  # checked: the figures come from NumPy and integer sums, a report holds floats
         scenario=scenario.name,
         seed=scenario.seed,
         relative_path_length_m=round(path, 4),
@@ -141,7 +142,7 @@ def build_report(
            if counters is not None else {}),
         **(links.as_fields() if links else {}),
         **(power or {}),
-    )
+    ))
 
 
 @dataclass

@@ -47,11 +47,10 @@ class Sensors:
         tick, stamp = self.clock.tick, self.clock.sim_time
         which = np.array([i for i, b in enumerate(bodies) if (tick + b.id) % self.perception_period == 0], int)
         scans = self.perceiver.scan(xs, zs, hs, which)
-        # Built from checked arrays at 5 Hz per rover: skip re-validation (receivers still validate).
         return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
-                 m.Perception.model_construct(stamp=stamp, angles_deg=np.round(s.angles_deg, 3).tolist(),
-                                              distances_m=np.round(s.distances_m, 3).tolist(),
-                                              kinds=KIND_NAMES[s.kinds].tolist()))
+                 m.Perception(stamp=stamp, angles_deg=np.round(s.angles_deg, 3).tolist(),
+                                 distances_m=np.round(s.distances_m, 3).tolist(),
+                                 kinds=KIND_NAMES[s.kinds].tolist()))
                 for i, s in zip(which, scans, strict=True)]
 
     def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import pytest
 from procs import SCENARIOS
 
@@ -184,8 +185,8 @@ def test_a_relay_cut_off_from_the_lander_at_the_last_goal_walks_on_to_it_and_not
 @pytest.mark.parametrize("release", [True, False])
 def test_a_relay_that_hears_the_lander_or_is_told_to_hold_stays(release):
     params = RoverParams()
-    params = params.model_copy(update={"communication": params.communication.model_copy(
-        update={"release_relays": release})})
+    comm = msgspec.structs.replace(params.communication, release_relays=release)
+    params = msgspec.structs.replace(params, communication=comm)
     agent = _relay_on_its_spot(params)
     _quiet_until(agent, params.communication.relay_cut_off_s * 2, heard_every_s=1 if release else None)
     assert agent.state == "relay"
@@ -211,8 +212,8 @@ def test_a_rover_tells_the_lander_how_many_photos_it_still_holds_with_its_goal_r
 
 def _daisy_chain_mission(release: bool) -> tuple[MissionReport, PhotoArchive]:
     scenario = load_scenario(SCENARIOS / "daisy_chain.yaml")
-    comm = scenario.rover_params.communication.model_copy(update={"release_relays": release})
-    scenario = scenario.with_overrides(rover_params=scenario.rover_params.model_copy(update={"communication": comm}))
+    comm = msgspec.structs.replace(scenario.rover_params.communication, release_relays=release)
+    scenario = scenario.with_overrides(rover_params=msgspec.structs.replace(scenario.rover_params, communication=comm))
     archive = PhotoArchive(None)
     report = run_mission(scenario, 400, archive).report()
     assert report.complete and report.rover_collisions == 0 and report.obstacle_collisions == 0

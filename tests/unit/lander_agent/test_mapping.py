@@ -9,6 +9,7 @@ import random
 import zlib
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import pytest
 from PIL import Image
@@ -79,8 +80,8 @@ def test_the_same_pose_twice_adds_nothing_and_every_cell_is_kept_once():
 
 
 def test_reports_are_bounded_sent_only_with_a_partner_and_kept_until_acknowledged():
-    params = PARAMS.model_copy(update={"mapping": MappingParams(report_period_s=3.0, max_cells_per_report=4,
-                                                                max_reports_per_send=2)})
+    params = msgspec.structs.replace(PARAMS, mapping=MappingParams(report_period_s=3.0, max_cells_per_report=4,
+                                                               max_reports_per_send=2))
     recorder = MapRecorder(params)
     recorder.fold_scan(0.0, 0.0, 0.0, [])
     cells = len(recorder.pending)
@@ -136,7 +137,7 @@ def test_the_published_map_decodes_to_the_same_grid():
     spec, classes = mapping.from_message(msg)
     assert spec == grid.spec and np.array_equal(classes, grid.classes()) and msg.classes == list(mapping.CLASSES)
     with pytest.raises(ValueError, match="10 x 8"):
-        mapping.from_message(msg.model_copy(update={"cells": zlib.compress(b"short")}))
+        mapping.from_message(msgspec.structs.replace(msg, cells=zlib.compress(b"short")))
 
 
 def test_map_files_hold_the_grid_and_a_north_up_picture(tmp_path):

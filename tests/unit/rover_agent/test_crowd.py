@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import msgspec
 import pytest
 from agent_kit import ORIGIN, PARAMS, angle_of, fresh_behaviour, goal_at, view_of
 
@@ -122,8 +123,8 @@ def test_behind_a_rover_that_leaves_a_short_step_a_rover_with_heading_noise_wait
     creeping behind a queue in short steps ends metres off. With heading noise it waits for the rover ahead a few
     times, then takes the short step; without, creeping costs nothing and it steps at once."""
     ahead = (Hit(0.0, 6.0, "rover"),)  # a rover 6 m ahead: 3 m free of the 9 m the rover wants
-    noisy = PARAMS.model_copy(update={"navigation": PARAMS.navigation.model_copy(
-        update={"heading_noise_std_deg": 0.3})})
+    noisy = msgspec.structs.replace(PARAMS, navigation=msgspec.structs.replace(PARAMS.navigation,
+                                                                               heading_noise_std_deg=0.3))
     b = DefaultBehaviour(1, noisy)
     b.start_goal(goal_at())
     t = 0.0

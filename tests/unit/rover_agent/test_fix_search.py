@@ -23,7 +23,7 @@ from rover_agent.mission.stations import DRAW_IN_LEAST, DRAW_IN_SIGMAS, drawn_in
 from schemas import messages as m
 from schemas import radio
 from schemas.keyspace import Keyspace
-from schemas.params import RoverParams
+from schemas.params import NavigationParams, RoverParams
 from shared.pose import Pose
 
 RADIUS = 10.0
@@ -107,7 +107,7 @@ def test_a_station_is_drawn_in_toward_its_waypoint_as_far_as_the_error_needs():
 def test_an_agent_at_its_waypoint_unsure_searches_and_says_why_then_stops_at_its_goal():
     """The agent's side: "done but unsure" is a search, shown in its status; once the search is over (here, out of
     time) it walks back to its goal and stops there."""
-    params = RoverParams(navigation={"slip_std": 0.05, "heading_noise_std_deg": 1.0})
+    params = RoverParams(navigation=NavigationParams(slip_std=0.05, heading_noise_std_deg=1.0))
     agent = joined_agent(1, Keyspace("w"), params)
     agent.estimator.place(Pose(0.0, 180.0, 0.0))  # sure there, 20 m back
     agent.mission.direction(m.MissionDirection(goal_index=0, goals_total=1, kind="waypoint", bearing_deg=0.0,

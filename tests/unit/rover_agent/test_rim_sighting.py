@@ -14,7 +14,7 @@ from rover_agent.estimation.pose_filter import Localisation, NoiseModel
 from rover_agent.estimation.sightings import rim_centre
 from rover_agent.mission.goals import Mission
 from schemas import messages as m
-from schemas.params import RoverParams
+from schemas.params import NavigationParams, RoverParams
 from shared.pose import Pose
 
 RAYS = [-105.0 + i * 210.0 / 49 for i in range(50)]
@@ -46,7 +46,7 @@ def test_no_fit_from_a_few_hits_a_rim_of_another_size_or_from_inside():
 
 
 def test_a_rover_off_its_estimate_is_fixed_by_the_rim_of_its_crater_goal():
-    params = RoverParams(navigation={"slip_std": 0.05, "heading_noise_std_deg": 1.0})
+    params = RoverParams(navigation=NavigationParams(slip_std=0.05, heading_noise_std_deg=1.0))
     est = Estimator(1, params, Rejections(logging.getLogger("test")))
     est.place(Pose(0.0, 0.0, 0.0))
     for _ in range(12):  # walked ~100 m north by its estimate; the ground took it 6 m east of that
@@ -92,7 +92,7 @@ def test_a_rover_just_out_of_a_crater_it_left_turns_once_to_look_at_its_rim():
 
 
 def test_the_estimator_looks_back_once_a_crater():
-    params = RoverParams(navigation={"slip_std": 0.05, "heading_noise_std_deg": 1.0})
+    params = RoverParams(navigation=NavigationParams(slip_std=0.05, heading_noise_std_deg=1.0))
     est = Estimator(1, params, Rejections(logging.getLogger("test")))
     est.resume(Pose(0.0, 38.0, 0.0), [[4.0, 0.0, 0.0], [0.0, 4.0, 0.0], [0.0, 0.0, math.radians(4.0) ** 2]])
     est.learn(Goal(0, 2, "crater", 0.0, 0.0, rim=(0.0, 0.0, 35.0)))

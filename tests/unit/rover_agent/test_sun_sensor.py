@@ -12,7 +12,7 @@ from bus.rejections import Rejections
 from rover_agent.decisions import MoveTo
 from rover_agent.estimation.estimator import Estimator
 from rover_agent.estimation.pose_filter import Localisation, NoiseModel
-from schemas.params import PerceptionParams, RoverParams
+from schemas.params import NavigationParams, PerceptionParams, RoverParams
 from shared.pose import Pose
 
 NOISY = NoiseModel(slip_std=0.05, heading_std_rad=math.radians(1.0))
@@ -51,7 +51,7 @@ def test_an_exact_heading_takes_no_reading():
 
 
 def test_the_estimator_fuses_one_reading_a_stop():
-    params = RoverParams(navigation={"slip_std": 0.05, "heading_noise_std_deg": 1.0},
+    params = RoverParams(navigation=NavigationParams(slip_std=0.05, heading_noise_std_deg=1.0),
                          perception=PerceptionParams(sun_sensor=True, sun_sensor_noise_std_deg=2.0))
     est = Estimator(1, params, Rejections(logging.getLogger("test"), "test"))
     est.place(Pose(0.0, 0.0, 0.0))

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import inspect
+import math
 import random
+import typing
 from pathlib import Path
 
 import msgpack
+import msgspec
 import pytest
-from pydantic import BaseModel
 
 from schemas import codec, radio
 from schemas import messages as m
@@ -80,18 +83,20 @@ def test_round_trip(model):
     assert codec.decode(model, payload) == message
 
 
-def _model_dump_encoding(message) -> bytes:
-    """What ``codec.encode`` returned before it took the fields as held: the reference it must match."""
-    return msgpack.packb([codec.SCHEMA_VERSION, message.model_dump()], use_bin_type=True)
+def _msgpack_python_encoding(message) -> bytes:
+    """What msgpack-python makes of ``[version, fields]``, nested messages as their fields: the wire format every
+    recording made before holds, which ``codec.encode`` must match byte for byte."""
+    fields = msgspec.to_builtins(message, builtin_types=(bytes,))
+    return msgpack.packb([codec.SCHEMA_VERSION, fields], use_bin_type=True)
 
 
 @pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
-def test_encoding_is_byte_for_byte_that_of_model_dump(model):
-    assert codec.encode(SAMPLES[model]) == _model_dump_encoding(SAMPLES[model])
+def test_encoding_is_byte_for_byte_that_of_msgpack_python(model):
+    assert codec.encode(SAMPLES[model]) == _msgpack_python_encoding(SAMPLES[model])
 
 
-def _schema_models() -> list[type[BaseModel]]:
-    found, todo = [], [BaseModel]
+def _schema_models() -> list[type[msgspec.Struct]]:
+    found, todo = [], [msgspec.Struct]
     while todo:
         for sub in todo.pop().__subclasses__():
             todo.append(sub)
@@ -100,22 +105,60 @@ def _schema_models() -> list[type[BaseModel]]:
     return found
 
 
-def test_no_schema_model_dumps_other_than_its_fields():
-    """``codec.encode`` packs a model's ``__dict__``: a serializer, an alias, a computed or an extra field would
-    make ``model_dump`` differ from it, so none may appear without changing the codec."""
+def test_every_schema_model_is_frozen_strict_and_encodes_every_field_by_name():
+    """Receivers refuse unknown fields and read each by its name; a renamed, omitted or positional field would
+    change the wire format without changing the codec."""
     models = _schema_models()
     assert m.WorldState in models and radio.GoalReport in models
     for model in models:
-        decorators = model.__pydantic_decorators__
-        assert not decorators.field_serializers and not decorators.model_serializers, model
-        assert not model.model_computed_fields, model
-        assert model.model_config.get("extra") != "allow", model
-        assert all(f.alias is None and f.serialization_alias is None for f in model.model_fields.values()), model
+        config = model.__struct_config__
+        assert config.frozen and config.forbid_unknown_fields, model
+        assert not config.array_like and not config.omit_defaults and config.tag is None, model
+        assert model.__struct_encode_fields__ == model.__struct_fields__, model
+        kinds = {p.kind for p in inspect.signature(model).parameters.values()}
+        assert kinds <= {inspect.Parameter.KEYWORD_ONLY}, model
 
 
-def test_what_the_world_builds_encodes_as_model_dump_would():
-    """The world builds its perceptions with ``model_construct``, its lockstep clock with ``model_copy`` and the
-    rest validated: every message of 25 ticks of a real mission, and a state, encodes exactly as before."""
+def _floats_bounded(annotation) -> bool:
+    """Whether every float in ``annotation`` is bounded on both sides (so neither nan nor inf passes)."""
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin is typing.Annotated:
+        metas = [a for a in args[1:] if isinstance(a, msgspec.Meta)]
+        if args[0] is float:
+            low = any(m.ge is not None or m.gt is not None for m in metas)
+            high = any(m.le is not None or m.lt is not None for m in metas)
+            return low and high
+        return _floats_bounded(args[0])
+    if annotation is float:
+        return False
+    return all(_floats_bounded(a) for a in args if a is not Ellipsis)
+
+
+@pytest.mark.parametrize("model", _schema_models(), ids=lambda model: model.__name__)
+def test_every_float_of_every_schema_model_is_bounded(model):
+    """msgspec has no switch for nan and inf: a bound on each side refuses both (``wire_limits.finite``)."""
+    hints = typing.get_type_hints(model, include_extras=True)
+    assert [name for name in model.__struct_fields__ if not _floats_bounded(hints[name])] == []
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+@pytest.mark.parametrize(("model", "field"), [(m.Temperature, "celsius"), (m.Battery, "charge_wh"),
+                                              (m.MoveAction, "x"), (m.RoverTruth, "x")])
+def test_nan_and_inf_are_refused(model, field, value):
+    fields = {**msgspec.to_builtins(_sample_of(model), builtin_types=(bytes,)), field: value}
+    payload = msgpack.packb([codec.SCHEMA_VERSION, fields], use_bin_type=True)
+    _assert_rejected(model, payload, f"{model.__name__}: {field}:")
+
+
+def _sample_of(model):
+    if model is m.RoverTruth:
+        return SAMPLES[m.WorldState].rovers[0]
+    return SAMPLES[model]
+
+
+def test_what_the_world_builds_encodes_as_msgpack_python_would():
+    """The world builds its messages from NumPy arrays: every message of 25 ticks of a real mission, and a state,
+    encodes exactly as before, and holds only Python values (an encoder that knows no NumPy takes each)."""
     from schemas import keyspace as ks
     from schemas.scenario import load_scenario
     from world_service.sim import World
@@ -124,10 +167,11 @@ def test_what_the_world_builds_encodes_as_model_dump_would():
     for rid in world.actuator.bodies:
         world.receive(world.keys.rover(rid, ks.MOVE_ACTION), codec.encode(m.MoveAction(x=0.5, z=4.0)))
     out = [item for _ in range(25) for item in world.step()] + [("state", world.observed_state())]
-    out.append(("clock", world.clock.message().model_copy(update={"acks": [1, 2]})))
+    out.append(("clock", msgspec.structs.replace(world.clock.message(), acks=[1, 2])))
     assert {type(message) for _, message in out} >= {m.Gyroscope, m.Perception, m.WorldState, m.Clock}
+    plain = msgspec.msgpack.Encoder()
     for _, message in out:
-        assert codec.encode(message) == _model_dump_encoding(message), message
+        assert codec.encode(message) == _msgpack_python_encoding(message) == plain.encode((1, message)), message
 
 
 def test_round_trip_keeps_types_of_tuples_int_keys_and_bytes():
@@ -179,7 +223,7 @@ def test_msgpack_of_the_wrong_shape_is_rejected(model, shape):
 @pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
 @pytest.mark.parametrize("version", [0, 2, -1, 99, "1", None, [1]])
 def test_wrong_schema_version_is_rejected(model, version):
-    fields = SAMPLES[model].model_dump()
+    fields = msgspec.to_builtins(SAMPLES[model], builtin_types=(bytes,))
     payload = msgpack.packb([version, fields], use_bin_type=True)
     _assert_rejected(model, payload, "schema version", repr(version))
 
@@ -192,9 +236,9 @@ def test_schema_version_must_be_the_integer_1(version):
 
 def _foreign_sample(model):
     """A valid encoding of another model with a field the target does not have (so it cannot be read as one)."""
-    own = set(model.model_fields)
+    own = set(model.__struct_fields__)
     for other in MODELS:
-        if other is not model and not set(SAMPLES[other].model_dump()) <= own:
+        if other is not model and not set(other.__struct_fields__) <= own:
             return SAMPLES[other]
     raise AssertionError(f"no foreign sample for {model.__name__}")
 
@@ -220,7 +264,7 @@ def test_close_relatives_are_not_confused(model, other):
 
 @pytest.mark.parametrize("model", MODELS, ids=lambda model: model.__name__)
 def test_extra_fields_are_rejected(model):
-    fields = {**SAMPLES[model].model_dump(), "bogus_field": 1}
+    fields = {**msgspec.to_builtins(SAMPLES[model], builtin_types=(bytes,)), "bogus_field": 1}
     payload = msgpack.packb([codec.SCHEMA_VERSION, fields], use_bin_type=True)
     _assert_rejected(model, payload, "bogus_field")
 
@@ -289,3 +333,33 @@ def test_radio_garbage_is_rejected():
     for payload in [b"", *(rng.randbytes(rng.randint(1, 64)) for _ in range(300))]:
         with pytest.raises(codec.DecodeError):
             radio.unpack(payload)
+
+
+# ---- checked: a message built from untrusted values ----
+
+
+def test_checked_gives_the_message_a_receiver_would_decode():
+    """Built from a user's or a driver's values: ints and NumPy scalars become the floats the model holds, lists
+    its tuples, exactly as a receiver would see them."""
+    import numpy as np
+
+    built = m.MissionDirection(goal_index=np.int64(1), goals_total=2, kind="waypoint", bearing_deg=np.float64(90.5),
+                               distance_m=3, station=[1, 2])
+    message = codec.checked(built)
+    assert message == m.MissionDirection(goal_index=1, goals_total=2, kind="waypoint", bearing_deg=90.5,
+                                         distance_m=3.0, station=(1.0, 2.0))
+    assert type(message.goal_index) is int and type(message.distance_m) is float
+    assert isinstance(message.station, tuple)
+
+
+@pytest.mark.parametrize(("message", "fragment"), [
+    (m.MoveAction(x=1e12, z=0.0), "MoveAction: x: Expected `float` <= "),
+    (m.MoveAction(x=math.nan, z=0.0), "MoveAction: x: "),
+    (m.PhotoAction(label="a\nb"), "PhotoAction: label: "),
+    (m.GroundCommand(command="stop", rover_id=-1), "GroundCommand: rover_id: "),
+    (m.MoveAction(x=object(), z=0.0), "MoveAction: cannot encode object"),
+], ids=lambda v: type(v).__name__ if isinstance(v, m.Message) else None)
+def test_checked_refuses_what_a_receiver_would_refuse_naming_the_field(message, fragment):
+    with pytest.raises(codec.DecodeError) as info:
+        codec.checked(message)
+    assert fragment in str(info.value)

@@ -226,7 +226,6 @@ def test_the_worlds_copy_of_a_photo_is_named_by_the_world(tmp_path):
     (m.GroundCommand, {"command": "seek", "seconds": -1.0}),
 ], ids=["no goals", "negative distance", "negative time", "negative stamp", "negative seek"])
 def test_a_fields_own_bound_is_kept_beside_its_types(model, fields):
-    """A bound written in a field's ``Field`` beside an annotated type was dropped for the type's (pydantic keeps the
-    type's): each needs a type of its own (``schemas.wire_limits``)."""
+    """A field's own bound beside an annotated type's (each a ``Meta`` of ``schemas.wire_limits``) is kept."""
     with pytest.raises(codec.DecodeError):
         codec.decode(model, pack(fields))

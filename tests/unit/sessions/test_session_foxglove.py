@@ -10,6 +10,7 @@ import json
 import socket
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import pytest
 from google.protobuf.message import Message
@@ -342,7 +343,7 @@ def test_export_writes_the_lander_map_as_a_grid(recording: Path, tmp_path: Path)
 def test_a_malformed_map_is_skipped_with_a_warning(tmp_path: Path, capsys):
     path = tmp_path / "bad.mcap"
     writer = SessionWriter(path, {"scenario": SCENARIO_FILE.read_text(encoding="utf-8")})
-    bad = lander_map().model_copy(update={"width": 5})
+    bad = msgspec.structs.replace(lander_map(), width=5)
     writer.write(Sample(MAP_KEY, codec.encode(bad), T0, T0))
     writer.close()
     assert cli.main(["export-foxglove", str(path), "-o", str(tmp_path / "out.mcap"), "--terrain-cells", "16"]) == 0

@@ -13,6 +13,7 @@ import json
 import zlib
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import pytest
 import yaml
@@ -131,7 +132,7 @@ def test_command_requests_are_checked_like_the_command_line():
                          ({"command": "return"}, "return needs a rover"),
                          ({"command": "stop", "rover_id": "two"}, "rover_id must be a number"),
                          ({"command": "set-target", "x": 1, "z": 2, "kind": "crate"}, "kind"),
-                         ({"command": "set-target", "x": 1e12, "z": 2}, "x: Input should be less than")]:
+                         ({"command": "set-target", "x": 1e12, "z": 2}, "x: Expected `float` <= 10000000")]:
         with pytest.raises(CommandError, match=message):
             command_from_request(bad)
 
@@ -175,7 +176,7 @@ def test_the_lander_map_is_decoded_and_forwarded_compressed_with_counts_and_colo
     assert counts["obstacle"] == 1 and counts["rover"] == 1 and counts["free"] >= 1
     assert sum(page["counts"]) == msg.width * msg.height
     json.dumps(page)
-    torn = msg.model_copy(update={"cells": zlib.compress(b"\x01" * 10)})  # not width x height cells
+    torn = msgspec.structs.replace(msg, cells=zlib.compress(b"\x01" * 10))  # not width x height cells
     assert live.stream_message("map", codec.encode(torn)) is None
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import msgspec
 import pytest
 
 from schemas import messages as m
@@ -46,7 +47,7 @@ def test_a_rover_sent_back_before_its_goal_is_judged_on_the_way_it_was_asked_to_
     under_way = _truth(1, 0.0, 50.0, 40.0, "migration")
     stats.observe(m.WorldState(stamp=20.0, rovers=[under_way, _truth(2, 10.0, 30.0, 20.0, "migration")]))
     stats.command(m.GroundCommand(request_id="r", command="return", rover_id=1))
-    home = _truth(1, 0.0, 0.0, 90.0, "done").model_copy(update={"goal_index": 1})
+    home = msgspec.structs.replace(_truth(1, 0.0, 0.0, 90.0, "done"), goal_index=1)
     stats.observe(m.WorldState(stamp=60.0, rovers=[home, _truth(2, 0.0, 110.0, 101.0, "done")], completed_at=60.0))
     report = stats.report()
     assert report.rovers_reached_final_goal == 2
@@ -60,7 +61,7 @@ def test_no_rover_reached_gives_no_reached_efficiency():
 
 
 def test_a_stalled_rover_counts_as_stuck_whatever_its_state_name():
-    stalled = _truth(2, 10.0, 30.0, 20.0, "migration").model_copy(update={"stalled": True})
+    stalled = msgspec.structs.replace(_truth(2, 10.0, 30.0, 20.0, "migration"), stalled=True)
     report = _report(_truth(1, 0.0, 110.0, 100.0, "done"), stalled)
     assert report.rovers_stuck == 1 and report.rovers_stalled == 1
     assert report.reached_path_efficiency == pytest.approx(1.0)
@@ -71,7 +72,7 @@ def test_a_rover_that_relayed_is_left_out_of_the_reached_efficiency():
     that only forwarded others' traffic on its way (the radio graph's relays) is not one."""
     stats = MissionStats(SCENARIO, RoverMissions(SCENARIO))
     relay, walker = _truth(1, 0.0, 110.0, 20.0, "done"), _truth(2, 0.0, 110.0, 125.0, "done")
-    stats.observe(m.WorldState(stamp=50.0, rovers=[relay.model_copy(update={"state": "relay"}), walker], relays=[2]))
+    stats.observe(m.WorldState(stamp=50.0, rovers=[msgspec.structs.replace(relay, state="relay"), walker], relays=[2]))
     stats.observe(m.WorldState(stamp=100.0, rovers=[relay, walker], completed_at=100.0))
     report = stats.report()
     assert report.rovers_reached_final_goal == 2

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import numpy as np
 import pytest
 from procs import SCENARIOS
@@ -258,8 +259,8 @@ def test_with_a_sun_each_rover_gets_its_power_sensors_once_a_second():
 
 def test_an_empty_rover_stops_refuses_actions_and_says_so():
     scenario = load_scenario(SCENARIOS / "polar_night_edge.yaml")
-    params = scenario.rover_params.model_copy(update={"power": scenario.rover_params.power.model_copy(
-        update={"initial_charge_fraction": 0.01})})
+    params = msgspec.structs.replace(scenario.rover_params, power=msgspec.structs.replace(
+        scenario.rover_params.power, initial_charge_fraction=0.01))
     scenario = scenario.model_copy(update={"rover_params": params, "sun": SunSpec(azimuth_deg=0.0,
                                                                                    elevation_deg=-5.0)})
     keys = Keyspace("t")

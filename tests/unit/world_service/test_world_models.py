@@ -656,7 +656,7 @@ def test_non_finite_rotate_does_not_keep_the_rover_busy(degrees):
     assert world.receive(key, msgpack.packb([codec.SCHEMA_VERSION, {"degrees": degrees}])) == []
     assert world.rejected.by_topic[ks.ROTATE_ACTION] == 1
     with pytest.raises(ValueError):
-        m.RotateAction(degrees=degrees)
+        codec.checked(m.RotateAction(degrees=degrees))
     for _ in range(200):
         world.step()
     assert not world.actuator.bodies[1].busy
