@@ -34,6 +34,7 @@ from world_service.sim import World
 Heard = dict[int, list[tuple[str, bytes]]]
 """Rover id -> the samples that reached its keys this round, in order: (topic, encoded payload); the topic of
 the world's clock is ``keyspace.CLOCK``."""
+_WORLD_TOPICS = frozenset((*World.INPUT_TOPICS, ks.ACK))
 Drop = Callable[[str, m.Message], bool]
 """Fault injection: says which samples the link loses (key and message); lost samples are never delivered."""
 
@@ -69,6 +70,7 @@ class Rounds:
         self._late_round = False  # the last round handed the rovers late samples
         self._clock_round = False  # the last round handed the rovers the clock (and nothing else)
         self._rover_head = f"{self.keys.prefix}/rover/"
+        self._rover_topics: dict[str, tuple[int, str] | None] = {}  # the world's keys: a few per rover
         self._lander_inputs = {self.keys.lander(ks.COMM_IN), self.keys.lander(ks.COMM_PARTNERS)}
         self._world_inputs = {self.keys.lander(ks.COMM_OUT), self.keys.lander(ks.STATUS), self.keys.ground_command}
         self.over = False
@@ -135,7 +137,7 @@ class Rounds:
 
     def _for_world(self, key: str) -> bool:
         """A rover's sample the world subscribes to (its actions, radio, status, acks), not one for the ground."""
-        return key.rsplit("/", 1)[-1] in (*World.INPUT_TOPICS, ks.ACK)
+        return key.rsplit("/", 1)[-1] in _WORLD_TOPICS
 
     def _route(self, samples: list[Out], late: bool = False) -> Heard:
         """Hand samples the world published to the rovers (returned) and the lander (answered here)."""
@@ -155,10 +157,13 @@ class Rounds:
 
     def _rover_topic(self, key: str) -> tuple[int, str] | None:
         """(rover, topic) for a sample on a rover's own keys, None for anything the world or lander takes."""
+        if key in self._rover_topics:
+            return self._rover_topics[key]
         if not key.startswith(self._rover_head):
             return None
         rid, topic = self.keys.parse_rover_key(key)
-        return None if topic in World.INPUT_TOPICS else (rid, topic)
+        found = self._rover_topics[key] = None if topic in World.INPUT_TOPICS else (rid, topic)
+        return found
 
     def _send_clock(self) -> Heard:
         """The tick's clock, if it waits for anyone (``LockstepTick.step``). The lander answers it here."""
