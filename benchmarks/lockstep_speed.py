@@ -2,10 +2,10 @@
 its wall time goes.
 
 - In process: ``harness.loopback.run_mission_agents`` (the world, the lander and the rover agents wired through
-  their handlers, every sample through the codec), timed alone for the ratio, then again with its parts timed
-  (``tick_costs``): the world's step, perception, gyroscopes, the camera, the codec, the agents' estimator,
-  planner and map, the lander, and the harness's routing; and the agents' handling of one perception, part by
-  part.
+  their handlers, every sample through the codec; with no archive on disk its photos carry no pixels), timed
+  alone for the ratio, then again with its parts timed (``tick_costs``): the world's step, perception,
+  gyroscopes, the codec, the agents' estimator, planner and map, the lander, and the harness's routing; and the
+  agents' handling of one perception, part by part.
 - Through processes: ``lunarsim run SCENARIO --lockstep --no-record --quiet --seed N`` as a user runs it (a
   process per rover), timed as a whole, start-up included; the phases from its processes' logs (until the world
   listens, until every agent is there, until the clock starts, the mission, the way out), and the world's own

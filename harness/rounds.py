@@ -34,6 +34,7 @@ from world_service.sim import World
 Heard = dict[int, list[tuple[str, bytes]]]
 """Rover id -> the samples that reached its keys this round, in order: (topic, encoded payload); the topic of
 the world's clock is ``keyspace.CLOCK``."""
+_WORLD_TOPICS = frozenset((*World.INPUT_TOPICS, ks.ACK))
 Drop = Callable[[str, m.Message], bool]
 """Fault injection: says which samples the link loses (key and message); lost samples are never delivered."""
 
@@ -49,6 +50,10 @@ class Rounds:
     """Raise when a rover publishes on a tick the world does not wait for (its agent's ``next_wake`` misses a
     timer): a bug in an agent, which would make a lockstep run over Zenoh irreproducible."""
     keys: ks.Keyspace = field(default_factory=lambda: ks.Keyspace("loopback"))
+    pixels: bool | None = None
+    """Render the photos' pixels. By default only when the archive writes them to disk: in process nothing else
+    looks at them (an agent forwards a photo by its label, the lander files it), so a photo arrives on its due
+    tick with an empty PNG, and the mission, whose camera is most of its compute, gives the same report."""
 
     def __post_init__(self) -> None:
         self.world = World(self.scenario, self.keys)
@@ -65,9 +70,12 @@ class Rounds:
         self._late_round = False  # the last round handed the rovers late samples
         self._clock_round = False  # the last round handed the rovers the clock (and nothing else)
         self._rover_head = f"{self.keys.prefix}/rover/"
+        self._rover_topics: dict[str, tuple[int, str] | None] = {}  # the world's keys: a few per rover
         self._lander_inputs = {self.keys.lander(ks.COMM_IN), self.keys.lander(ks.COMM_PARTNERS)}
         self._world_inputs = {self.keys.lander(ks.COMM_OUT), self.keys.lander(ks.STATUS), self.keys.ground_command}
         self.over = False
+        if self.pixels is None:
+            self.pixels = self.archive is not None and self.archive.folder is not None
 
     def advance(self, answers: dict[int, list[Out]]) -> Heard:
         """Publish the rovers' answers to the last round and run until some rover hears something; an empty
@@ -129,7 +137,7 @@ class Rounds:
 
     def _for_world(self, key: str) -> bool:
         """A rover's sample the world subscribes to (its actions, radio, status, acks), not one for the ground."""
-        return key.rsplit("/", 1)[-1] in (*World.INPUT_TOPICS, ks.ACK)
+        return key.rsplit("/", 1)[-1] in _WORLD_TOPICS
 
     def _route(self, samples: list[Out], late: bool = False) -> Heard:
         """Hand samples the world published to the rovers (returned) and the lander (answered here)."""
@@ -149,10 +157,13 @@ class Rounds:
 
     def _rover_topic(self, key: str) -> tuple[int, str] | None:
         """(rover, topic) for a sample on a rover's own keys, None for anything the world or lander takes."""
+        if key in self._rover_topics:
+            return self._rover_topics[key]
         if not key.startswith(self._rover_head):
             return None
         rid, topic = self.keys.parse_rover_key(key)
-        return None if topic in World.INPUT_TOPICS else (rid, topic)
+        found = self._rover_topics[key] = None if topic in World.INPUT_TOPICS else (rid, topic)
+        return found
 
     def _send_clock(self) -> Heard:
         """The tick's clock, if it waits for anyone (``LockstepTick.step``). The lander answers it here."""
@@ -175,8 +186,13 @@ class Rounds:
         world = self.world
         self._photos += world.take_photo_jobs()
         tick = world.clock.tick + 1
-        due = [(self.keys.rover(job.rover_id, ks.PHOTO), world.render(job)) for job in self._photos
+        due = [(self.keys.rover(job.rover_id, ks.PHOTO), self._photo(job)) for job in self._photos
                if job.due_tick <= tick]
         self._photos = [job for job in self._photos if job.due_tick > tick]
         self._queue, self._clock = self.tick.step(due, self._present)
         self._phase = "samples"
+
+    def _photo(self, job: PhotoJob) -> m.Photo:
+        if self.pixels:
+            return self.world.render(job)
+        return m.Photo(stamp=job.stamp, label=job.label, png=b"")

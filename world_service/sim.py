@@ -32,6 +32,7 @@ from world_service.radio.link import RadioLink
 from world_service.scene import Scene
 from world_service.sensors.readings import Sensors
 from world_service.terrain.heightmap import Heightmap
+from world_service.terrain.pitch import RoverPitch
 
 log = logging.getLogger("lunarsim.world")
 
@@ -65,11 +66,12 @@ class World:
                             self.clock.period(p.perception.publish_frequency),
                             self.clock.period(p.power.publish_frequency)) if scenario.sun else None
         self.shutter = Shutter(self.terrain, self.scene, p, self.clock.dt)
+        pitch = RoverPitch(self.terrain)
         self.actuator = Actuator(scenario, keyspace, self.clock, self.terrain, self.scene, rng, self.rejected,
-                                 self.shutter, self.power)
+                                 self.shutter, self.power, pitch)
         self.radio = RadioLink(scenario, keyspace, self.clock.dt, self.terrain, self.scene,
                                list(self.actuator.bodies.values()), self.rejected, self.power)
-        self.sensors = Sensors(self.scene, self.terrain, p, keyspace, self.clock, rng)
+        self.sensors = Sensors(self.scene, self.terrain, p, keyspace, self.clock, rng, pitch)
         self.partners_period = self.clock.period(p.communication.partners_frequency)
         self.state_period = self.sensors.perception_period
         self.stats_period = self.clock.period(1.0)

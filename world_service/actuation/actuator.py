@@ -26,6 +26,7 @@ from world_service.camera.shutter import Shutter
 from world_service.clock import Clock
 from world_service.scene import Scene
 from world_service.terrain.heightmap import Heightmap
+from world_service.terrain.pitch import RoverPitch
 
 log = logging.getLogger("lunarsim.world")
 ACTION_RESEND_S = 1.0
@@ -57,8 +58,10 @@ class Actuator:
     """
 
     def __init__(self, scenario: Scenario, keys: ks.Keyspace, clock: Clock, terrain: Heightmap, scene: Scene,
-                 rng: np.random.Generator, rejected: Rejections, shutter: Shutter, power: PowerGate | None) -> None:
+                 rng: np.random.Generator, rejected: Rejections, shutter: Shutter, power: PowerGate | None,
+                 pitch: RoverPitch | None = None) -> None:
         self.keys, self.clock, self.rng, self.rejected = keys, clock, rng, rejected
+        self.pitch = pitch or RoverPitch(terrain)  # shared with the gyroscopes, which ask about the same poses
         self.params = p = scenario.rover_params
         self.terrain, self.scene = terrain, scene
         self.shutter, self.power = shutter, power
@@ -227,7 +230,8 @@ class Actuator:
     def _slope_factors(self, moving: list[nav.RoverBody]) -> dict[int, float]:
         if not moving:
             return {}
-        pitch = self.terrain.pitch_deg(*(np.array([getattr(b, a) for b in moving]) for a in ("x", "z", "heading")))
+        pitch = self.pitch.pitch_deg([b.id for b in moving],
+                                     *(np.array([getattr(b, a) for b in moving]) for a in ("x", "z", "heading")))
         return dict(zip((b.id for b in moving), nav.slope_factor(pitch, self.params.navigation).tolist(),
                         strict=True))
 

@@ -16,6 +16,7 @@ from world_service.clock import Clock
 from world_service.scene import Scene
 from world_service.sensors.perception import Perceiver
 from world_service.terrain.heightmap import Heightmap
+from world_service.terrain.pitch import RoverPitch
 
 KIND_NAMES = np.array(m.HIT_KINDS)
 
@@ -24,8 +25,9 @@ class Sensors:
     """``rng`` is the world's own generator, shared with actuation: the order of all draws is part of a run."""
 
     def __init__(self, scene: Scene, terrain: Heightmap, params: RoverParams, keys: ks.Keyspace, clock: Clock,
-                 rng: np.random.Generator) -> None:
+                 rng: np.random.Generator, pitch: RoverPitch | None = None) -> None:
         self.terrain, self.params, self.keys, self.clock, self.rng = terrain, params, keys, clock, rng
+        self.pitch = pitch or RoverPitch(terrain)
         self.perceiver = Perceiver(scene, terrain, params)
         self.perception_period = clock.period(params.perception.publish_frequency)
         self.gyroscope_period = clock.period(params.perception.gyroscope_frequency)
@@ -54,7 +56,7 @@ class Sensors:
                 for i, s in zip(which, scans, strict=True)]
 
     def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:
-        pitch = self.terrain.pitch_deg(xs, zs, hs)
+        pitch = self.pitch.pitch_deg([b.id for b in bodies], xs, zs, hs)
         noise = self.params.perception.gyroscope_noise_std_deg
         if noise > 0:
             pitch = pitch + self.rng.normal(0.0, noise, len(pitch))

@@ -92,3 +92,23 @@ def test_crater_photos_reach_the_lander_archive(tmp_path):
     assert {e["rover"] for e in index} == {1, 2, 3, 4, 5}
     first = decode_png((tmp_path / index[0]["file"]).read_bytes())
     assert first.shape == (world.scenario.rover_params.camera.height, world.scenario.rover_params.camera.width, 3)
+
+
+def test_photos_nobody_keeps_arrive_without_pixels_and_the_mission_is_the_same(tmp_path):
+    """Without an archive on disk the photos carry an empty PNG: every one still reaches the lander by its label,
+    and the report is the one of the mission whose photos were rendered and archived."""
+    from lander_agent.archive import PhotoArchive
+    from schemas import messages as m
+
+    def photos_seen(into: list[bytes]):
+        return lambda key, message: isinstance(message, m.Photo) and into.append(message.png) and False
+
+    scenario = load_scenario(SCENARIOS / "crater_observation.yaml")
+    kept, blank, pngs = PhotoArchive(None), [], []
+    plain = run_mission(scenario, 300, kept, drop=photos_seen(blank))
+    archived = PhotoArchive(tmp_path)
+    rendered = run_mission(scenario, 300, archived, drop=photos_seen(pngs))
+    assert len(blank) == len(pngs) == 5 * 12
+    assert set(blank) == {b""} and all(png.startswith(b"\x89PNG") for png in pngs)
+    assert kept.received == archived.received and len(kept.received) == 5 * 12
+    assert plain.report() == rendered.report()
