@@ -82,6 +82,21 @@ class Heightmap:
         self.tiles_generated = 0
         self.tiles_evicted = 0
 
+    def __getstate__(self) -> dict:
+        """The tiles' keys without their arrays: each tile is a pure function of its key and the layers, and the
+        arrays were nearly all of a saved world (``world_service.resume``), written every simulated second."""
+        state = self.__dict__.copy()
+        state["_tiles"] = list(self._tiles)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        """The same tiles generated again, in the same LRU order, and the tallies as they were saved."""
+        keys = state.pop("_tiles")
+        self.__dict__.update(state)
+        generated = self.tiles_generated
+        self._tiles = OrderedDict((key, self._generate(key)) for key in keys)
+        self.tiles_generated = generated
+
     # ---- construction ----
 
     @classmethod

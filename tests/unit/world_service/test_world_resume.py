@@ -56,3 +56,19 @@ def test_the_trial_step_leaves_the_saved_world_as_it_was(tmp_path):
     loaded = snapshot.load(tmp_path / "world.state", logging.getLogger("test"))
     assert resume.unworkable(loaded) is None
     assert loaded.clock.tick == 10 and loaded.world_state() == world.world_state()
+
+
+def test_a_saved_world_holds_its_terrain_tiles_by_key_and_resumes_with_the_same_heights(tmp_path):
+    world = _under_way()
+    tiles = world.terrain.loaded_tiles
+    assert tiles, "the rovers' ground is loaded by now"
+    snapshot.save(world, tmp_path / "world.state")
+    arrays = sum(world.terrain.tile(k).heights.nbytes for k in tiles)
+    assert (tmp_path / "world.state").stat().st_size < arrays / 4  # the keys, not the arrays
+    resumed = snapshot.load(tmp_path / "world.state", logging.getLogger("test"))
+    assert resumed.terrain.loaded_tiles == tiles and resumed.terrain.tiles_generated == world.terrain.tiles_generated
+    for key in tiles:
+        assert (resumed.terrain.tile(key).heights == world.terrain.tile(key).heights).all()
+    assert resumed.sensors.terrain is resumed.terrain  # one terrain, shared by every part, as before the save
+    for _ in range(20):
+        assert resumed.step() == world.step()
