@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import signal
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -53,7 +54,7 @@ def serve_web(spec: WebSpec, conf: zenoh.Config, endpoints: str, router_timeout:
     viewer = Viewer(spec.world, latest, commands, editor.Workspace(spec.workspace), launcher, scenario, source)
     try:
         asyncio.run(_serve(build_app(viewer, spec.access), spec, link,
-                           lambda session: _subscribe(session, keys, viewer)))
+                           lambda session: _subscribe(session, keys, viewer), launcher.stop))
     finally:
         launcher.stop()
         link.close()
@@ -90,9 +91,13 @@ def _subscribe(session: zenoh.Session, keys, viewer) -> list:
     return declared
 
 
-async def _serve(app, spec: WebSpec, link, declare) -> None:
+async def _serve(app, spec: WebSpec, link, declare, stop_launched: Callable[[], None]) -> None:
     """Serve until SIGINT or SIGTERM, or until the link gives up on its router; says where once the port is bound
-    (tests wait for that line), then starts the link, whose waiting for a router is said after it."""
+    (tests wait for that line), then starts the link, whose waiting for a router is said after it.
+
+    A mission launched from the page is stopped first, before the server's connections are closed: that may take
+    a while with a page open, and a view killed meanwhile must not leave the mission running with no one to stop
+    it."""
     from aiohttp import web
 
     runner = web.AppRunner(app, access_log=None)
@@ -111,4 +116,5 @@ async def _serve(app, spec: WebSpec, link, declare) -> None:
         link.start(declare)
         await stop.wait()
     finally:
+        await asyncio.to_thread(stop_launched)
         await runner.cleanup()

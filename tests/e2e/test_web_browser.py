@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from procs import REPO, SCENARIOS, free_port, lunarsim, stop, wait_for, wait_for_output
+from procs import REPO, SCENARIOS, free_port, lunarsim, processes_mentioning, stop, wait_for, wait_for_output
 
 pytestmark = pytest.mark.e2e
 
@@ -202,10 +202,32 @@ def test_editor_scenario_saved_reloaded_profiled_and_launched(router, tmp_path, 
         wait_for(lambda: any(p != first[i] for i, p in positions(page).items()), 30, "the launched rovers to move")
         shot(page, "editor_launched_live")
         assert not errors, errors
+        page.click("#tab-editor")
+        page.click("#ed-stop")
+        wait_for(lambda: "stopped" in (page_value(page, "lunarsim.editor.status") or ""), 60, "the run to stop")
     finally:
-        stop(view)  # stops the launched mission too
+        stop(view)  # stops a launched mission still running too, before anything else
     runs = list((tmp_path / "runs").glob("e2e_web-web-*"))
     assert len(runs) == 1 and (runs[0] / "scenario.yaml").is_file()
+    wait_for(lambda: processes_mentioning(str(runs[0])) == [], 30, "no agent, world or recorder of the run left")
+
+
+def test_a_launched_mission_is_stopped_with_the_view_that_launched_it(router, tmp_path, browser):
+    view, url = start_view(router, "webstop", tmp_path)
+    try:
+        page = browser.new_page()
+        page.goto(url)
+        page.click("#tab-editor")
+        wait_for(lambda: page_value(page, "lunarsim.editor.scenario.rovers.length") == 2, 10, "the new scenario")
+        page.fill("#ed-name", "e2e_stop")
+        page.fill("#ed-scale", "1")
+        page.click("#ed-launch")
+        wait_for(lambda: page_value(page, "lunarsim.editor.launched.ok"), 15, "the launch")
+        wait_for(lambda: len(positions(page)) == 2, 60, "the launched rovers on the page")
+    finally:
+        stop(view)  # SIGTERM with the page still open
+    (run,) = (tmp_path / "runs").glob("e2e_stop-web-*")
+    wait_for(lambda: processes_mentioning(str(run)) == [], 60, "the launched mission's processes to end")
 
 
 def draw_wall_and_rock_field(page, at) -> None:
