@@ -273,12 +273,14 @@ async def _start_stream(app: web.Application) -> None:
 
 
 async def _stop(app: web.Application) -> None:
+    """The worker process first: closing the pages' sockets may take a while, and a view killed meanwhile must not
+    leave a process of its own behind."""
+    app[VIEWER].worker.close()
     app[STREAM].cancel()
     with contextlib.suppress(asyncio.CancelledError):
         await app[STREAM]
     for ws in list(app[VIEWER].clients):
         await ws.close()
-    app[VIEWER].worker.close()
 
 
 def build_app(viewer: Viewer, access: guard.Access | None = None) -> web.Application:
