@@ -79,9 +79,16 @@ def test_a_killed_lander_started_again_keeps_its_map_and_its_plan(router, tmp_pa
     watch = Watch(router, mission.keys)
     try:
         _start(mission, rovers=2)
-        wait_for(lambda: watch.under_way(20), 90, "both rovers 20 m out")
+        saved = tmp_path / "state" / "lander" / FILE_NAME
+
+        def saved_cells() -> int:  # how much of the map the lander's state holds (written whole, then renamed)
+            state = snapshot.load(saved, logging.getLogger())
+            return 0 if state is None else _known_cells(state.map)
+
+        wait_for(lambda: watch.under_way(20) and saved_cells() > 500, 90,
+                 "both rovers 20 m out, and the lander's saved map holding what they reported")
         mission.kill("lander")
-        before = _known_cells(snapshot.load(tmp_path / "state" / "lander" / FILE_NAME, logging.getLogger()).map)
+        before = saved_cells()
         mission.start("lander", "lander_agent", str(mission.scenario), "--state", str(tmp_path / "state" / "lander"),
                       "--map-out", str(tmp_path / "map"))
         report = mission.finish(240)
