@@ -59,9 +59,9 @@ class Actuator:
 
     def __init__(self, scenario: Scenario, keys: ks.Keyspace, clock: Clock, terrain: Heightmap, scene: Scene,
                  rng: np.random.Generator, rejected: Rejections, shutter: Shutter, power: PowerGate | None,
-                 pitch: RoverPitch | None = None) -> None:
+                 pitch: RoverPitch) -> None:
         self.keys, self.clock, self.rng, self.rejected = keys, clock, rng, rejected
-        self.pitch = pitch or RoverPitch(terrain)  # shared with the gyroscopes, which ask about the same poses
+        self.pitch = pitch  # shared with the gyroscopes, which ask about the same poses
         self.params = p = scenario.rover_params
         self.terrain, self.scene = terrain, scene
         self.shutter, self.power = shutter, power

@@ -25,9 +25,9 @@ class Sensors:
     """``rng`` is the world's own generator, shared with actuation: the order of all draws is part of a run."""
 
     def __init__(self, scene: Scene, terrain: Heightmap, params: RoverParams, keys: ks.Keyspace, clock: Clock,
-                 rng: np.random.Generator, pitch: RoverPitch | None = None) -> None:
+                 rng: np.random.Generator, pitch: RoverPitch) -> None:
         self.terrain, self.params, self.keys, self.clock, self.rng = terrain, params, keys, clock, rng
-        self.pitch = pitch or RoverPitch(terrain)
+        self.pitch = pitch
         self.perceiver = Perceiver(scene, terrain, params)
         self.perception_period = clock.period(params.perception.publish_frequency)
         self.gyroscope_period = clock.period(params.perception.gyroscope_frequency)
@@ -51,8 +51,7 @@ class Sensors:
         scans = self.perceiver.scan(xs, zs, hs, which)
         return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
                  m.Perception(stamp=stamp, angles_deg=np.round(s.angles_deg, 3).tolist(),
-                                 distances_m=np.round(s.distances_m, 3).tolist(),
-                                 kinds=KIND_NAMES[s.kinds].tolist()))
+                              distances_m=np.round(s.distances_m, 3).tolist(), kinds=KIND_NAMES[s.kinds].tolist()))
                 for i, s in zip(which, scans, strict=True)]
 
     def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:
