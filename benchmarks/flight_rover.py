@@ -39,6 +39,7 @@ from schemas.keyspace import Keyspace  # noqa: E402
 
 SETTLE_S = 3.0
 """Memory is read once a process has run this long (``--settle``)."""
+STOP_WAIT_S = 30.0
 QUICK = {"runs": 1, "settle": 1.0}
 BARE_CLIENT = """
 import sys, time, zenoh
@@ -83,10 +84,21 @@ def measure(argv: list[str], session: zenoh.Session, token_key: str, settle_s: f
         time.sleep(settle_s)
         rss, hwm = memory_kib(proc.pid)
     finally:
-        proc.terminate()
-        proc.wait(timeout=10)
         sub.undeclare()
+        _stop(proc, argv[0])
     return {"startup_s": startup, "rss_mib": rss / 1024, "peak_mib": hwm / 1024}
+
+
+def _stop(proc: subprocess.Popen, name: str) -> None:
+    """The agent ends within its shutdown deadline (``bus.process.SHUTDOWN_DEADLINE_S``) of SIGTERM, or says
+    why in its log; waiting longer than that is a failure worth one clear line."""
+    proc.terminate()
+    try:
+        proc.wait(timeout=STOP_WAIT_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+        raise SystemExit(f"error: {name} did not end within {STOP_WAIT_S:g} s of SIGTERM") from None
 
 
 def summarise(samples: list[dict]) -> dict:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import faulthandler
 import gc
 import importlib
 import logging
@@ -26,17 +27,30 @@ from bus import heap
 from bus.errors import RouterUnreachable, UsageError
 from schemas.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_NO_ROUTER, EXIT_USAGE, LunarSimError
 
-__all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_NO_ROUTER", "EXIT_USAGE", "RouterUnreachable", "UsageError",
-           "check_common_arguments", "freeze_start_up_heap", "main_for", "run_guarded", "setup_logging",
-           "state_folder", "stop_on_signals"]
+__all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_NO_ROUTER", "EXIT_USAGE", "SHUTDOWN_DEADLINE_S",
+           "RouterUnreachable", "UsageError", "check_common_arguments", "freeze_start_up_heap", "main_for",
+           "run_guarded", "setup_logging", "state_folder", "stop_on_signals"]
+
+
+SHUTDOWN_DEADLINE_S = 10.0
+"""How long a process of a mission may take to stop once asked to (``stop_on_signals(deadline_s=...)``)."""
 
 
 @contextlib.contextmanager
-def stop_on_signals() -> Iterator[threading.Event]:
-    """An event set by SIGINT or SIGTERM, so loops finish their iteration and clean up."""
+def stop_on_signals(deadline_s: float | None = None) -> Iterator[threading.Event]:
+    """An event set by SIGINT or SIGTERM, so loops finish their iteration and clean up.
+
+    With ``deadline_s``, the process ends that long after the first signal even if its clean-up never returns
+    (a library call that blocks, such as a Zenoh undeclaration waiting on a callback): a supervisor, systemd or
+    ``lunarsim run`` asked it to stop and must not wait on it forever. The deadline is kept by the interpreter's
+    own watchdog thread (``faulthandler``), which needs no lock a hung thread could hold; it writes every
+    thread's stack to stderr (the process's log) and exits with status 1, so the hang is reported, with where
+    it was, rather than hidden."""
     stop = threading.Event()
 
     def _handler(signum: int, frame: object) -> None:
+        if deadline_s is not None and not stop.is_set():  # nothing printed here: a handler can interrupt a print
+            faulthandler.dump_traceback_later(deadline_s, exit=True, file=sys.stderr)
         stop.set()
 
     previous = {sig: signal.signal(sig, _handler) for sig in (signal.SIGINT, signal.SIGTERM)}

@@ -16,7 +16,7 @@ def serve(conf: zenoh.Config, listen: list[str], config_file: str | None = None)
     session = open_router(conf, listen, config_file)
     print(f"router listening on {', '.join(listen) or f'the endpoints of {config_file}'}", file=sys.stderr,
           flush=True)
-    with process.stop_on_signals() as stop:
+    with process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
         stop.wait()
     session.close()
 

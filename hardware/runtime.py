@@ -24,7 +24,7 @@ def serve(driver: Driver, keys: Keyspace, rover_id: int, own_clock: bool, sessio
     """Put ``driver`` on rover ``rover_id``'s keys until SIGINT or SIGTERM; ``own_clock``: publish a real-time clock
     (a bench, no world)."""
     bridge = Bridge(driver, keys, rover_id, MissionClock(own_clock))
-    with Bus(session) as bus, process.stop_on_signals() as stop:
+    with Bus(session) as bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
         log.info("bridge for rover %d connected (driver %s)", rover_id, type(driver).__name__)
         run(bridge, bus, stop)
 

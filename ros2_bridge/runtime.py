@@ -28,7 +28,7 @@ def serve(session: zenoh.Session, keys: Keyspace, domain: int, params: RoverPara
     noise = NoiseModel.of(params.navigation) if params is not None else None
     translator = Translator(keys, layout, pitch_std, truth, noise=noise)
     translator.driven = drive
-    with Bus(session) as bus, process.stop_on_signals() as stop:
+    with Bus(session) as bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
         node = RosNode(session, domain)
         loop = BridgeLoop(bus, node, translator)
         try:

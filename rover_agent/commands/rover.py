@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     keys = Keyspace(args.world)
     who = f"rover {rover_ids[0]}" if len(rover_ids) == 1 else f"rovers {args.ids}"
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who=who)
-    with Bus(session) as bus, process.stop_on_signals() as stop:
+    with Bus(session) as bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
         if rover_ids == ["auto"]:
             granted = identity.ask_world(session, keys, stop)
             if granted is None:
