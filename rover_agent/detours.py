@@ -33,7 +33,7 @@ class Detours:
 
     def arrived(self, outcome: str, now: float) -> Rotate | bool:
         """The behaviour finished what it walked to. True: a leg of a detour, taken care of (a ``Rotate``: turn
-        round to look for the lander first); False: the goal itself, to finish."""
+        round to look for the lander or a teammate first); False: the goal itself, to finish."""
         est = self.estimator
         if est.fix.active:  # a leg of the way by the lander, not yet fixed
             step = est.fix_arrived(outcome)
@@ -44,7 +44,9 @@ class Detours:
             else:
                 self._fix_over()
             return True
-        if est.search.active:  # a leg of the search, still unsure: the next, or back to the goal
+        if est.search.active:  # a leg of the search, still unsure: turn round, the next, or back to the goal
+            if est.search.look_round():
+                return Rotate(180.0)
             if not self._search_leg(now, begins=False):
                 self._back_to_goal()
             return True

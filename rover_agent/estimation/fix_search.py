@@ -13,6 +13,10 @@ teammates tell by radio (``radio.PoseEstimate``) and the mission plan's lander a
   ``BACK_LEG_RADII`` perception radii away: where it last had a fix, a teammate or the lander is likely in view
   again. One farther back is not worth the walk: it comes back to its goal as unsure as it left.
 
+Where a leg to a teammate or the lander ends with the estimate still unsure, the rover turns round once before the
+next leg: it stands where its estimate puts what it walked to, so that is within its error of it in any direction,
+and a perception's field of view leaves a sector behind it unseen (the lander fix turns round the same way).
+
 The search ends as soon as the estimate is sure enough (``DONE_STD_SHARE``), after ``MAX_LEGS`` legs or after
 ``MAX_SEARCH_S`` of simulated time, whichever comes first; then the rover walks back to its goal and stops there
 whatever its estimate says, so a mission still ends. One search a goal. Pure logic: the agent walks the legs.
@@ -63,6 +67,8 @@ class FixSearch:
     began: float = 0.0
     legs: int = 0
     std_at_start: float = 0.0
+    look_due: bool = False
+    """The leg walks to something to see (a teammate, the lander): turn round at its end before the next leg."""
 
     @property
     def active(self) -> bool:
@@ -91,21 +97,27 @@ class FixSearch:
     def next_leg(self, goal: Goal, loc: Localisation, now: float, teammates: dict[int, Teammate],
                  sure_at: tuple[float, float] | None, radius: float) -> bool:
         """The next leg (sets ``leg``); False: the search is over."""
-        self.leg = None
+        self.leg, self.look_due = None, False
         if self.legs >= MAX_LEGS or now - self.began >= MAX_SEARCH_S or self.sure(loc, radius):
             return False
         here, std = (loc.pose.x, loc.pose.z), loc.position_std
         mate = surest_teammate(teammates, here, std, now, radius)
         if mate is not None:
-            (x, z), self.why = mate
+            ((x, z), self.why), self.look_due = mate, True
         elif math.hypot(*here) <= LANDER_NEAR_RADII * radius:
             (x, z), self.why = (LANDER_GOAL.x, LANDER_GOAL.z), "going to the lander to fix it"
+            self.look_due = True
         elif sure_at is not None and radius < math.dist(here, sure_at) <= BACK_LEG_RADII * radius:
             (x, z), self.why = sure_at, "walking back to where it was last sure"
         else:
             return False
         self.leg, self.legs = Goal(goal.index, goal.total, "waypoint", x, z), self.legs + 1
         return True
+
+    def look_round(self) -> bool:
+        """At a leg's end, still unsure: whether to turn round first (once a leg), rather than take the next."""
+        due, self.look_due = self.look_due, False
+        return due
 
     def sure(self, loc: Localisation, radius: float) -> bool:
         return loc.position_std <= DONE_STD_SHARE * radius
@@ -115,7 +127,7 @@ class FixSearch:
         return self.active and (loc is None or self.sure(loc, radius) or now - self.began >= MAX_SEARCH_S)
 
     def end(self) -> None:
-        self.leg = None
+        self.leg, self.look_due = None, False
 
 
 def surest_teammate(teammates: dict[int, Teammate], here: tuple[float, float], std: float, now: float,

@@ -123,3 +123,29 @@ def test_an_agent_at_its_waypoint_unsure_searches_and_says_why_then_stops_at_its
     assert not agent.estimator.search.active and agent.view(2.0, agent.pose, ()).goal == agent.mission.goal
     agent.finish("reached")
     assert agent.state == "done"
+
+
+def test_at_the_end_of_a_leg_to_a_teammate_still_unsure_it_turns_round_once_before_the_next_leg():
+    """The leg ends where the rover's estimate puts the teammate, so the teammate stands within the rover's error of
+    it in any direction, and may be in the sector behind that its field of view leaves unseen: one turn round,
+    then the next leg. A leg back to the last sure place walks to no one: no turn there."""
+    params = RoverParams(navigation=NavigationParams(slip_std=0.05, heading_noise_std_deg=1.0))
+    agent = joined_agent(1, Keyspace("w"), params)
+    agent.mission.direction(m.MissionDirection(goal_index=0, goals_total=1, kind="waypoint", bearing_deg=0.0,
+                                               distance_m=200.0), 0.0)
+    agent.estimator.localisation = estimate(0.0, 200.0, 6.0)
+    agent.now = 100.0
+    agent.estimator.teammates = {4: mate(4, 8.0, 190.0, 1.5)}
+    agent.finish("reached")
+    assert agent.estimator.search.goal.target == (8.0, 190.0)
+    agent.estimator.localisation = estimate(8.0, 190.0, 6.0)  # at the teammate's place by its estimate, unsure
+    turned = [msg for _, msg in agent.finish("reached") if isinstance(msg, m.RotateAction)]
+    assert [t.degrees for t in turned] == [180.0] and agent.estimator.search.active
+    assert not [msg for _, msg in agent.finish("reached") if isinstance(msg, m.RotateAction)]  # once a leg
+
+
+def test_a_leg_back_to_the_last_sure_place_ends_without_a_turn():
+    search, loc = FixSearch(), estimate(0.0, 200.0, 6.0)
+    assert search.begin(GOAL, loc, 0.0, {}, (0.0, 180.0), RADIUS) and not search.look_round()
+    assert search.next_leg(GOAL, loc, 10.0, {2: mate(2, 5.0, 205.0, 2.5, stamp=10.0)}, (0.0, 180.0), RADIUS)
+    assert search.look_round() and not search.look_round()
