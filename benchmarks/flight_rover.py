@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import statistics
 import subprocess
 import sys
@@ -25,6 +26,7 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+from typing import BinaryIO
 
 import quick
 import zenoh
@@ -76,22 +78,25 @@ def measure(argv: list[str], session: zenoh.Session, token_key: str, settle_s: f
     seen = threading.Event()
     sub = session.liveliness().declare_subscriber(token_key, lambda s: s.kind == zenoh.SampleKind.PUT and seen.set())
     start = time.monotonic()
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        if not seen.wait(30):
-            raise RuntimeError(f"{argv[0]} announced no liveliness token within 30 s")
-        startup = time.monotonic() - start
-        time.sleep(settle_s)
-        rss, hwm = memory_kib(proc.pid)
-    finally:
-        sub.undeclare()
-        _stop(proc, argv[0])
+    with tempfile.TemporaryFile() as log:
+        proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=log)
+        try:
+            if not seen.wait(30):
+                raise RuntimeError(f"{argv[0]} announced no liveliness token within 30 s")
+            startup = time.monotonic() - start
+            time.sleep(settle_s)
+            rss, hwm = memory_kib(proc.pid)
+        finally:
+            sub.undeclare()
+            _stop(proc, argv[0], log)
     return {"startup_s": startup, "rss_mib": rss / 1024, "peak_mib": hwm / 1024}
 
 
-def _stop(proc: subprocess.Popen, name: str) -> None:
-    """The agent ends within its shutdown deadline (``bus.process.SHUTDOWN_DEADLINE_S``) of SIGTERM, or says
-    why in its log; waiting longer than that is a failure worth one clear line."""
+def _stop(proc: subprocess.Popen, name: str, log: BinaryIO) -> None:
+    """The agent ends within its shutdown deadline (``bus.process.SHUTDOWN_DEADLINE_S``) of SIGTERM: waiting
+    longer is a failure worth one clear line. One that ended with a failure status (its clean-up hung and its
+    watchdog ended it, with every thread's stack in its log) is reported with the end of that log, and the figures
+    still stand: they were read before the signal."""
     proc.terminate()
     try:
         proc.wait(timeout=STOP_WAIT_S)
@@ -99,6 +104,11 @@ def _stop(proc: subprocess.Popen, name: str) -> None:
         proc.kill()
         proc.wait()
         raise SystemExit(f"error: {name} did not end within {STOP_WAIT_S:g} s of SIGTERM") from None
+    if proc.returncode not in (0, -signal.SIGTERM):
+        log.seek(0)
+        tail = log.read().decode(errors="replace").strip().splitlines()[-12:]
+        print(f"warning: {name} ended with status {proc.returncode} on SIGTERM; the end of its log:",
+              *tail, sep="\n  ", file=sys.stderr)
 
 
 def summarise(samples: list[dict]) -> dict:
