@@ -34,6 +34,9 @@ __all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_NO_ROUTER", "EXIT_USAGE", "S
 
 SHUTDOWN_DEADLINE_S = 10.0
 """How long a process of a mission may take to stop once asked to (``stop_on_signals(deadline_s=...)``)."""
+STDERR_FD = 2
+"""The watchdog writes to the descriptor, not ``sys.stderr``: a handler must not fail on a stream replaced by one
+without a descriptor."""
 
 
 @contextlib.contextmanager
@@ -50,7 +53,7 @@ def stop_on_signals(deadline_s: float | None = None) -> Iterator[threading.Event
 
     def _handler(signum: int, frame: object) -> None:
         if deadline_s is not None and not stop.is_set():  # nothing printed here: a handler can interrupt a print
-            faulthandler.dump_traceback_later(deadline_s, exit=True, file=sys.stderr)
+            faulthandler.dump_traceback_later(deadline_s, exit=True, file=STDERR_FD)
         stop.set()
 
     previous = {sig: signal.signal(sig, _handler) for sig in (signal.SIGINT, signal.SIGTERM)}
