@@ -42,6 +42,7 @@ from schemas.keyspace import Keyspace  # noqa: E402
 SETTLE_S = 3.0
 """Memory is read once a process has run this long (``--settle``)."""
 STOP_WAIT_S = 30.0
+"""How long a process may take to end after SIGTERM: the agent's own shutdown deadline, with room to spare."""
 QUICK = {"runs": 1, "settle": 1.0}
 BARE_CLIENT = """
 import sys, time, zenoh
