@@ -5,7 +5,9 @@ Part 1, five rovers: a router, the bridge (``lunarsim ros2``) and ``lunarsim run
 loopback, real time. A ``zenoh-ros2-sdk`` process (``ros2_sdk_meter.py``) subscribes to every rover's scan and imu
 through the bridge, and this process subscribes to the same perception and gyroscope keys in plain Zenoh. Each
 sample's trip is timed from the world's publication (its Zenoh timestamp) to each subscriber, side by side:
-the bridge's added latency is the ROS 2 trip minus the plain one. A third, plain Zenoh subscriber on the bridge's
+the bridge's added latency is the ROS 2 trip minus the plain one, both as the difference of the two trips' percentiles
+and sample by sample (a sample's ROS 2 arrival minus its own plain arrival, whose percentiles leave out the delays
+both trips share, such as the world's own publishing). A third, plain Zenoh subscriber on the bridge's
 ROS 2 keys times arrival before decoding: the bridge's share without the SDK's. A trivial relay beside the bridge
 (this script with ``--relay``) re-puts the world's samples unchanged from its receiving thread: the floor of any
 bridge process, the extra hop through the router and a Python callback. Lost: world samples the SDK never got.
@@ -213,10 +215,14 @@ def five_rovers(folder: Path, seconds: float) -> dict:
     ros_ns = [got[k] - world[k][0] for k in world if k in got]
     raw_ns = [bridged[k] - world[k][0] for k in world if k in bridged]
     relay_ns = [floor[k][1] - world[k][0] for k in world if k in floor]
+    # What the extra hop adds to each sample: its arrival there minus the same sample's plain arrival.
+    paired_ns = [got[k] - world[k][1] for k in world if k in got]
+    paired_relay_ns = [floor[k][1] - world[k][1] for k in world if k in floor]
     return {"world_samples": len(world), "sdk_samples": len(got), "lost": len(lost),
             "lost_by_topic": sorted({k[0].rsplit("/", 1)[1] for k in lost}),
             "plain": Summary.of(plain_ns), "ros2": Summary.of(ros_ns), "ros2_raw": Summary.of(raw_ns),
-            "relay": Summary.of(relay_ns)}
+            "relay": Summary.of(relay_ns), "ros2_added": Summary.of(paired_ns),
+            "relay_added": Summary.of(paired_relay_ns)}
 
 
 def twenty_rovers_cpu(folder: Path, seconds: float, rovers: int = 20) -> dict:
@@ -273,12 +279,16 @@ def main() -> int:
     print(f"the bridge adds {added:.2f} ms at p99 to the SDK subscriber's trip, {raw.p99_ms - plain.p99_ms:.2f} ms to "
           f"a plain subscriber's on its keys (target at most {TARGET_ADDED_P99_MS:g} ms); a trivial relay in its place "
           f"adds {floor.p99_ms - plain.p99_ms:.2f} ms (the extra hop's floor)")
+    paired, paired_floor = five["ros2_added"], five["relay_added"]
+    print(f"sample by sample (its SDK arrival minus its plain arrival): the bridge adds p50 {paired.p50_ms:.2f}, p99 "
+          f"{paired.p99_ms:.2f} ms; the trivial relay p50 {paired_floor.p50_ms:.2f}, p99 {paired_floor.p99_ms:.2f} ms")
     print(f"{cpu['rovers']} rovers, real time: the bridge used {cpu['bridge_cpu_share']:.1%} of one core over "
           f"{cpu['window_s']:g} s (target under {TARGET_CPU_SHARE:.0%}); the ROS 2 subscriber got "
           f"{cpu['sdk_samples']} samples")
     if args.json:
         figures = {"five_rovers": {**five, "plain": vars(plain), "ros2": vars(ros), "ros2_raw": vars(raw),
-                                   "relay": vars(floor), "added_p99_ms": added},
+                                   "relay": vars(floor), "added_p99_ms": added,
+                                   "ros2_added": vars(five["ros2_added"]), "relay_added": vars(five["relay_added"])},
                    "twenty_rovers": cpu}
         args.json.write_text(json.dumps(figures, indent=2) + "\n")
     return 0
