@@ -1,4 +1,5 @@
-"""The report's four scenarios with their shipped noise, 5 and 20 rovers, 10 seeds each: reach, collisions, stuck.
+"""The report's four scenarios with their shipped noise, 5 and 20 rovers, 10 seeds each: reach, collisions, stuck,
+and the missions' simulated durations (median and range).
 
 The report's editor profiles (appendix C.3, figures 27-30: crater_observation, crater_and_return, maze,
 maze_crater_return) are what the behaviour was built on; this measures it there as the issue's targets ask
@@ -16,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import statistics
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -46,7 +48,8 @@ def run_one(name: str, rovers: int, seed: int, cap_s: float | None = None) -> di
 
 
 def table(rows: list[dict]) -> None:
-    print(f"{'scenario':<20} {'rovers':>6} {'reach':>8} {'collisions':>10} {'stuck':>6} {'complete':>9}")
+    print(f"{'scenario':<20} {'rovers':>6} {'reach':>8} {'collisions':>10} {'stuck':>6} {'complete':>9} "
+          f"{'median s':>9} {'range s':>13}")
     groups = sorted({(r["scenario"], r["rovers"]) for r in rows}, key=lambda g: (REPORT_SCENARIOS.index(g[0]), g[1]))
     for name, rovers in groups:
         some = [r for r in rows if (r["scenario"], r["rovers"]) == (name, rovers)]
@@ -57,8 +60,11 @@ def table(rows: list[dict]) -> None:
 def _line(name: str, rovers: str, rows: list[dict]) -> None:
     total = sum(r["rovers"] for r in rows)
     reached = sum(r["reached"] for r in rows)
+    durations = [r["duration_s"] for r in rows]
+    spread = f"{min(durations):.1f}-{max(durations):.1f}"
     print(f"{name:<20} {rovers:>6} {reached / total:>8.1%} {sum(r['collisions'] for r in rows):>10} "
-          f"{sum(r['stuck'] for r in rows):>6} {sum(r['complete'] for r in rows):>5}/{len(rows):<3}", flush=True)
+          f"{sum(r['stuck'] for r in rows):>6} {sum(r['complete'] for r in rows):>5}/{len(rows):<3} "
+          f"{statistics.median(durations):>9.1f} {spread:>13}", flush=True)
 
 
 def main() -> None:
@@ -67,11 +73,15 @@ def main() -> None:
     parser.add_argument("--teams", type=int, nargs="+", default=[5, 20], help="rovers in a mission")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--json", type=Path, metavar="FILE")
+    parser.add_argument("--table", type=Path, metavar="FILE", help="print the table of a --json FILE, run nothing")
     parser.add_argument("--sim-cap", type=float, metavar="S", help="stop every mission after S simulated seconds "
                         "(default: from its longest ideal path)")
     args = quick.parse_args(parser, QUICK)
     if args.sim_cap is not None and args.sim_cap <= 0:
         parser.error("--sim-cap must be more than 0")
+    if args.table:
+        table(json.loads(args.table.read_text())["missions"])
+        return
     about = {"host": host.describe(), "code": host.code_version()}
     print(host.line(about["host"]), f"| commit {about['code']['commit']}", flush=True)
     jobs = [(name, rovers, seed, args.sim_cap) for rovers in args.teams for name in REPORT_SCENARIOS
