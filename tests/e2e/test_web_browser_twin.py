@@ -245,3 +245,50 @@ def test_a_real_run_ends_on_the_page_with_photos_and_goals_numbered_from_one(rou
         assert not page.errors, page.errors
     finally:
         stop(run, view)
+
+
+def _frames_once_quiet(page, quiet_ms: int = 500, timeout: float = 10) -> int:
+    """The page's count of drawn frames once it has drawn none for ``quiet_ms``."""
+    seen = {}
+
+    def quiet() -> bool:
+        before = page_value(page, "lunarsim.frames")
+        page.wait_for_timeout(quiet_ms)
+        seen["frames"] = page_value(page, "lunarsim.frames")
+        return seen["frames"] == before
+
+    wait_for(quiet, timeout, f"the page to draw nothing for {quiet_ms} ms")
+    return seen["frames"]
+
+
+def test_the_view_draws_while_rovers_move_and_nothing_while_the_world_is_quiet(router, tmp_path, browser):
+    """Software WebGL takes a core's worth of milliseconds a frame: a page on a quiet world must not keep drawing
+    the same picture, and must draw again for a new state or a camera move."""
+    world = "webidle"
+    keys = Keyspace(world)
+    view, url = start_view(router, world, tmp_path, "--scenario", str(CRATER))
+    try:
+        page = watched_page(browser)
+        page.goto(url)
+        wait_for(lambda: page_value(page, "lunarsim.view.framed"), 15, "the view framed on the mission")
+        idle = _frames_once_quiet(page)
+        assert idle >= 1, "the scene was never drawn"
+        wait_for(lambda: page.inner_text("#fps") == "idle: nothing moved", 5, "the header to say the view is idle")
+
+        with zenoh.open(build_config(connect=[router])) as session:
+            for i in range(10):  # a second of a rover driving, at the view's stream rate
+                _publish(session, keys.state, m.WorldState(stamp=0.1 * i, rovers=[_rover(0.1 * i)]))
+                page.wait_for_timeout(100)
+            wait_for(lambda: page_value(page, "lunarsim.states") >= 5, 5, "the states on the page")
+            moving = _frames_once_quiet(page)
+        assert moving >= idle + 5, (idle, moving)
+        assert page_value(page, "lunarsim.view.drawnEase") == 1, "the last frame left the rover short of its state"
+
+        size = page.locator("#view3d").bounding_box()
+        page.mouse.move(size["x"] + size["width"] / 2, size["y"] + size["height"] / 2)
+        page.mouse.wheel(0, 600)
+        wait_for(lambda: page_value(page, "lunarsim.frames") > moving, 5, "a frame for the camera's move")
+        assert not page.failed, page.failed
+        assert not page.errors, page.errors
+    finally:
+        stop(view)

@@ -10,6 +10,7 @@ import { MapOverlay } from "./traversemap.js";
 
 const ROVER = { length: 1.4, width: 1.0, height: 0.6, scale: 2.0 };
 const TRAIL_POINTS = 300;
+const EASE_MS = 100; // a rover eases from its last state to the newest over one stream period, so 10 Hz looks smooth
 // The start's view: from the south, a little east, this far above the horizon, with the mission filling the picture.
 const VIEW_FROM = new THREE.Vector3(0.15, 0.75, 0.6).normalize();
 const FRAME_MARGIN = { share: 0.12, min_m: 12 };
@@ -30,6 +31,8 @@ export class LiveView {
     this.curr = new Map();
     this.stateAt = 0;
     this.onPick = null;
+    this.dirty = true; // the picture may have changed since it was last drawn
+    this.drawnEase = 1; // how far the last drawn frame had eased the rovers towards their newest state
     try {
       this.renderer = new THREE.WebGLRenderer({ antialias: false });
     } catch (err) {
@@ -49,6 +52,7 @@ export class LiveView {
     this.camera = new THREE.PerspectiveCamera(50, 1, 0.5, 20000);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.addEventListener("start", () => { this.userMoved = true; });
+    this.controls.addEventListener("change", () => this.invalidate());
     this.scene.add(new THREE.AmbientLight(0xffffff, 0.55));
     this.sun = new THREE.DirectionalLight(0xffffff, 1.6);
     this.sun.position.set(...DEFAULT_SUN.clone().multiplyScalar(500).toArray());
@@ -61,6 +65,11 @@ export class LiveView {
     this.renderer.domElement.addEventListener("click", (ev) => this.click(ev));
     new ResizeObserver(() => this.resize()).observe(container);
     this.resize();
+  }
+
+  // Something the picture shows has changed: the next animation frame draws it.
+  invalidate() {
+    this.dirty = true;
   }
 
   makeDynamic(capacity) {
@@ -91,6 +100,7 @@ export class LiveView {
     this.renderer.setSize(w, h, false);
     this.camera.aspect = w / h;
     this.camera.updateProjectionMatrix();
+    this.invalidate();
     // Framed while hidden (a page opened on another tab) or resized since: frame again, unless the user moved.
     if (this.framed && !this.userMoved) this.frame(this.page.scene);
   }
@@ -122,6 +132,7 @@ export class LiveView {
       m.position.set(goal.x, goal.h + 4, -goal.z);
       this.statics.add(m);
     }
+    this.invalidate();
     this.frame(scene);
   }
 
@@ -145,6 +156,7 @@ export class LiveView {
     this.camera.far = Math.max(distance * 10, t ? 10 * Math.max(t.x1 - t.x0, t.z1 - t.z0) : 0);
     this.camera.updateProjectionMatrix();
     this.controls.update();
+    this.invalidate();
   }
 
   // Where a ground point is on the canvas, in CSS pixels from its top left (the browser tests read it).
@@ -169,6 +181,7 @@ export class LiveView {
     }
     this.stateAt = now;
     this.state = state;
+    this.invalidate();
     if (this.needsFrame && state.rovers.length) this.frame(this.page.scene);
     if (!this.renderer) return;
     if (state.rovers.length > this.rovers.instanceMatrix.count) this.makeDynamic(state.rovers.length * 2);
@@ -177,11 +190,11 @@ export class LiveView {
   }
 
   setMap(msg, cells) {
-    if (this.renderer) this.mapOverlay.update(msg, cells, this.ground);
+    if (this.renderer) { this.mapOverlay.update(msg, cells, this.ground); this.invalidate(); }
   }
 
   showMap(on) {
-    if (this.renderer) this.mapOverlay.show(on);
+    if (this.renderer) { this.mapOverlay.show(on); this.invalidate(); }
   }
 
   where(id) {
@@ -217,10 +230,15 @@ export class LiveView {
     setPoints(this.chainLines, chain);
   }
 
+  // Draws only when the picture can have changed (a new state while the rovers ease towards it, the camera, the
+  // scene, the map, the canvas's size), so a page on an ended run, a paused replay or a silent world draws nothing:
+  // with software WebGL each frame takes a core's worth of milliseconds. True when it drew.
   render(now) {
-    if (!this.renderer) return;
-    // Ease rovers from their last state to the newest over one stream period, so 10 Hz looks smooth.
-    const f = Math.min(1, (now - this.stateAt) / 100);
+    if (!this.renderer) return false;
+    const f = Math.min(1, (now - this.stateAt) / EASE_MS);
+    if (!this.dirty && this.drawnEase === 1) return false;
+    this.dirty = false;
+    this.drawnEase = f;
     const m = new THREE.Matrix4(), q = new THREE.Quaternion(), p = new THREE.Vector3(), color = new THREE.Color();
     const up = new THREE.Vector3(0, 1, 0), s = new THREE.Vector3(1, 1, 1);
     let i = 0;
@@ -239,6 +257,7 @@ export class LiveView {
     this.controls.update();
     this.overlay.update(this.camera, this.controls.target, this.container.clientHeight);
     this.renderer.render(this.scene, this.camera);
+    return true;
   }
 
   click(ev) {

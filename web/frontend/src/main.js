@@ -77,12 +77,13 @@ function connect() {
 
 let last = performance.now(), counted = 0;
 function frame(now) {
-  view.render(now);
-  counted += 1;
-  lunarsim.frames += 1;
+  if (view.render(now)) {
+    counted += 1;
+    lunarsim.frames += 1;
+  }
   if (now - last >= 1000) {
     lunarsim.fps = (counted * 1000) / (now - last);
-    $("fps").textContent = `${lunarsim.fps.toFixed(0)} fps`;
+    $("fps").textContent = counted ? `${lunarsim.fps.toFixed(0)} fps` : "idle: nothing moved";
     counted = 0;
     last = now;
   }
