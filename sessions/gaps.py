@@ -96,20 +96,26 @@ class GapTracker:
                     self.gaps.append(gap)
                 return gap
             if previous is False and connected and self._open and self._open[-1].back_ns is None:
-                self._open[-1].back_ns = now_ns
-                return self._open[-1]
+                gap = self._open[-1]
+                gap.back_ns = now_ns
+                if gap.after is not None:
+                    self._open.remove(gap)
+                return gap
             return None
 
     def clock(self, mark: ClockMark) -> None:
         """A clock the recorder heard. Clocks come in receive order, but may be handled after a loss already seen:
-        each is placed by its receive time, not by when it is handled."""
+        each is placed by its receive time, not by when it is handled. One received after the loss was seen came
+        through a connection that is back, though the next poll may not have seen it yet: it is the gap's first
+        clock after, whichever of the two is noticed first."""
         with self._lock:
             self._last = mark
             for gap in list(self._open):
-                if gap.back_ns is None or mark.log_ns < gap.back_ns:
+                if mark.log_ns < gap.lost_ns:
                     gap.before = mark
-                else:
+                elif gap.after is None:
                     gap.after = mark
+                if gap.after is not None and gap.back_ns is not None:
                     self._open.remove(gap)
 
     def close(self, now_ns: int) -> None:

@@ -101,8 +101,8 @@ SMOKES: dict[str, Smoke] = {
         json_check=lambda doc: doc["published"]["perception"] > 0),
     "report_scenarios": Smoke(lines=(
         r"\[4/4\] \w+ x5 seed 1: \d/5 reached, \d+ stuck, \d+ collisions \(\d+ s\)",
-        r"maze_crater_return\s+5\s+\d+\.\d%\s+\d+\s+\d+\s+\d/1\s*",
-        r"all\s+\d+\.\d%\s+\d+\s+\d+\s+\d/4\s*",
+        r"maze_crater_return\s+5\s+\d+\.\d%\s+\d+\s+\d+\s+\d/1\s+\d+\.\d\s+\d+\.\d-\d+\.\d\s*",
+        r"all\s+\d+\.\d%\s+\d+\s+\d+\s+\d/4\s+\d+\.\d\s+\d+\.\d-\d+\.\d\s*",
         r"4 missions in \d+ s"),
         json_check=lambda doc: len(doc["missions"]) == 4),
     "scale": Smoke(lines=(

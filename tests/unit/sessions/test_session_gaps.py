@@ -47,6 +47,22 @@ def test_a_gap_is_bounded_by_the_last_clock_before_the_outage_and_the_first_afte
     assert gaps.summary() == describe(record)
 
 
+def test_a_clock_heard_before_the_poll_sees_the_router_back_ends_the_gap():
+    """The connection is polled every 0.2 s; a clock can come through the restored router before the next poll. It
+    is the first clock after the outage, not the last before it, or a 7 s outage would count 0.2 simulated s."""
+    gaps = GapTracker()
+    gaps.connection(True, 0)
+    gaps.clock(_mark(1.0, 1.0))
+    lost = gaps.connection(False, 1_500_000_000)
+    for t in (8.5, 8.55, 8.6):  # through the router that is back, before the poll notices it
+        gaps.clock(_mark(t, t))
+    back = gaps.connection(True, 8_700_000_000)
+    assert back is lost and back.wall_s == pytest.approx(7.2)
+    gaps.clock(_mark(8.75, 8.75))
+    assert (lost.before.sim_time, lost.after.sim_time) == (1.0, 8.5)
+    assert lost.sim_s == pytest.approx(7.5)
+
+
 def test_a_gap_across_a_world_restart_or_at_the_end_says_its_simulated_time_is_unknown():
     gaps = GapTracker()
     gaps.connection(True, 0)
