@@ -118,6 +118,12 @@ SMOKES: dict[str, Smoke] = {
         r"a FIFO \(0\.0 MB\): .*not a regular file.*",
         r"target \(24 MB refused in < 2 s, < 200 MB\): met; every hostile file refused"),
         json_check=lambda doc: "aliases 10 deep" in doc),
+    "suite_cpu": Smoke(lines=(
+        r"pytest -q -p no:cacheprovider -n 0 tests/unit/schemas/test_keyspace\.py: \d+ passed in [\d.]+s \(exit 0\)",
+        r"wall \d+\.\d s on \d+ cores; the process tree used \d+\.\d CPU s, the poll saw \d+\.\d; the machine was "
+        r"idle \d+% of its \d+\.\d CPU s",
+        r"pytest\s+\d+\.\d\s+\d+\.\d%\s+1\s*"),
+        json_check=lambda doc: doc["exit"] == 0 and "pytest" in doc["by_kind"]),
     "terrain_memory": Smoke(lines=(
         r"tiles    loaded max \d+ \(\d+ MiB\), at end \d+; generated \d+ \(in \d+ rounds, ~\d+ ms each\), evicted "
         r"[1-9]\d*",
