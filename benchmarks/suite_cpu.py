@@ -33,8 +33,8 @@ REPO = Path(__file__).resolve().parents[1]
 QUICK = {"interval": 0.1,
          "pytest_args": ["-q", "-p", "no:cacheprovider", "-n", "0", "tests/unit/schemas/test_keyspace.py"]}
 KINDS = (
-    ("pytest worker", r"exec\(eval\(sys\.stdin\.readline"),
-    ("pytest", r"/pytest\b|-m pytest"),
+    ("pytest worker", r"exec\(eval\(sys\.stdin\.readline|^\[pytest-xdist"),
+    ("pytest", r"^\S*python\S*( -\S+)* (-m |\S*/)pytest\b|^\S*/pytest\b"),  # anchored: tests' paths hold "pytest-of-"
     ("world", r"-m world_service|world_service\b"),
     ("camera", r"^lunarsim camera"),
     ("lander", r"-m lander_agent|lunarsim-lander"),
@@ -44,7 +44,7 @@ KINDS = (
     ("ROS 2 bridge", r"ros2_bridge"),
     ("lunarsim command", r"deploy\.cli|/lunarsim\b"),
     ("benchmark script", r"benchmarks/"),
-    ("browser", r"chrom|headless_shell|playwright"),
+    ("browser", r"chrom|headless_shell|playwright|^/proc/self/exe"),
     ("other Python", r"python"),
 )
 """Kinds of process, first match of the command line wins; anything else is grouped by its program's name."""
@@ -135,7 +135,8 @@ def run(pytest_args: list[str], interval: float) -> dict:
             "wall_s": round(wall, 1), "tree_cpu_s": round(tree, 1),
             "seen_cpu_s": round(sum(r["cpu_s"] for r in by_kind.values()), 1),
             "machine_cpu_s": round((all1 - all0) / CLK_TCK, 1), "idle_share": round((idle1 - idle0) / (all1 - all0), 3),
-            "cores": os.cpu_count(), "by_kind": dict(sorted(by_kind.items(), key=lambda kv: -kv[1]["cpu_s"]))}
+            "cores": os.cpu_count(), "by_kind": dict(sorted(by_kind.items(), key=lambda kv: -kv[1]["cpu_s"])),
+            "processes": [[round(p.cpu_s, 2), p.cmd[:300]] for p in poll.seen.values()]}
 
 
 def _reader(suite: subprocess.Popen, output: list[str]) -> threading.Thread:
