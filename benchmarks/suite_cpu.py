@@ -3,10 +3,11 @@
 The suite starts thousands of processes (worlds, agents, routers, recorders, browsers, commands) from two pytest
 workers, so ``pytest --durations`` says which tests are long but not what they spend their cores on. This runs
 ``pytest`` (or the arguments after ``--``) and, every ``--interval`` seconds, reads each new process's CPU time and
-command line from /proc, then groups the processes by kind. Three totals frame the table: the whole process tree's
-CPU (ours after pytest is waited for: every process its parents waited for), what the poll saw of it (a process
-shorter than the interval, and the last interval of each, are missed), and how much of the machine's CPU time went
-idle meanwhile (/proc/stat: a suite that leaves cores idle waits on wall clocks, not on work).
+command line from /proc, then groups the processes by kind. Three totals frame the table: the CPU the process tree's
+parents collected (ours once pytest is waited for; a process its parent never waited for is missing from it), what
+the poll saw of the tree (a process shorter than the interval, and the last interval of each, are missed), and how
+much of the machine's CPU time went idle meanwhile (/proc/stat: a suite that leaves cores idle waits on wall
+clocks, not on work).
 
     python benchmarks/suite_cpu.py [--json FILE] [--interval S] [-- PYTEST ARGS]
     python benchmarks/suite_cpu.py -- -n 3    # the suite on three workers instead of the configured two
