@@ -89,6 +89,7 @@ class Poll:
                 if pid not in self.tree and parent in self.tree:
                     self.tree.add(pid)
                     joined = True
+        self.tree &= found.keys() | {self.root}  # an ended process's pid may be given to one outside the tree
         for pid in self.tree & found.keys():
             _, started, cpu_s, cmd = found[pid]
             process = self.seen.setdefault((pid, started), Seen(cmd))
