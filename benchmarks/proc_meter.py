@@ -14,22 +14,23 @@ from typing import NamedTuple
 CLK_TCK = os.sysconf("SC_CLK_TCK")
 
 
-def _stat(pid: int) -> tuple[str, list[str]]:
+def proc_stat(pid: int) -> tuple[str, list[str]]:
     """A process's name and the fields after it in /proc/<pid>/stat (the name may hold spaces): ``fields[1]`` is
-    the parent's pid, ``fields[11:15]`` utime, stime, cutime and cstime (fields 4 and 14-17 of stat(5))."""
+    the parent's pid, ``fields[11:15]`` utime, stime, cutime and cstime, ``fields[19]`` the start time in clock ticks
+    since boot (fields 4, 14-17 and 22 of stat(5))."""
     stat = Path(f"/proc/{pid}/stat").read_text()
     return stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
 
 
 def cpu_seconds(pid: int) -> float:
     """User + system CPU time of a process so far (its threads included)."""
-    fields = _stat(pid)[1]
+    fields = proc_stat(pid)[1]
     return (int(fields[11]) + int(fields[12])) / CLK_TCK
 
 
 def cpu_and_parent(pid: int) -> tuple[float, int]:
     """CPU seconds of a process and of its children it has waited for (cutime, cstime), and its parent's pid."""
-    fields = _stat(pid)[1]
+    fields = proc_stat(pid)[1]
     return sum(int(f) for f in fields[11:15]) / CLK_TCK, int(fields[1])
 
 
@@ -80,7 +81,7 @@ def every_process_cpu() -> dict[int, tuple[float, str]]:
     for entry in Path("/proc").iterdir():
         if entry.name.isdigit():
             with contextlib.suppress(OSError, ValueError, IndexError):  # a process may end while we read
-                name, fields = _stat(int(entry.name))
+                name, fields = proc_stat(int(entry.name))
                 out[int(entry.name)] = ((int(fields[11]) + int(fields[12])) / CLK_TCK, name)
     return out
 

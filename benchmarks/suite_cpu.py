@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import quick
-from proc_meter import CLK_TCK
+from proc_meter import CLK_TCK, machine_cpu_seconds, proc_stat
 
 REPO = Path(__file__).resolve().parents[1]
 QUICK = {"interval": 0.1,
@@ -75,11 +75,10 @@ class Poll:
             if not entry.name.isdigit():
                 continue
             try:
-                stat = Path(entry.path, "stat").read_text()
+                _, fields = proc_stat(int(entry.name))
                 cmd = Path(entry.path, "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace").strip()
             except OSError:
                 continue  # gone meanwhile
-            fields = stat[stat.rindex(")") + 2:].split()
             found[int(entry.name)] = (int(fields[1]), int(fields[19]), (int(fields[11]) + int(fields[12])) / CLK_TCK,
                                       cmd)
         joined = True
@@ -104,14 +103,8 @@ def kind(cmd: str) -> str:
     return Path(cmd.split(" ", 1)[0]).name or "(no command line seen)"
 
 
-def machine_ticks() -> tuple[int, int]:
-    """(all, idle) CPU time of the machine so far, from /proc/stat's first line, in clock ticks."""
-    values = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
-    return sum(values), values[3] + values[4]  # idle and iowait
-
-
 def run(pytest_args: list[str], interval: float) -> dict:
-    all0, idle0 = machine_ticks()
+    busy0, stolen0 = machine_cpu_seconds()
     children0 = os.times()
     started = time.monotonic()
     suite = subprocess.Popen([sys.executable, "-m", "pytest", *pytest_args], cwd=REPO, stdout=subprocess.PIPE,
@@ -124,7 +117,7 @@ def run(pytest_args: list[str], interval: float) -> dict:
         time.sleep(interval)
     reader.join()
     wall = time.monotonic() - started
-    all1, idle1 = machine_ticks()
+    busy1, stolen1 = machine_cpu_seconds()
     children1 = os.times()
     tree = (children1.children_user - children0.children_user) + (children1.children_system - children0.children_system)
     by_kind: dict[str, dict[str, float]] = {}
@@ -136,7 +129,8 @@ def run(pytest_args: list[str], interval: float) -> dict:
     return {"pytest_args": pytest_args, "exit": suite.returncode, "summary": summary.strip(" ="),
             "wall_s": round(wall, 1), "tree_cpu_s": round(tree, 1),
             "seen_cpu_s": round(sum(r["cpu_s"] for r in by_kind.values()), 1),
-            "machine_cpu_s": round((all1 - all0) / CLK_TCK, 1), "idle_share": round((idle1 - idle0) / (all1 - all0), 3),
+            "machine_cpu_s": round(wall * os.cpu_count(), 1),
+            "idle_share": round(max(0.0, 1 - (busy1 - busy0 + stolen1 - stolen0) / (wall * os.cpu_count())), 3),
             "cores": os.cpu_count(), "by_kind": dict(sorted(by_kind.items(), key=lambda kv: -kv[1]["cpu_s"])),
             "processes": [[round(p.cpu_s, 2), p.cmd[:300]] for p in poll.seen.values()]}
 
