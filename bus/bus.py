@@ -185,14 +185,23 @@ class Bus:
         if self.loss and self._loss_rng.random() < self.loss:
             self.lost += 1
             return
-        congestion = self._congestion_for(key)
         if not self._declare:
-            self.session.put(key, payload, congestion_control=congestion, timestamp=self.session.new_timestamp())
+            self.session.put(key, payload, congestion_control=self._congestion_for(key),
+                             timestamp=self.session.new_timestamp())
             return
+        publisher = self._publishers.get(key) or self.declare_publisher(key)
+        publisher.put(payload, timestamp=self.session.new_timestamp())  # the recorder keeps it (0.3 us)
+
+    def declare_publisher(self, key: str) -> zenoh.Publisher:
+        """The publisher ``put`` uses for ``key``, declared now if it is not yet. A process that knows its keys
+        declares them at start-up: a declaration's cost grows with the session's own subscriptions and publishers
+        (milliseconds each in a process of many rover agents), and ``put`` would otherwise pay it on a sample's way
+        out."""
         publisher = self._publishers.get(key)
         if publisher is None:
+            congestion = self._congestion_for(key)
             publisher = self._publishers[key] = self.session.declare_publisher(key, congestion_control=congestion)
-        publisher.put(payload, timestamp=self.session.new_timestamp())  # the recorder keeps it (0.3 us)
+        return publisher
 
     def _congestion_for(self, key: str) -> zenoh.CongestionControl:
         """Radio traffic waits out congestion rather than be dropped unseen (``keyspace.RADIO_TOPICS``)."""
