@@ -73,7 +73,7 @@ class MissionPlan:
         goal = self.missions.goal(rover_id, index)
         if goal.kind not in ("waypoint", "crater") or self.scenario.formation.shape == "none":
             return []
-        return [rid for rid, goals in self.missions.goals.items() if len(goals) > index and goals[index] == goal]
+        return self.missions.sharing(index, goal)
 
     def request_station(self, rover_id: int, request: StationRequest) -> bool:
         """A rover near a shared goal asks for its station, so stations go out in the order rovers arrive

@@ -6,6 +6,8 @@ which goal is each rover's final one. One implementation, so the two never disag
 
 from __future__ import annotations
 
+from collections import defaultdict
+
 from schemas.errors import LunarSimError
 from schemas.messages import Calibration, GroundCommand
 from schemas.scenario import Goal, LanderSpec, RoverSpawn, Scenario
@@ -31,6 +33,7 @@ class RoverMissions:
         self.scenario = scenario
         self.goals: dict[int, list[Goal]] = {i + 1: list(scenario.mission) for i in range(len(scenario.rovers))}
         self.outcomes: dict[str, list[int] | CommandRefused] = {}  # request id -> what applying it gave
+        self._sharing: dict[tuple[int, Goal], list[int]] | None = None  # (index, goal) -> rovers; None: stale
 
     def final_index(self, rover_id: int) -> int:
         return len(self.goals[rover_id]) - 1
@@ -38,6 +41,17 @@ class RoverMissions:
     def goal(self, rover_id: int, index: int) -> Goal:
         goals = self.goals[rover_id]
         return goals[min(max(index, 0), len(goals) - 1)]
+
+    def sharing(self, index: int, goal: Goal) -> list[int]:
+        """The rovers whose goal ``index`` is ``goal``. Indexed once each time the goals change: the lander asks on
+        every broadcast for every rover, and a scan of all the rovers' goals each time made a broadcast quadratic
+        in the number of rovers (a quarter of a core for the lander of 750)."""
+        if self._sharing is None:
+            self._sharing = defaultdict(list)
+            for rid, goals in self.goals.items():
+                for i, g in enumerate(goals):
+                    self._sharing[(i, g)].append(rid)
+        return self._sharing.get((index, goal), [])
 
     def apply(self, command: GroundCommand) -> list[int]:
         """Carry out a command; returns the rovers whose mission changed. Raises CommandRefused.
@@ -61,6 +75,7 @@ class RoverMissions:
         if command.command == "stop":
             return rovers
         goal = self._new_goal(command)
+        self._sharing = None
         for rid in rovers:
             self.goals[rid].append(goal)
         return rovers

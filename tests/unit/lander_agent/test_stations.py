@@ -179,3 +179,18 @@ def test_the_lander_gives_each_rover_of_a_team_its_own_station_on_a_shared_crate
     nearest = min(((goal.x - lx + sx, goal.z - lz + sz) for sx, sz in stations),
                   key=lambda p: math.dist(p, (first.x, first.z)))
     assert nearest == (goal.x - lx + stations[0][0], goal.z - lz + stations[0][1])  # the first asks, the nearest
+
+
+def test_the_team_at_a_goal_follows_ground_commands():
+    """Who shares a goal is indexed once per change of the goals (``RoverMissions.sharing``): a command that sends
+    one rover elsewhere and then the others after it must show in the next directions, not in a stale index."""
+    scenario = load_scenario(SCENARIOS / "crater_and_return.yaml").with_overrides(rovers=3)
+    plan = MissionPlan(scenario)
+    last = len(scenario.mission)
+    assert plan.direction_for(1).shared  # all three share goal 0
+    plan.on_command(m.GroundCommand(command="set_target", rover_id=2, x=40.0, z=40.0))
+    plan.on_command(m.GroundCommand(command="set_target", rover_id=3, x=-40.0, z=40.0))
+    assert plan.missions.sharing(last, plan.missions.goal(2, last)) == [2]
+    assert plan.missions.sharing(last, plan.missions.goal(3, last)) == [3]
+    plan.on_command(m.GroundCommand(command="set_target", rover_id=1, x=40.0, z=40.0))
+    assert plan.missions.sharing(last, plan.missions.goal(2, last)) == [1, 2]
