@@ -15,7 +15,7 @@ import queue
 import random
 import threading
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import NamedTuple
 
 import zenoh
@@ -189,18 +189,21 @@ class Bus:
             self.session.put(key, payload, congestion_control=self._congestion_for(key),
                              timestamp=self.session.new_timestamp())
             return
-        publisher = self._publishers.get(key) or self.declare_publisher(key)
+        publisher = self._publishers.get(key) or self._declare_publisher(key)
         publisher.put(payload, timestamp=self.session.new_timestamp())  # the recorder keeps it (0.3 us)
 
-    def declare_publisher(self, key: str) -> zenoh.Publisher:
-        """The publisher ``put`` uses for ``key``, declared now if it is not yet. A process that knows its keys
-        declares them at start-up: a declaration's cost grows with the session's own subscriptions and publishers
-        (milliseconds each in a process of many rover agents), and ``put`` would otherwise pay it on a sample's way
-        out."""
-        publisher = self._publishers.get(key)
-        if publisher is None:
-            congestion = self._congestion_for(key)
-            publisher = self._publishers[key] = self.session.declare_publisher(key, congestion_control=congestion)
+    def declare_publishers(self, keys: Iterable[str]) -> None:
+        """Declare now the publishers ``put`` will use for ``keys`` (nothing to do for a bus that puts undeclared).
+        A process that knows its keys declares them before the clock starts (``keyspace.ROVER_OUTPUTS`` says why)
+        rather than on a sample's way out."""
+        if self._declare:
+            for key in keys:
+                if key not in self._publishers:
+                    self._declare_publisher(key)
+
+    def _declare_publisher(self, key: str) -> zenoh.Publisher:
+        congestion = self._congestion_for(key)
+        publisher = self._publishers[key] = self.session.declare_publisher(key, congestion_control=congestion)
         return publisher
 
     def _congestion_for(self, key: str) -> zenoh.CongestionControl:

@@ -41,15 +41,8 @@ from shared.pose import Pose
 
 log = logging.getLogger("lunarsim.rover")
 
-SUBSCRIBED_TOPICS = (ks.PERCEPTION, ks.NAVIGATION_STATUS, ks.CANCEL_RESULT, ks.ACTION_REJECTED, ks.GYROSCOPE,
-                     ks.COMM_IN, ks.COMM_PARTNERS, ks.MISSION_DIRECTION, ks.CALIBRATION, ks.PHOTO,
-                     ks.BATTERY, ks.TEMPERATURE, ks.SUN)
+SUBSCRIBED_TOPICS = ks.ROVER_INPUTS
 """The rover's topics an agent subscribes to: one handler each (``RoverAgent.handlers``)."""
-PUBLISHED_TOPICS = (ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.SPEED_ACTION, ks.PHOTO_ACTION, ks.COMM_OUT,
-                    ks.STATUS, ks.POSE_ESTIMATE, ks.ACK)
-"""The rover's topics an agent publishes on. Its Zenoh loop declares their publishers before the world starts the
-clock: a declaration's cost grows with the entities the session holds (milliseconds each with 250 agents in one
-process), and made on first use, in the middle of the mission, it holds up every sample behind it."""
 STATUS_PERIOD_S = 1.0
 IDLE_STATES = ("done", "stuck", "stopped")
 """States in which the agent decides nothing until a new goal comes."""

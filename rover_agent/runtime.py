@@ -8,7 +8,7 @@ import threading
 from bus.bus import Bus, Received
 from bus.process import freeze_start_up_heap
 from bus.world_watch import ClockWatch
-from rover_agent.agent import PUBLISHED_TOPICS, SUBSCRIBED_TOPICS, RoverAgent
+from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
 from rover_agent.restarts.saved_state import STATE_WRITER
 from schemas import codec
 from schemas import keyspace as ks
@@ -32,9 +32,8 @@ def run(agents: RoverAgent | list[RoverAgent], bus: Bus, stop: threading.Event) 
     handler = _Handler(agents, bus, stop, ClockWatch(who, keys.clock))
     bus.handle_directly(handler)
     bus.subscribe(keys.clock)  # before the tokens: the world starts the clock once it sees them
-    for agent in agents:  # before the clock can start (PUBLISHED_TOPICS says why)
-        for topic in PUBLISHED_TOPICS:
-            bus.declare_publisher(keys.rover(agent.id, topic))
+    # before the clock can start (keyspace.ROVER_OUTPUTS says why)
+    bus.declare_publishers(keys.rover(agent.id, topic) for agent in agents for topic in ks.ROVER_OUTPUTS)
     for agent in agents:
         for topic in SUBSCRIBED_TOPICS:
             bus.subscribe(keys.rover(agent.id, topic))

@@ -20,11 +20,6 @@ from schemas import radio
 from schemas.errors import LunarSimError
 from schemas.messages import Out
 
-PUBLISHED_TOPICS = frozenset({ks.MOVE_ACTION, ks.ROTATE_ACTION, ks.CANCEL_ACTION, ks.SPEED_ACTION, ks.PHOTO_ACTION,
-                              ks.COMM_OUT, ks.STATUS, ks.ACK, ks.POSE_ESTIMATE})
-"""What a rover agent publishes (the world's inputs, its status, its lockstep ack and its pose estimate)."""
-
-
 
 class ActionError(LunarSimError, ValueError):
     """A policy's action that no rover could publish: names the rover and what is wrong."""
@@ -147,9 +142,9 @@ def checked_messages(keys: ks.Keyspace, rover_id: int, messages: list) -> list[O
             rid, topic = keys.parse_rover_key(key)
         except ValueError as exc:
             raise ActionError(f"rover {rover_id}: {exc}") from None
-        if rid != rover_id or topic not in PUBLISHED_TOPICS:
+        if rid != rover_id or topic not in ks.ROVER_OUTPUTS:
             raise ActionError(f"rover {rover_id} may not publish on {key!r}: only on its own keys "
-                              f"({', '.join(sorted(PUBLISHED_TOPICS))})")
+                              f"({', '.join(sorted(ks.ROVER_OUTPUTS))})")
         if not isinstance(message, m.TOPIC_MODELS[topic]):
             raise ActionError(f"rover {rover_id}: {topic} carries {m.TOPIC_MODELS[topic].__name__}, "
                               f"got {type(message).__name__}")

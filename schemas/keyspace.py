@@ -56,6 +56,18 @@ ROVER_IDS: Final = "rover_ids"
 REPLAY_STATES: Final = ("playing", "paused")
 """The last chunk of a replay's liveliness token (``Keyspace.alive_replay``): how viewers tell a replay from a live
 world, and a paused replay from a stopped one."""
+ROVER_INPUTS: Final = (PERCEPTION, NAVIGATION_STATUS, CANCEL_RESULT, ACTION_REJECTED, GYROSCOPE, COMM_IN, COMM_PARTNERS,
+                       MISSION_DIRECTION, CALIBRATION, PHOTO, BATTERY, TEMPERATURE, SUN)
+"""A rover's topics that a rover agent takes: its sensors, the world's answers to its actions and what its radio
+receives, published by the world (or the rover's hardware bridge)."""
+ROVER_OUTPUTS: Final = (MOVE_ACTION, ROTATE_ACTION, CANCEL_ACTION, SPEED_ACTION, PHOTO_ACTION, COMM_OUT, STATUS,
+                        POSE_ESTIMATE, ACK)
+"""A rover's topics that its agent publishes: actions, radio transmissions, status, pose estimate and lockstep acks.
+
+Processes that publish on many rovers' keys declare their publishers before the clock starts (the rover agents of
+a process, the world when it is not the router): a Zenoh declaration's cost grows with the entities the session
+already holds (milliseconds each with 250 agents in one process), and made on first use, mid-mission, it holds up
+every sample behind it."""
 RADIO_TOPICS: Final = frozenset({COMM_OUT, COMM_IN, MISSION_DIRECTION, CALIBRATION})
 """Topics that carry radio traffic: a transmission and its deliveries. The radio model counts what it loses
 (``radio_lost``, ``radio_dropped``), so Zenoh must not lose them unseen: they are published without dropping under

@@ -11,7 +11,7 @@ from procs import wait_for
 from bus.bus import Bus
 from bus.zenoh_config import build_config, open_session
 from rover_agent import runtime
-from rover_agent.agent import PUBLISHED_TOPICS, RoverAgent
+from rover_agent.agent import RoverAgent
 from schemas import keyspace as ks
 from schemas.params import RoverParams
 
@@ -25,10 +25,9 @@ class _Recording(Bus):
         super().__init__(*args, **kwargs)
         self.steps: list[tuple[str, str]] = []
 
-    def declare_publisher(self, key: str):
-        if key not in self._publishers:
-            self.steps.append(("publisher", key))
-        return super().declare_publisher(key)
+    def _declare_publisher(self, key: str):
+        self.steps.append(("publisher", key))
+        return super()._declare_publisher(key)
 
     def declare_token(self, key: str) -> None:
         self.steps.append(("token", key))
@@ -49,5 +48,5 @@ def test_every_publisher_is_declared_before_the_first_token(router):
             loop.join(timeout=20)
     first_token = next(i for i, (kind, _) in enumerate(bus.steps) if kind == "token")
     declared_before = {key for kind, key in bus.steps[:first_token] if kind == "publisher"}
-    assert declared_before == {keys.rover(a.id, topic) for a in agents for topic in PUBLISHED_TOPICS}
+    assert declared_before == {keys.rover(a.id, topic) for a in agents for topic in ks.ROVER_OUTPUTS}
     assert all(kind == "token" for kind, _ in bus.steps[first_token:])
