@@ -181,8 +181,6 @@ def serve(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading
     ``lingering``, the final statistics until ``stop``. ``camera``: started already (``start_camera``), else
     ``run`` starts one."""
     declare_io(bus, world.keys, world)
-    # what it sends every rover, declared before the clock starts (keyspace.ROVER_OUTPUTS says why)
-    bus.declare_publishers(world.keys.rover(rid, topic) for rid in world.rover_ids for topic in ks.ROVER_INPUTS)
     report = run(world, bus, settings, stop, camera)
     if report_file is not None:
         report_file.write_text(json.dumps(msgspec.to_builtins(report), indent=2) + "\n")

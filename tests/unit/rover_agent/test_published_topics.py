@@ -1,7 +1,7 @@
-"""Every rover key a process publishes on is one it declares before the world starts the clock: the agents' outputs
-(``keyspace.ROVER_OUTPUTS``) and what the world sends them (``keyspace.ROVER_INPUTS``). A key missing there is
-declared on first use, in the middle of the mission, where in a process of many agents (or a world of many
-rovers) each declaration holds up every sample behind it."""
+"""The rover topics each way are the ones ``schemas.keyspace`` names: the agents' outputs (``ROVER_OUTPUTS``), which
+their Zenoh loop declares before the world starts the clock, and what the world sends them (``ROVER_INPUTS``), which
+they subscribe to. An output missing there is declared on first use, in the middle of the mission, where in a
+process of many agents each declaration holds up every sample behind it."""
 
 from __future__ import annotations
 
