@@ -67,8 +67,8 @@ ROVER_OUTPUTS: Final = (MOVE_ACTION, ROTATE_ACTION, CANCEL_ACTION, SPEED_ACTION,
 A process of rover agents declares its publishers before the clock starts: a Zenoh declaration's cost grows with
 the entities the session already holds (milliseconds each with 250 agents in one process), and made on first use,
 mid-mission, it holds up every sample behind it. The world does not declare its thousands of rover keys ahead: a
-router process then matched every agent's subscription against them, and 1,000 shared rovers took 172 s instead
-of 10 to connect."""
+router process would match every agent's subscription against them, and a thousand shared rovers would take
+minutes rather than seconds to connect (docs/benchmarks.md)."""
 RADIO_TOPICS: Final = frozenset({COMM_OUT, COMM_IN, MISSION_DIRECTION, CALIBRATION})
 """Topics that carry radio traffic: a transmission and its deliveries. The radio model counts what it loses
 (``radio_lost``, ``radio_dropped``), so Zenoh must not lose them unseen: they are published without dropping under

@@ -44,14 +44,14 @@ class RoverMissions:
 
     def sharing(self, index: int, goal: Goal) -> list[int]:
         """The rovers whose goal ``index`` is ``goal``. Indexed once each time the goals change: the lander asks on
-        every broadcast for every rover, and a scan of all the rovers' goals each time made a broadcast quadratic
-        in the number of rovers (a quarter of a core for the lander of 750)."""
+        every broadcast for every rover, and a scan of all the rovers' goals for each would make a broadcast
+        quadratic in the number of rovers."""
         if self._sharing is None:
             self._sharing = defaultdict(list)
             for rid, goals in self.goals.items():
                 for i, g in enumerate(goals):
                     self._sharing[(i, g)].append(rid)
-        return self._sharing.get((index, goal), [])
+        return list(self._sharing.get((index, goal), ()))
 
     def apply(self, command: GroundCommand) -> list[int]:
         """Carry out a command; returns the rovers whose mission changed. Raises CommandRefused.
