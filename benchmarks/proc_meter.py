@@ -22,10 +22,14 @@ def proc_stat(pid: int) -> tuple[str, list[str]]:
     return stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
 
 
+def stat_cpu_seconds(fields: list[str]) -> float:
+    """User + system CPU time from ``proc_stat``'s fields (the process's threads included)."""
+    return (int(fields[11]) + int(fields[12])) / CLK_TCK
+
+
 def cpu_seconds(pid: int) -> float:
     """User + system CPU time of a process so far (its threads included)."""
-    fields = proc_stat(pid)[1]
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK
+    return stat_cpu_seconds(proc_stat(pid)[1])
 
 
 def cpu_and_parent(pid: int) -> tuple[float, int]:
@@ -82,7 +86,7 @@ def every_process_cpu() -> dict[int, tuple[float, str]]:
         if entry.name.isdigit():
             with contextlib.suppress(OSError, ValueError, IndexError):  # a process may end while we read
                 name, fields = proc_stat(int(entry.name))
-                out[int(entry.name)] = ((int(fields[11]) + int(fields[12])) / CLK_TCK, name)
+                out[int(entry.name)] = (stat_cpu_seconds(fields), name)
     return out
 
 

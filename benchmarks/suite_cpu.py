@@ -1,6 +1,6 @@
 """Where the test suite's time goes: the README's test command run under a /proc poll, its CPU by kind of process.
 
-The suite starts thousands of processes (worlds, agents, routers, recorders, browsers, commands) from two pytest
+The suite starts thousands of processes (worlds, agents, routers, recorders, browsers, commands) from its pytest
 workers, so ``pytest --durations`` says which tests are long but not what they spend their cores on. This runs
 ``pytest`` (or the arguments after ``--``) and, every ``--interval`` seconds, reads each new process's CPU time and
 command line from /proc, then groups the processes by kind. Three totals frame the table: the CPU the process tree's
@@ -10,7 +10,7 @@ much of the machine's CPU time went idle meanwhile (/proc/stat: a suite that lea
 clocks, not on work).
 
     python benchmarks/suite_cpu.py [--json FILE] [--interval S] [-- PYTEST ARGS]
-    python benchmarks/suite_cpu.py -- -n 3    # the suite on three workers instead of the configured two
+    python benchmarks/suite_cpu.py -- -n 2    # the suite on two workers instead of the configured three
     python benchmarks/suite_cpu.py --quick     # one small test module, in one process: the same path in seconds
 """
 
@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import quick
-from proc_meter import CLK_TCK, machine_cpu_seconds, proc_stat
+from proc_meter import machine_cpu_seconds, proc_stat, stat_cpu_seconds
 
 REPO = Path(__file__).resolve().parents[1]
 QUICK = {"interval": 0.1,
@@ -79,8 +79,7 @@ class Poll:
                 cmd = Path(entry.path, "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace").strip()
             except OSError:
                 continue  # gone meanwhile
-            found[int(entry.name)] = (int(fields[1]), int(fields[19]), (int(fields[11]) + int(fields[12])) / CLK_TCK,
-                                      cmd)
+            found[int(entry.name)] = (int(fields[1]), int(fields[19]), stat_cpu_seconds(fields), cmd)
         joined = True
         while joined:  # a child may come before its parent in the listing
             joined = False

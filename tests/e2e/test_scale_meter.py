@@ -9,7 +9,9 @@ import sys
 
 from procs import REPO
 
-sys.path.insert(0, str(REPO / "benchmarks"))  # benchmarks/ is not a package: its scripts import each other so
+# benchmarks/ is not a package (its scripts import each other by name); last on the path, so that its ros2_bridge.py
+# does not hide the ros2_bridge package from the tests that run after this one in the same worker
+sys.path.append(str(REPO / "benchmarks"))
 
 from proc_meter import ProcessMeter, with_descendants
 
