@@ -65,7 +65,6 @@ def index_page(readme: Path) -> str:
 
 
 def keyspace_page() -> str:
-    from rover_agent.agent import SUBSCRIBED_TOPICS
     from schemas import keyspace as ks
     from schemas import messages as m
     from world_service.sim import World
@@ -82,7 +81,7 @@ def keyspace_page() -> str:
     for topic, model in m.TOPIC_MODELS.items():
         sender = "rover agent" if topic in World.INPUT_TOPICS else "world"
         receiver = ", ".join(who for who, yes in (("world", topic in World.INPUT_TOPICS),
-                                                  ("rover agent", topic in SUBSCRIBED_TOPICS)) if yes)
+                                                  ("rover agent", topic in ks.ROVER_INPUTS)) if yes)
         sender, receiver = elsewhere.get(topic, (sender, receiver))
         lines.append(f"| `rover/<id>/{topic}` | [`{model.__name__}`](#{model.__name__.lower()}) | {sender} | "
                      f"{receiver} |")

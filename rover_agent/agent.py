@@ -41,8 +41,6 @@ from shared.pose import Pose
 
 log = logging.getLogger("lunarsim.rover")
 
-SUBSCRIBED_TOPICS = ks.ROVER_INPUTS
-"""The rover's topics an agent subscribes to: one handler each (``RoverAgent.handlers``)."""
 STATUS_PERIOD_S = 1.0
 IDLE_STATES = ("done", "stuck", "stopped")
 """States in which the agent decides nothing until a new goal comes."""

@@ -8,7 +8,7 @@ import threading
 from bus.bus import Bus, Received
 from bus.process import freeze_start_up_heap
 from bus.world_watch import ClockWatch
-from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
+from rover_agent.agent import RoverAgent
 from rover_agent.restarts.saved_state import STATE_WRITER
 from schemas import codec
 from schemas import keyspace as ks
@@ -35,7 +35,7 @@ def run(agents: RoverAgent | list[RoverAgent], bus: Bus, stop: threading.Event) 
     # before the clock can start (keyspace.ROVER_OUTPUTS says why)
     bus.declare_publishers(keys.rover(agent.id, topic) for agent in agents for topic in ks.ROVER_OUTPUTS)
     for agent in agents:
-        for topic in SUBSCRIBED_TOPICS:
+        for topic in ks.ROVER_INPUTS:
             bus.subscribe(keys.rover(agent.id, topic))
         bus.declare_token(keys.alive_rover(agent.id))
     log.info("%s: started on %s, waiting for the world's clock", who, keys.prefix)

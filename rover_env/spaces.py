@@ -18,12 +18,11 @@ from typing import get_args, get_type_hints
 import numpy as np
 from gymnasium import spaces
 
-from rover_agent.agent import SUBSCRIBED_TOPICS
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.params import RoverParams
 
-HEARD_TOPICS = (ks.CLOCK, *SUBSCRIBED_TOPICS)
+HEARD_TOPICS = (ks.CLOCK, *ks.ROVER_INPUTS)
 """Every topic the world sends a rover, and the clock."""
 NAV_ACTIONS = get_args(get_type_hints(m.NavigationStatus)["action"])
 NAV_OUTCOMES = get_args(get_type_hints(m.NavigationStatus)["outcome"])

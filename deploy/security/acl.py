@@ -7,9 +7,9 @@ taken from what the programs do:
 
 - a rover agent publishes only its own inputs to the world (``World.INPUT_TOPICS``: actions, radio output,
   status), its lockstep ``ack`` and its ``pose_estimate`` (which the ground may read, the world not), and
-  subscribes only to its own sensors and radio input (the agent's ``SUBSCRIBED_TOPICS``) and the clock; it holds
+  subscribes only to its own sensors and radio input (``keyspace.ROVER_INPUTS``) and the clock; it holds
   ``alive/rover/<id>`` and may ask the world for a free id;
-- the world publishes the sensors of the simulated rovers (every rover's ``SUBSCRIBED_TOPICS``, the lander's
+- the world publishes the sensors of the simulated rovers (every rover's ``keyspace.ROVER_INPUTS``, the lander's
   radio input), the clock, ``world/state`` and ``world/stats``;
 - a real rover's bridge (``hardware.bridge``) takes the world's place for that rover only: it alone
   publishes the rover's sensors and its driver's ``telemetry``, subscribes to the rover's actions and radio
@@ -83,9 +83,7 @@ def _rover_inputs() -> tuple[str, ...]:
 
 def _rover_sensors() -> tuple[str, ...]:
     """Topics a rover receives: its sensors and radio input, published by the world or by the rover's bridge."""
-    from rover_agent.agent import SUBSCRIBED_TOPICS
-
-    return tuple(SUBSCRIBED_TOPICS)
+    return ks.ROVER_INPUTS
 
 
 def _bridge_inputs() -> tuple[str, ...]:
@@ -164,7 +162,7 @@ def view_role(keys: ks.Keyspace) -> Role:
 def rover_agent_role(keys: ks.Keyspace, rover_id: int) -> Role:
     return Role(
         rover_role(rover_id),
-        publishes=tuple(keys.rover(rover_id, t) for t in (*_rover_inputs(), ks.POSE_ESTIMATE)),
+        publishes=tuple(keys.rover(rover_id, t) for t in ks.ROVER_OUTPUTS),
         subscribes=(*(keys.rover(rover_id, t) for t in _rover_sensors()), keys.clock),
         tokens=(keys.alive_rover(rover_id),),
         queries=(keys.rover_ids,),
@@ -207,7 +205,7 @@ def ros2_bridge_role(keys: ks.Keyspace, access: Ros2Access) -> Role:
     return Role(
         ROS2,
         publishes=(keys.ground_command, *(keys.rover(rid, t) for rid in driven
-                                          for t in (*_rover_inputs(), ks.POSE_ESTIMATE)), data, cache),
+                                          for t in ks.ROVER_OUTPUTS), data, cache),
         subscribes=(*(keys.rovers(t) for t in ROVER_SOURCES), keys.clock, keys.lander(ks.MAP),
                     *((keys.state,) if access.truth else ()), data),
         tokens=(*(keys.alive_rover(rid) for rid in driven), graph, cache),

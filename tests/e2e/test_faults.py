@@ -27,7 +27,7 @@ from procs import REPO, SCENARIOS, free_port, lunarsim, run_cli_mission, stop, w
 
 from bus.zenoh_config import build_config
 from deploy.children import wait_for_port
-from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
+from rover_agent.agent import RoverAgent
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -344,7 +344,7 @@ def malformed_payloads(rng: random.Random, count: int) -> Iterator[bytes]:
 def _malformed_targets(keys: Keyspace, rovers: int) -> list[str]:
     """Every key a LunarSim process subscribes to (rover, lander, world and ground), plus rover ids that do not
     exist and one that is not a number."""
-    rover_topics = sorted({*World.INPUT_TOPICS, *SUBSCRIBED_TOPICS, ks.ACK})
+    rover_topics = sorted({*World.INPUT_TOPICS, *ks.ROVER_INPUTS, ks.ACK})
     ids = [*range(1, rovers + 1), 99, "x"]
     lander = [keys.lander(t) for t in (ks.COMM_OUT, ks.COMM_IN, ks.COMM_PARTNERS, ks.STATUS, ks.ACK, ks.MAP)]
     world = [keys.clock, keys.state, keys.stats, keys.ground_command, keys.ground_command_result]
@@ -368,7 +368,7 @@ def _counted_by_agents(keys: Keyspace, key: str, rovers: int) -> int:
         rid, topic = keys.parse_rover_key(key)
     except ValueError:
         return 0
-    return int(rid <= rovers and topic in SUBSCRIBED_TOPICS)
+    return int(rid <= rovers and topic in ks.ROVER_INPUTS)
 
 
 def test_malformed_payloads_on_every_key_are_counted_and_the_mission_completes(router, tmp_path):

@@ -25,7 +25,6 @@ from procs import REPO, SCENARIOS, free_port, lunarsim, module, stop, wait_for, 
 from bus.zenoh_config import build_config
 from deploy.children import wait_for_port
 from deploy.security import acl, configs
-from rover_agent.agent import SUBSCRIBED_TOPICS
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -72,7 +71,7 @@ def test_each_rover_publishes_only_its_own_world_inputs(control):
 
 
 def test_only_the_world_publishes_sensors_and_each_rover_reads_only_its_own(control):
-    for topic in SUBSCRIBED_TOPICS:
+    for topic in ks.ROVER_INPUTS:
         for rid in (1, 2, 3):
             assert may_publish(control, KEYS.rover(rid, topic)) == {"world"}, topic
             assert may_subscribe(control, KEYS.rover(rid, topic)) == {f"rover-{rid}", "recorder", "view"}, topic
@@ -438,11 +437,11 @@ def subscribers(control: dict, key: str) -> set[str]:
 def test_a_bridge_alone_publishes_its_own_rovers_sensors_and_telemetry(bridged):
     from world_service.twin.world import TwinWorld
 
-    for topic in (*SUBSCRIBED_TOPICS, ks.TELEMETRY):
+    for topic in (*ks.ROVER_INPUTS, ks.TELEMETRY):
         assert publishers(bridged, KEYS.rover(1, topic)) == {"bridge-1"}, topic
         assert publishers(bridged, KEYS.rover(2, topic)) == {"bridge-2"}, topic
         assert subscribers(bridged, KEYS.rover(1, topic)) >= {"recorder"}
-    for topic in SUBSCRIBED_TOPICS:
+    for topic in ks.ROVER_INPUTS:
         assert publishers(bridged, KEYS.rover(3, topic)) == {"world"}, topic  # rover 3 is still simulated
         assert subscribers(bridged, KEYS.rover(1, topic)) - {"world"} == {"rover-1", "recorder", "view"}, topic
         assert ("world" in subscribers(bridged, KEYS.rover(1, topic))) == (topic in TwinWorld.INPUT_TOPICS), topic
@@ -498,7 +497,7 @@ def test_the_world_follows_real_rovers_as_a_twin_and_cannot_speak_for_them(bridg
             assert allowed(rules, "world", "declare_liveliness_subscriber", "ingress", key), key
     for key in (KEYS.clock, KEYS.state, KEYS.stats):
         assert publishers(all_real, key) == {"world"}, key
-    for topic in SUBSCRIBED_TOPICS:
+    for topic in ks.ROVER_INPUTS:
         assert publishers(all_real, KEYS.rover(1, topic)) == {"bridge-1"}, topic
     assert publishers(all_real, KEYS.lander(ks.COMM_IN)) == set()  # no simulated radio left to deliver it
     assert not allowed(all_real, "world", "declare_subscriber", "ingress", KEYS.rovers(ks.MOVE_ACTION))

@@ -18,7 +18,7 @@ from procs import SCENARIOS
 from lander_agent.archive import PhotoArchive
 from lander_agent.lander import Lander
 from lander_agent.mission import MissionPlan
-from rover_agent.agent import SUBSCRIBED_TOPICS, RoverAgent
+from rover_agent.agent import RoverAgent
 from schemas import codec, radio
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -166,7 +166,7 @@ def test_a_photo_label_is_data_never_a_file_name(tmp_path):
 
 # ---- a rover agent ----
 
-AGENT_INPUTS = [(topic, m.TOPIC_MODELS[topic]) for topic in SUBSCRIBED_TOPICS]
+AGENT_INPUTS = [(topic, m.TOPIC_MODELS[topic]) for topic in ks.ROVER_INPUTS]
 
 
 @pytest.fixture(scope="module")
