@@ -128,14 +128,30 @@ def with_sun_sensor(made: GeneratedScenario) -> GeneratedScenario:
     return dataclasses.replace(made, scenario=scenario)
 
 
-def _estimate_error(agent: RoverAgent, scenario: Scenario, x: float, z: float) -> float | None:
+def estimate_error(agent: RoverAgent, scenario: Scenario, x: float, z: float) -> float | None:
     """Metres between the rover's estimate (lander frame) and its true position (map frame)."""
     if agent.pose is None:
         return None
     return round(math.hypot(agent.pose.x - (x - scenario.lander.x), agent.pose.z - (z - scenario.lander.z)), 3)
 
 
-def _estimate_std(agent: RoverAgent) -> float | None:
+def estimate_nees(agent: RoverAgent, scenario: Scenario, x: float, z: float) -> float | None:
+    """The truth's squared Mahalanobis distance from the estimate in the rover's own 2 x 2 position covariance (the
+    normalised estimation error squared): about 2 on average, and above 9.21 one time in 100, where the filter's
+    stated uncertainty is honest. None for a rover with no uncertainty (no noise, or not yet moved), and for one
+    with an action under way, whose estimate is of where the action started (it is updated as the action ends)."""
+    loc = agent.estimator.localisation
+    if loc is None or agent.actions.in_flight is not None:
+        return None
+    (a, b), (_, d) = loc.cov[0][:2], loc.cov[1][:2]
+    det = a * d - b * b
+    if not det > 1e-12:
+        return None
+    ex, ez = loc.pose.x - (x - scenario.lander.x), loc.pose.z - (z - scenario.lander.z)
+    return round((d * ex * ex - 2 * b * ex * ez + a * ez * ez) / det, 3)
+
+
+def estimate_std(agent: RoverAgent) -> float | None:
     """The rover's own 1-sigma position error, metres: how far off it thinks its estimate may be."""
     loc = agent.estimator.localisation
     return None if loc is None else round(loc.position_std, 3)
@@ -160,8 +176,9 @@ def _rovers(world: World, made: GeneratedScenario, agents: dict[int, RoverAgent]
                     "goal_index": r.goal_index, "final_goal_index": final, "heard_lander": r.goal_index >= 0,
                     "connected_fraction": round(1 - disconnected / links.elapsed_s, 4) if links.elapsed_s else 1.0,
                     "goal_error_m": round(stats.distance_to_goal(scenario, goal, r.x, r.z), 3),
-                    "estimate_error_m": _estimate_error(agents[r.id], scenario, r.x, r.z),
-                    "estimate_std_m": _estimate_std(agents[r.id]),
+                    "estimate_error_m": estimate_error(agents[r.id], scenario, r.x, r.z),
+                    "estimate_std_m": estimate_std(agents[r.id]),
+                    "estimate_nees": estimate_nees(agents[r.id], scenario, r.x, r.z),
                     "distance_covered_m": r.distance_covered_m, "ideal_path_m": round(ideal, 3),
                     "efficiency": round(ideal / r.distance_covered_m, 4) if r.distance_covered_m > 0 else None,
                     "walked_by_cause": {k: round(v, 2) for k, v in sorted(agents[r.id].walked.items())},

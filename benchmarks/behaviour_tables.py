@@ -12,6 +12,9 @@ from scenarios.generator import CLASS_VALUES
 UNSURE_SIGMAS = 3.0
 """A rover done off its goal "knew it was unsure" when its estimate's error was within this many of its own 1-sigma
 position errors (``Localisation.position_std``)."""
+NEES_GATES = (9.21, 13.82)
+"""Chi-square with 2 degrees of freedom at 99% and 99.9%: a consistent filter's truth lies beyond them one time in
+100 and in 1,000 (``estimate_nees``)."""
 LOCALISED_AFTER_M = 400.0
 """The localisation figure counts rovers that walked at least this far: dead reckoning's error grows with the
 distance walked, so short walks would flatter it."""
@@ -60,9 +63,24 @@ def summarise(rows: list[dict]) -> dict:
             "walked_400m": len(walked),
             "estimate_error_median_m": round(statistics.median(walked), 3) if walked else None,
             "estimate_error_p90_m": _p90(walked),
+            **consistency(rovers),
             "complete": sum(row["report"]["complete"] for row in rows),
             "sim_s_mean": round(statistics.fmean(row["report"]["mission_duration_s"] for row in rows), 1)
             if rows else None}
+
+
+def consistency(rovers: list[dict]) -> dict:
+    """Whether the rovers' stated uncertainty is honest at the end (``estimate_nees``, over the rovers standing
+    still with any):
+    its mean (2 for a consistent filter; above, the filter is overconfident) and the shares beyond ``NEES_GATES``
+    (1% and 0.1% when consistent). Runs saved before the figure have none."""
+    nees = [r["estimate_nees"] for r in rovers if r.get("estimate_nees") is not None]
+    if not nees:
+        return {"nees_rovers": 0, "nees_mean": None, "nees_beyond_99": None, "nees_beyond_999": None}
+    low, high = NEES_GATES
+    return {"nees_rovers": len(nees), "nees_mean": round(statistics.fmean(nees), 3),
+            "nees_beyond_99": round(sum(v > low for v in nees) / len(nees), 4),
+            "nees_beyond_999": round(sum(v > high for v in nees) / len(nees), 4)}
 
 
 def _p90(ordered: list[float]) -> float | None:
@@ -130,6 +148,13 @@ def print_table(agg: dict) -> None:
               f"{s['complete']:>6}/{s['missions']:<3}")
     print(f"err: distance from the final goal at the end; est: distance of each rover's own estimate from the truth "
           f"at the end, over the {agg['overall']['walked_400m']} rovers that walked {LOCALISED_AFTER_M:.0f} m or more")
+    if (o := agg["overall"]).get("nees_rovers"):
+        noise = ", ".join(f"{label} {s['nees_mean']:.2f} / {s['nees_beyond_99']:.1%} / {s['nees_beyond_999']:.1%}"
+                          for label, s in agg["by_class"].items()
+                          if label.startswith("noise=") and s.get("nees_rovers"))
+        print(f"estimate consistency at the end, {o['nees_rovers']} rovers standing still with an uncertain "
+              f"estimate: mean NEES {o['nees_mean']:.2f} (2 if the stated uncertainty is honest), beyond the 99% gate "
+              f"{o['nees_beyond_99']:.1%} (1%), beyond 99.9% {o['nees_beyond_999']:.1%} (0.1%); by noise: {noise}")
     if (w := agg.get("walked")) is not None and w["rovers"]:
         causes = ", ".join(f"{k} {v:.0f} m ({w['rovers_by_cause'].get(k, 0)} rovers)"
                            for k, v in w["by_cause_m"].items())

@@ -26,9 +26,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import host
 import quick
-from behaviour_suite import parse_seeds, sim_cap
+from behaviour_suite import estimate_error, estimate_nees, estimate_std, parse_seeds, sim_cap
 
-from harness.loopback import run_mission
+from harness.loopback import run_mission_agents
 from schemas.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
@@ -40,11 +40,19 @@ def run_one(name: str, rovers: int, seed: int, cap_s: float | None = None) -> di
     logging.disable(logging.WARNING)
     scenario = load_scenario(SCENARIOS / f"{name}.yaml").with_overrides(seed=seed, rovers=rovers)
     started = time.perf_counter()
-    report = run_mission(scenario, sim_cap(scenario, cap_s)).report()
+    world, agents = run_mission_agents(scenario, sim_cap(scenario, cap_s))
+    report = world.report()
+    state = world.referee.stats.last
+    reached = set(world.referee.stats.reached(state))
+    short = [{"id": r.id, "state": r.state, "goal_error_m": r.distance_to_goal_m,
+              "estimate_error_m": estimate_error(agents[r.id], scenario, r.x, r.z),
+              "estimate_std_m": estimate_std(agents[r.id]),
+              "estimate_nees": estimate_nees(agents[r.id], scenario, r.x, r.z)}
+             for r in state.rovers if r.id not in reached]
     return {"scenario": name, "rovers": rovers, "seed": seed, "wall_s": round(time.perf_counter() - started, 2),
             "reached": report.rovers_reached_final_goal, "relays": report.rovers_holding_relay_spots,
             "collisions": report.rover_collisions + report.obstacle_collisions, "stuck": report.rovers_stuck,
-            "complete": report.complete, "duration_s": report.mission_duration_s}
+            "complete": report.complete, "duration_s": report.mission_duration_s, "short": short}
 
 
 def table(rows: list[dict]) -> None:
@@ -55,6 +63,29 @@ def table(rows: list[dict]) -> None:
         some = [r for r in rows if (r["scenario"], r["rovers"]) == (name, rovers)]
         _line(name, str(rovers), some)
     _line("all", "", rows)
+    shortfalls(rows)
+
+
+def shortfalls(rows: list[dict]) -> None:
+    """The rovers that did not reach, one a line: how far off their goal, and how far off their own estimate was
+    against what it said of itself (its 1-sigma error, and the truth's NEES in its covariance: above 9.21 one time
+    in 100 for an honest estimate). Runs saved before the figure have none."""
+    short = [(row, r) for row in rows for r in row.get("short", [])]
+    if not short:
+        return
+    print(f"{len(short)} rovers short of their final goal:")
+    for row, r in short:
+        print(f"  {row['scenario']} x{row['rovers']} seed {row['seed']} rover {r['id']} ({r['state']}): "
+              f"{_m(r['goal_error_m'])} off its goal, its estimate {_m(r['estimate_error_m'])} off the truth, "
+              f"1 sigma {_m(r['estimate_std_m'])}, NEES {_fmt(r['estimate_nees'])}")
+
+
+def _m(value: float | None) -> str:
+    return "-" if value is None else f"{value:.1f} m"
+
+
+def _fmt(value: float | None) -> str:
+    return "-" if value is None else f"{value:.1f}"
 
 
 def _line(name: str, rovers: str, rows: list[dict]) -> None:

@@ -1,0 +1,38 @@
+"""The behaviour suite's estimate-consistency figure: each rover's normalised estimation error squared (NEES) from a
+real noisy mission, and its aggregate in the tables. No figure is judged here, only what must hold of any
+covariance: the truth's Mahalanobis distance is at least its distance over the root of the covariance's trace."""
+
+from __future__ import annotations
+
+import sys
+
+from procs import REPO
+
+# benchmarks/ is not a package; last on the path (see test_scale_meter)
+sys.path.append(str(REPO / "benchmarks"))
+
+from behaviour_suite import run_one
+from behaviour_tables import NEES_GATES, consistency, summarise
+
+NOISY_SEED = 4
+"""A small high-noise traverse of the generator: every rover walks with an uncertain estimate."""
+
+
+def test_each_rovers_nees_bounds_its_error_over_its_one_sigma_and_the_tables_count_it() -> None:
+    row = run_one(NOISY_SEED, None, cap_s=120.0)
+    assert "error" not in row and row["classes"]["noise"] == "high"
+    rovers = row["rovers"]
+    assert rovers and all(r["estimate_nees"] is not None for r in rovers)
+    for r in rovers:
+        bound = (r["estimate_error_m"] / r["estimate_std_m"]) ** 2
+        assert r["estimate_nees"] >= bound * (1 - 1e-3) - 1e-3, r
+    figures = summarise([row])
+    assert figures["nees_rovers"] == len(rovers)
+    low, _ = NEES_GATES
+    assert figures["nees_beyond_99"] == round(sum(r["estimate_nees"] > low for r in rovers) / len(rovers), 4)
+    assert figures["nees_beyond_999"] <= figures["nees_beyond_99"]
+
+
+def test_runs_saved_before_the_figure_have_none() -> None:
+    assert consistency([{"estimate_error_m": 1.0}]) == {"nees_rovers": 0, "nees_mean": None,
+                                                        "nees_beyond_99": None, "nees_beyond_999": None}
