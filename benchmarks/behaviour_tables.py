@@ -71,9 +71,8 @@ def summarise(rows: list[dict]) -> dict:
 
 def consistency(rovers: list[dict]) -> dict:
     """Whether the rovers' stated uncertainty is honest at the end (``estimate_nees``, over the rovers standing
-    still with any):
-    its mean (2 for a consistent filter; above, the filter is overconfident) and the shares beyond ``NEES_GATES``
-    (1% and 0.1% when consistent). Runs saved before the figure have none."""
+    still with any): its mean (2 for a consistent filter; above, the filter is overconfident) and the shares beyond
+    ``NEES_GATES`` (1% and 0.1% when consistent). Runs saved before the figure have none."""
     nees = [r["estimate_nees"] for r in rovers if r.get("estimate_nees") is not None]
     if not nees:
         return {"nees_rovers": 0, "nees_mean": None, "nees_beyond_99": None, "nees_beyond_999": None}

@@ -1,5 +1,6 @@
 """The report's four scenarios with their shipped noise, 5 and 20 rovers, 10 seeds each: reach, collisions, stuck,
-and the missions' simulated durations (median and range).
+and the missions' simulated durations (median and range); then each rover that fell short, with how far off its
+estimate was against what the rover said of it.
 
 The report's editor profiles (appendix C.3, figures 27-30: crater_observation, crater_and_return, maze,
 maze_crater_return) are what the behaviour was built on; this measures it there as the issue's targets ask
@@ -76,16 +77,12 @@ def shortfalls(rows: list[dict]) -> None:
     print(f"{len(short)} rovers short of their final goal:")
     for row, r in short:
         print(f"  {row['scenario']} x{row['rovers']} seed {row['seed']} rover {r['id']} ({r['state']}): "
-              f"{_m(r['goal_error_m'])} off its goal, its estimate {_m(r['estimate_error_m'])} off the truth, "
-              f"1 sigma {_m(r['estimate_std_m'])}, NEES {_fmt(r['estimate_nees'])}")
+              f"{_fmt(r['goal_error_m'], ' m')} off its goal, its estimate {_fmt(r['estimate_error_m'], ' m')} off "
+              f"the truth, 1 sigma {_fmt(r['estimate_std_m'], ' m')}, NEES {_fmt(r['estimate_nees'])}")
 
 
-def _m(value: float | None) -> str:
-    return "-" if value is None else f"{value:.1f} m"
-
-
-def _fmt(value: float | None) -> str:
-    return "-" if value is None else f"{value:.1f}"
+def _fmt(value: float | None, unit: str = "") -> str:
+    return "-" if value is None else f"{value:.1f}{unit}"
 
 
 def _line(name: str, rovers: str, rows: list[dict]) -> None:
