@@ -1,6 +1,7 @@
 """The behaviour suite's figures from its missions' rows (``behaviour_suite.run_one``): reach, collisions,
-efficiency and pose error by class and role, why rovers fell short, where their walking went, relays stranded;
-and the tables that print them. Apart from the runs, so a saved run (``--table``) is tabled the same way."""
+efficiency, pose error and the estimates' consistency by class and role, why rovers fell short, where their walking
+went, relays stranded; and the tables that print them. Apart from the runs, so a saved run (``--table``) is tabled
+the same way."""
 
 from __future__ import annotations
 

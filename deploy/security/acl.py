@@ -81,11 +81,6 @@ def _rover_inputs() -> tuple[str, ...]:
     return (*World.INPUT_TOPICS, ks.ACK)
 
 
-def _rover_sensors() -> tuple[str, ...]:
-    """Topics a rover receives: its sensors and radio input, published by the world or by the rover's bridge."""
-    return ks.ROVER_INPUTS
-
-
 def _bridge_inputs() -> tuple[str, ...]:
     """Topics a bridge takes from its agent (``bridge.input_topics`` with a radio)."""
     from hardware.bridge import AGENT_TOPICS
@@ -95,7 +90,7 @@ def _bridge_inputs() -> tuple[str, ...]:
 
 def _bridge_outputs() -> tuple[str, ...]:
     """Topics a bridge publishes: every sensor its agent reads, in the world's place, and the driver's pose."""
-    return (*_rover_sensors(), ks.TELEMETRY)
+    return (*ks.ROVER_INPUTS, ks.TELEMETRY)
 
 
 def _twin_inputs() -> tuple[str, ...]:
@@ -113,8 +108,8 @@ def world_role(keys: ks.Keyspace, simulated: Iterable[int] | None = None, bridge
     any), so it cannot speak for a real rover; it publishes the clock unless a bridge is the clock (a bench).
     """
     bridged = tuple(bridged)
-    sensors = [keys.rovers(t) for t in _rover_sensors()] if simulated is None else [
-        keys.rover(rid, t) for rid in simulated for t in _rover_sensors()]
+    sensors = [keys.rovers(t) for t in ks.ROVER_INPUTS] if simulated is None else [
+        keys.rover(rid, t) for rid in simulated for t in ks.ROVER_INPUTS]
     publishes: list[str] = []
     subscribes: list[str] = []
     if sensors:
@@ -163,7 +158,7 @@ def rover_agent_role(keys: ks.Keyspace, rover_id: int) -> Role:
     return Role(
         rover_role(rover_id),
         publishes=tuple(keys.rover(rover_id, t) for t in ks.ROVER_OUTPUTS),
-        subscribes=(*(keys.rover(rover_id, t) for t in _rover_sensors()), keys.clock),
+        subscribes=(*(keys.rover(rover_id, t) for t in ks.ROVER_INPUTS), keys.clock),
         tokens=(keys.alive_rover(rover_id),),
         queries=(keys.rover_ids,),
     )

@@ -11,8 +11,8 @@ from pathlib import Path
 from procs import REPO
 
 # benchmarks/ is not a package (its scripts import each other by name), and behaviour_suite puts it first on the path
-# as it is imported: the path is put back after, so that its ros2_bridge.py does not hide the ros2_bridge package from
-# the tests that run after this one in the same worker
+# as it is imported. Off the path again after the imports: its ros2_bridge.py would hide the ros2_bridge package from
+# the tests that run after this one in the same worker (even last on the path, under an editable install)
 sys.path.append(str(REPO / "benchmarks"))
 
 from behaviour_suite import run_one
