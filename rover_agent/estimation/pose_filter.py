@@ -6,7 +6,9 @@ move or rotate turns the heading a little (``NavigationParams.slip_std``, ``head
 senses neither. So beside the dead-reckoned pose the filter keeps how unsure of it the rover is, a covariance grown
 by each action exactly as the rover's own noise parameters say, and corrects the pose whenever perception shows a
 thing whose place it knows (``observe``): the lander, the origin of the frame, known exactly; or another rover,
-known as well as that rover's own estimate, heard over the radio. Another rover's estimate may share errors with
+known as well as that rover's own estimate, heard over the radio. A known landmark's update is iterated (a
+sighting is nonlinear in the heading, and far from where the rover thought it stood a single linearisation
+misleads: ``Localisation._observe_known``). Another rover's estimate may share errors with
 this one (they may have corrected each other before), so it is fused by covariance intersection, which stays
 consistent whatever the correlation, rather than by a plain Kalman update, which would grow overconfident.
 
@@ -30,6 +32,10 @@ all or nothing, so neither side is ever ignored outright."""
 GATE_999 = 13.82
 """Chi-square, 2 degrees of freedom, 99.9%: a sighting farther than this from what the estimate predicts, in its
 own uncertainty, is a wrong match or a bad fit, not this rover's drift."""
+MAX_ITERATIONS = 10
+SETTLED = 1e-9
+"""A sighting's iterated update (``Localisation._observe_known``) stops once a step moves the estimate less than
+this (metres, radians) or after this many steps: it settles in three or four."""
 
 
 def zeros(n: int, m: int | None = None) -> Matrix:
@@ -208,20 +214,36 @@ class Localisation:
         return changed
 
     def _observe_known(self, landmark: Landmark, gate: float | None) -> bool:
-        h, jac, r = self._predicted(landmark)
-        y = [landmark.seen[0] - h[0], landmark.seen[1] - h[1]]
+        """An iterated update (Gauss-Newton on the sighting, linearised again at each new estimate until it
+        settles). A sighting's Jacobian in the heading is the landmark's offset as the estimate predicts it, and
+        the first sighting of the lander after a long walk can find the rover metres from where it thought, at
+        a range unlike the predicted one: linearised there once, the update takes the position from the sighting
+        as if the heading turned a shorter offset, and leaves a position and heading far apart from the truth
+        that it states as sure (the development set's high-noise missions lost their estimates' consistency at
+        such first sightings more than at any other correction)."""
+        prior = self.pose
+        h, jac, r = _predicted(prior, landmark)
         pht = mul(self.cov, transpose(jac))
-        hph = mul(jac, pht)
-        s_inv = inverse2(add(hph, r))
+        s_inv = inverse2(add(mul(jac, pht), r))
         if s_inv is None or not _positive_definite(symmetric(r)):
             return False
-        if gate is not None and not _quadratic(y, s_inv) <= gate:
+        if gate is not None and not _quadratic([landmark.seen[0] - h[0], landmark.seen[1] - h[1]], s_inv) <= gate:
             return False
-        update = _kalman(self.cov, pht, hph, r, y)
-        if update is None:
-            return False
-        self.cov, x = update
-        self._shift(x)
+        estimate, update = prior, None
+        for _ in range(MAX_ITERATIONS):
+            h, jac, r = _predicted(estimate, landmark)
+            pht = mul(self.cov, transpose(jac))
+            back = _difference(prior, estimate)  # the prior less the point of linearisation
+            y = [landmark.seen[i] - h[i] - sum(jac[i][k] * back[k] for k in range(3)) for i in range(2)]
+            update = _kalman(self.cov, pht, mul(jac, pht), r, y)
+            if update is None:
+                return False
+            moved = _shifted(prior, update[1])
+            step = _difference(moved, estimate)
+            estimate = moved
+            if max(abs(step[0]), abs(step[1]), abs(step[2])) < SETTLED:
+                break
+        self.cov, self.pose = update[0], estimate
         return True
 
     def observe_heading(self, heading_deg: float, std_deg: float) -> bool:
@@ -285,7 +307,7 @@ class Localisation:
         return y, r
 
     def _shift(self, x: list[float]) -> None:
-        self.pose = Pose(self.pose.x + x[0], self.pose.z + x[1], (self.pose.heading + math.degrees(x[2])) % 360.0)
+        self.pose = _shifted(self.pose, x)
 
     def mahalanobis(self, landmark: Landmark) -> float:
         """How far a sighting lies from what the estimate predicts, in their uncertainty (squared)."""
@@ -293,23 +315,34 @@ class Localisation:
             y, r = self._implied_position(landmark)
             s_inv = inverse2(add([row[:2] for row in self.cov[:2]], r))
         else:
-            h, jac, r = self._predicted(landmark)
+            h, jac, r = _predicted(self.pose, landmark)
             y = [landmark.seen[0] - h[0], landmark.seen[1] - h[1]]
             s_inv = inverse2(add(mul(mul(jac, self.cov), transpose(jac)), r))
         return math.inf if s_inv is None else _quadratic(y, s_inv)
 
-    def _predicted(self, landmark: Landmark) -> tuple[list[float], Matrix, Matrix]:
-        """Where the landmark should appear (rover-relative), the Jacobian of that in (x, z, h), and the noise of
-        the sighting: the sensor's and the landmark's own uncertainty seen from the rover."""
-        hr = math.radians(self.pose.heading)
-        c, s = math.cos(hr), math.sin(hr)
-        dx, dz = landmark.at[0] - self.pose.x, landmark.at[1] - self.pose.z
-        u, v = dx * c - dz * s, dx * s + dz * c
-        jac = [[-c, s, -v], [-s, -c, u]]
-        rot = [[c, -s], [s, c]]
-        sensor = landmark.sensor_std ** 2
-        r = add(mul(mul(rot, landmark.cov), transpose(rot)), [[sensor, 0.0], [0.0, sensor]])
-        return [u, v], jac, r
+
+def _predicted(pose: Pose, landmark: Landmark) -> tuple[list[float], Matrix, Matrix]:
+    """Where the landmark should appear (rover-relative) from ``pose``, the Jacobian of that in (x, z, h), and the
+    noise of the sighting: the sensor's and the landmark's own uncertainty seen from the rover."""
+    hr = math.radians(pose.heading)
+    c, s = math.cos(hr), math.sin(hr)
+    dx, dz = landmark.at[0] - pose.x, landmark.at[1] - pose.z
+    u, v = dx * c - dz * s, dx * s + dz * c
+    jac = [[-c, s, -v], [-s, -c, u]]
+    rot = [[c, -s], [s, c]]
+    sensor = landmark.sensor_std ** 2
+    r = add(mul(mul(rot, landmark.cov), transpose(rot)), [[sensor, 0.0], [0.0, sensor]])
+    return [u, v], jac, r
+
+
+def _shifted(pose: Pose, x: list[float]) -> Pose:
+    """``pose`` moved by ``x`` (metres, metres, radians)."""
+    return Pose(pose.x + x[0], pose.z + x[1], (pose.heading + math.degrees(x[2])) % 360.0)
+
+
+def _difference(a: Pose, b: Pose) -> list[float]:
+    """``a`` less ``b`` as a state vector (metres, metres, radians; the heading's the shorter way round)."""
+    return [a.x - b.x, a.z - b.z, math.radians((a.heading - b.heading + 180.0) % 360.0 - 180.0)]
 
 
 def _intersection_weight(p: Matrix, r: Matrix) -> float:
