@@ -33,6 +33,7 @@ from rover_agent.estimation.lander_fix import LanderFix
 from rover_agent.estimation.pose_filter import Localisation, NoiseModel
 from rover_agent.estimation.sightings import (
     ESTIMATE_MAX_AGE_S,
+    FORGET_AFTER_S,
     Teammate,
     lander_centre,
     lander_landmark,
@@ -60,9 +61,6 @@ SHARE_PERIOD_S = 1.0
 """How often a rover tells its estimate. Every sample a rover hears by radio may make it answer, so a lockstep
 world waits for its ack: told with every scan (5 Hz), estimates made each tick of a 5-rover mission wait for 2.7
 agents on average instead of 1.7 (tests/unit/world_service/test_lockstep.py allows 2)."""
-FORGET_AFTER_S = 2 * ESTIMATE_MAX_AGE_S
-"""A teammate's estimate older than this is forgotten: never matched again (``sightings.match_teammates``), and
-a flood of senders must not pile up."""
 STILL_STATES = ("done", "relay", "stuck", "stopped")
 """A rover in these states stays where it is until it is given a new goal: its estimate holds until it says
 otherwise. Any other may be walking by the time a teammate sees it, so its estimate counts as less sure by how far

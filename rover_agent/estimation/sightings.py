@@ -41,6 +41,11 @@ IN_RANGE_MARGIN_M = 2.0
 second; rovers walk at most 3.5 m/s, and rarely straight apart)."""
 ESTIMATE_MAX_AGE_S = 1.0
 """A teammate's estimate older than this is not matched: it walks up to 3.5 m a second."""
+FORGET_AFTER_S = 2 * ESTIMATE_MAX_AGE_S
+"""A teammate's estimate older than this is forgotten (``estimator.Estimator.heard``: a flood of senders must not
+pile up). Until then it still counts against a match: a rover whose estimate has just gone stale (told a little
+late, or lost) is still there to be seen, and must not be taken for another teammate because its own estimate
+dropped out."""
 RIM_SIGHTING_SHARE = 0.05
 RIM_SIGHTING_LEAST_M = 1.0
 """1-sigma error of a crater's centre fitted to its rim, on each axis: this share of the radius at which its
@@ -106,21 +111,23 @@ def match_teammates(centres: list[tuple[float, float]], teammates: list[Teammate
 
     The radio's partners are the rovers in range: so a single rover seen well within range, with a single rover
     partner that sent a fresh estimate, is that partner, wherever the estimates put the two (the filter's gate
-    still checks). Otherwise a pair must lie within ``MATCH_GATE`` and every other pairing of either (the rover
-    seen with another teammate, the teammate with another rover seen) ``AMBIGUITY`` farther: a likelihood some
-    hundred times smaller."""
+    still checks). Otherwise a pair of a rover seen and a fresh estimate must lie within ``MATCH_GATE`` and every
+    other pairing of either (the rover seen with another teammate, the teammate with another rover seen)
+    ``AMBIGUITY`` farther: a likelihood some hundred times smaller. The other teammates include those whose
+    estimates are stale but not yet forgotten (``FORGET_AFTER_S``), which are never matched themselves."""
     fresh = [t for t in teammates if now - t.estimate.stamp <= ESTIMATE_MAX_AGE_S]
     rovers_in_range = [p for p in partners if p != 0]
     if len(centres) == 1 and len(rovers_in_range) == 1 and math.hypot(*centres[0]) <= comm_range - IN_RANGE_MARGIN_M:
         return [(centres[0], t) for t in fresh if t.rover_id == rovers_in_range[0]]
-    d = [[distance(centre, mate) for mate in fresh] for centre in centres]
+    known = fresh + [t for t in teammates if ESTIMATE_MAX_AGE_S < now - t.estimate.stamp <= FORGET_AFTER_S]
+    d = [[distance(centre, mate) for mate in known] for centre in centres]
     pairs = []
     for k, centre in enumerate(centres):
         for j, mate in enumerate(fresh):
             best = d[k][j]
             if best > MATCH_GATE:
                 continue
-            others = [d[k][i] for i in range(len(fresh)) if i != j] + [d[i][j] for i in range(len(centres)) if i != k]
+            others = [d[k][i] for i in range(len(known)) if i != j] + [d[i][j] for i in range(len(centres)) if i != k]
             if all(other >= best + AMBIGUITY for other in others):
                 pairs.append((centre, mate))
     return pairs

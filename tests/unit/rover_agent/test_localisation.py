@@ -14,6 +14,8 @@ from hostile import pack_radio
 from rover_agent.decisions import Hit
 from rover_agent.estimation.pose_filter import CI_WEIGHTS, Landmark, Localisation, NoiseModel
 from rover_agent.estimation.sightings import (
+    FORGET_AFTER_S,
+    MATCH_GATE,
     Teammate,
     lander_centre,
     lander_landmark,
@@ -327,6 +329,23 @@ def test_a_teammate_is_matched_only_where_the_match_cannot_well_be_another():
     assert match_teammates([seen_a], [a, close], [0, 2, 3], 10.0, 10.0, distance) == []
     stale = Teammate(2, estimate(3.0, 6.0, 0.25, stamp=5.0))
     assert match_teammates([seen_a], [stale, b], [0, 2, 3], 10.0, 10.0, distance) == []
+
+
+def test_a_teammate_whose_estimate_has_just_gone_stale_still_counts_against_a_match():
+    """A rover seen where a teammate's estimate, told 1.1 s ago, puts it, and another teammate's fresh estimate
+    1.5 m off: the rover seen is not taken for the second because the first's estimate is just past matching (in
+    a crowd that moved estimates metres off and left them sure of it). Forgotten, it no longer counts."""
+    loc = Localisation(Pose(0.0, 0.0, 0.0), NOISY, [[0.25, 0.0, 0.0], [0.0, 0.25, 0.0], [0.0, 0.0, 1e-4]])
+
+    def distance(seen, mate):
+        return loc.mahalanobis(teammate_landmark(seen, mate, 10.0, 3.5))
+
+    fresh, seen = Teammate(2, estimate(3.0, 6.0, 0.25)), (1.5, 6.0)
+    assert distance(seen, fresh) < MATCH_GATE
+    just_stale = Teammate(3, estimate(1.5, 6.0, 0.25, stamp=10.0 - 1.1))
+    assert match_teammates([seen], [fresh, just_stale], [0, 2, 3], 10.0, 40.0, distance) == []
+    forgotten = Teammate(3, estimate(1.5, 6.0, 0.25, stamp=10.0 - FORGET_AFTER_S - 0.1))
+    assert match_teammates([seen], [fresh, forgotten], [0, 2, 3], 10.0, 40.0, distance) == [(seen, fresh)]
 
 
 def test_one_rover_seen_and_one_in_radio_range_are_each_other_wherever_the_estimates_put_them():
