@@ -27,10 +27,10 @@ return) and for each rover's role (formation, in_crater, out_of_range):
   wrong estimate is the estimator's fault.
 ``MissionReport`` carries no per-rover figures, so they come from the world's last published state.
 
-Path: ``harness.loopback.run_mission``, the world, lander and rover agents wired in one process through their pure
-handlers, every message still through the codec, the world waiting on each tick for exactly the agents it would
-wait for in lockstep (``AckPlan``); an agent publishing on a tick nobody waits for is an error there. It gives
-the same report.json as ``lunarsim run --lockstep`` but for ``wall_time_s`` and the map scores, which only the
+Path: ``harness.loopback.run_mission_agents``, the world, lander and rover agents wired in one process through
+their pure handlers, every message still through the codec, the world waiting on each tick for exactly the agents
+it would wait for in lockstep (``AckPlan``); an agent publishing on a tick nobody waits for is an error there. It
+gives the same report.json as ``lunarsim run --lockstep`` but for ``wall_time_s`` and the map scores, which only the
 launcher adds (tests/e2e/test_loopback_equals_processes.py: the shipped crater mission, the daisy chain, a generated
 one with a rover out of range, a team of twelve). It needs no router, ports or processes: a generated maze took
 5.9 s of wall against 21.6 s, crater_observation 1.5 s against 4.9 s.

@@ -192,8 +192,8 @@ class Estimator:
     def heard(self, sender: int, estimate: radio.PoseEstimate, now: float) -> None:
         """Keep a teammate's latest estimate. Dropped, and counted as rejected: one from the lander, from this
         rover or from an id no rover has; one stamped ahead of this rover's clock (kept, it would be fresh for
-        ever and shut the sender's real ones out as older); one older than the sender's last. Estimates too old to
-        be matched go, so a flood of senders cannot pile up."""
+        ever and shut the sender's real ones out as older); one older than the sender's last. Estimates older than
+        ``FORGET_AFTER_S`` go, so a flood of senders cannot pile up."""
         why = None
         if sender == ks.LANDER_ID or sender == self.rover_id or not 1 <= sender <= MAX_ROVERS:
             why = f"from {sender}, not a teammate"

@@ -215,19 +215,14 @@ class Localisation:
 
     def _observe_known(self, landmark: Landmark, gate: float | None) -> bool:
         """An iterated update (Gauss-Newton on the sighting, linearised again at each new estimate until it
-        settles). A sighting's Jacobian in the heading is the landmark's offset as the estimate predicts it, and
-        the first sighting of the lander after a long walk can find the rover metres from where it thought, at
-        a range unlike the predicted one: linearised there once, the update takes the position from the sighting
-        as if the heading turned a shorter offset, and leaves a position and heading far apart from the truth
-        that it states as sure (the development set's high-noise missions lost their estimates' consistency at
-        such first sightings more than at any other correction)."""
+        settles). A sighting's Jacobian in the heading is the landmark's offset as the estimate predicts it, and the
+        first sighting of the lander after a long walk can find the rover metres from where it thought, at a range
+        unlike the predicted one: linearised there once, the update takes the position from the sighting as if the
+        heading turned a shorter offset, and states a pose far from the truth as sure."""
         prior = self.pose
-        h, jac, r = _predicted(prior, landmark)
-        pht = mul(self.cov, transpose(jac))
-        s_inv = inverse2(add(mul(jac, pht), r))
-        if s_inv is None or not _positive_definite(symmetric(r)):
+        if not _positive_definite(symmetric(_predicted(prior, landmark)[2])):  # at any heading, or none
             return False
-        if gate is not None and not _quadratic([landmark.seen[0] - h[0], landmark.seen[1] - h[1]], s_inv) <= gate:
+        if gate is not None and not self.mahalanobis(landmark) <= gate:
             return False
         estimate, update = prior, None
         for _ in range(MAX_ITERATIONS):
@@ -258,7 +253,7 @@ class Localisation:
         k = [self.cov[i][2] / s for i in range(3)]
         before = self.pose, self.cov
         self.cov = symmetric([[self.cov[i][j] - k[i] * self.cov[2][j] for j in range(3)] for i in range(3)])
-        self._shift([k[i] * y for i in range(3)])
+        self.pose = _shifted(self.pose, [k[i] * y for i in range(3)])
         if not self._sane():
             self.pose, self.cov = before
             return False
@@ -292,7 +287,7 @@ class Localisation:
         root = 1.0 / math.sqrt(w)  # D P D, D = diag(root, root, 1): the position block as intersection leaves it
         scale = (root, root, 1.0)
         self.cov = [[cov[i][j] * scale[i] * scale[j] for j in range(3)] for i in range(3)]
-        self._shift(x)
+        self.pose = _shifted(self.pose, x)
         return True
 
     def _implied_position(self, landmark: Landmark) -> tuple[list[float], Matrix]:
@@ -305,9 +300,6 @@ class Localisation:
         sensor, turn = landmark.sensor_std ** 2, self.cov[2][2]
         r = add(landmark.cov, [[sensor + turn * oz * oz, -turn * oz * ox], [-turn * oz * ox, sensor + turn * ox * ox]])
         return y, r
-
-    def _shift(self, x: list[float]) -> None:
-        self.pose = _shifted(self.pose, x)
 
     def mahalanobis(self, landmark: Landmark) -> float:
         """How far a sighting lies from what the estimate predicts, in their uncertainty (squared)."""
