@@ -36,7 +36,7 @@ from schemas import keyspace as ks
 from schemas import messages as m
 from world_service.camera.photographer import Photographer
 from world_service.camera.photos import CameraProcess
-from world_service.lockstep import LockstepTick
+from world_service.lockstep import ClockResend, LockstepTick
 from world_service.presence import Agents, agent_name, note_ack, note_liveliness
 from world_service.rover_ids import IdDesk
 from world_service.served import ServedWorld
@@ -49,13 +49,6 @@ log = logging.getLogger("lunarsim.world")
 SAVE_PERIOD_S = 1.0
 """Simulated seconds between two saves of the world's state (``world_service.resume``): a rover walks at most 3.5 m
 in that time, which a restart may cost it."""
-CLOCK_RESEND_S = (0.05, 1.0)
-"""Lockstep: a tick's clock is sent again after the first of these without every ack it waits for, then after
-twice as long each time up to the second. On a reliable link an ack comes within milliseconds and this is never
-needed; on a lossy one a lost clock would otherwise hold the run for ``ack_timeout``. An agent acks a clock it
-has already handled again, and does no more."""
-
-
 @dataclass
 class ClockSettings:
     time_scale: float = 1.0
@@ -260,6 +253,7 @@ def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: t
     """The schedule is ``LockstepTick``'s; this loop does its I/O: publishes, and waits for the acks."""
     tick = agents.tick
     tally = LockstepTally(start=time.perf_counter())
+    resend = ClockResend()
     try:
         while not stop.is_set():
             while world.clock.hold.held() and not stop.is_set():
@@ -270,7 +264,7 @@ def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: t
             tally.ticks += 1
             tally.waited += bool(tick.waiting)
             t0 = time.perf_counter()
-            _collect_until_acked(world, bus, settings, stop, agents)
+            _collect_until_acked(world, bus, settings, stop, agents, resend)
             t1 = time.perf_counter()
             late = tick.take()
             t2 = time.perf_counter()
@@ -280,7 +274,8 @@ def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: t
             tally.taking += t2 - t1
             tally.publishing += time.perf_counter() - t2
     finally:
-        log.info("%s; waiting for photos %.2f s", tally.summary(world.clock.sim_time), photographer.waited_s)
+        log.info("%s; waiting for photos %.2f s; clocks sent again %d", tally.summary(world.clock.sim_time),
+                 photographer.waited_s, resend.resent)
 
 
 @dataclass
@@ -307,19 +302,22 @@ class LockstepTally:
 
 
 def _collect_until_acked(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event,
-                         agents: Agents) -> None:
-    """Hand the tick the agents' answers until every agent it waits for has acknowledged it; then what else has
-    arrived (answers no tick waited for, ground commands) without waiting for more."""
+                         agents: Agents, resend: ClockResend) -> None:
+    """Hand the tick the agents' answers until every agent it waits for has acknowledged it, sending its clock
+    again while acks are overdue (``ClockResend``); then what else has arrived (answers no tick waited for, ground
+    commands) without waiting for more."""
     tick = agents.tick
-    deadline = time.monotonic() + settings.ack_timeout
-    backoff = CLOCK_RESEND_S[0]
-    resend_at = time.monotonic() + backoff
+    sent = time.monotonic()
+    deadline = sent + settings.ack_timeout
+    wait = resend.first_wait()
+    resend_at = sent + wait
+    resent = False
     while not stop.is_set():
         item = bus.receive(timeout=min(0.5, max(0.0, resend_at - time.monotonic())) if tick.waiting else 0)
         if tick.waiting and tick.clock is not None and time.monotonic() > resend_at:
             bus.publish(world.keys.clock, tick.clock)
-            backoff = min(2 * backoff, CLOCK_RESEND_S[1])
-            resend_at = time.monotonic() + backoff
+            wait, resent = resend.next_wait(wait), True
+            resend_at = time.monotonic() + wait
         if item is None:
             if not tick.waiting:
                 break
@@ -332,7 +330,10 @@ def _collect_until_acked(world: ServedWorld, bus: Bus, settings: ClockSettings, 
         if item.alive is not None:
             note_liveliness(world, agents, item.key, item.alive)
         elif item.key.endswith(f"/{ks.ACK}"):
+            awaited = bool(tick.waiting)
             note_ack(world, agents, item.key, item.payload)
+            if awaited and not tick.waiting:
+                resend.acked(time.monotonic() - sent, resent)
         else:
             tick.answer(item.key, item.payload)
 

@@ -28,7 +28,7 @@ from shared.lockstep import lockstep_answer
 from world_service.camera import rendering
 from world_service.camera.photographer import Photographer
 from world_service.camera.photos import CameraProcess, build_ground
-from world_service.lockstep import AckPlan, LockstepTick
+from world_service.lockstep import AckPlan, ClockResend, LockstepTick
 from world_service.presence import Agents, note_ack
 from world_service.sim import World
 from world_service.terrain.views import DenseView, UncachedView
@@ -113,6 +113,31 @@ def test_an_agent_acks_with_its_wake_time_only_when_asked():
     assert lockstep_answer([], _clock(3, [4]), 1, KEYS.rover(1, ks.ACK), 1.5) == []
     everyone = lockstep_answer([], _clock(3, None), 1, KEYS.rover(1, ks.ACK), 1.5)
     assert everyone == [(KEYS.rover(1, ks.ACK), m.Ack(tick=3, wake=1.5))]
+
+
+def test_a_lost_clock_is_sent_again_after_a_few_round_trips_never_later_than_50_ms():
+    resend = ClockResend()
+    assert resend.first_wait() == ClockResend.FIRST_MAX_S  # nothing learnt yet
+    for _ in range(50):
+        resend.acked(0.001, resent=False)
+    assert resend.first_wait() == pytest.approx(ClockResend.FLOOR_S)  # 4 x 1 ms, below the floor
+    for _ in range(50):
+        resend.acked(0.003, resent=False)
+    assert resend.first_wait() == pytest.approx(ClockResend.FACTOR * 0.003, rel=0.05)
+    for _ in range(50):
+        resend.acked(0.5, resent=True)  # ticks that needed a resend say nothing of the round trip
+    assert resend.first_wait() == pytest.approx(ClockResend.FACTOR * 0.003, rel=0.05)
+    for _ in range(50):
+        resend.acked(0.040, resent=False)  # slow agents: no sooner than 50 ms, as before it learnt
+    assert resend.first_wait() == ClockResend.FIRST_MAX_S
+
+
+def test_resends_back_off_to_a_second():
+    resend, wait, waits = ClockResend(), 0.005, []
+    for _ in range(12):
+        wait = resend.next_wait(wait)
+        waits.append(wait)
+    assert waits[:3] == [0.01, 0.02, 0.04] and waits[-1] == ClockResend.CEILING_S and resend.resent == 12
 
 
 def test_publishing_on_a_tick_nobody_waits_for_is_reported(caplog):
