@@ -12,7 +12,6 @@ from __future__ import annotations
 import ctypes
 import logging
 import queue
-import random
 import threading
 from collections import Counter
 from collections.abc import Callable, Iterable
@@ -20,6 +19,7 @@ from typing import NamedTuple
 
 import zenoh
 
+from bus.loss import SeededLoss
 from schemas import codec
 from schemas import keyspace as ks
 
@@ -129,12 +129,12 @@ class Bus:
         thousand rovers' 13,000), while a put without one costs microseconds.
 
         ``loss``: fault injection for tests and the chaos benchmark: this share of the samples this bus publishes
-        is dropped (seeded by ``loss_seed``), as a bad link would, and counted in ``lost``."""
+        is dropped as a bad link would (``loss.SeededLoss``, seeded by ``loss_seed``) and counted in ``lost``."""
         self.session = session
         self._declare = declare_publishers
         self.inbox = Inbox(per_key_limit)
         self.loss, self.lost = loss, 0
-        self._loss_rng = random.Random(loss_seed)
+        self._losing = SeededLoss(loss, loss_seed) if loss else None
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._declared: list = []
         self._congestion = zenoh.CongestionControl.BLOCK if lossless else zenoh.CongestionControl.DROP
@@ -182,7 +182,7 @@ class Bus:
         self.put(key, codec.encode(message))
 
     def put(self, key: str, payload: bytes) -> None:
-        if self.loss and self._loss_rng.random() < self.loss:
+        if self._losing is not None and self._losing.drops(key, payload):
             self.lost += 1
             return
         if not self._declare:
