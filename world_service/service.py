@@ -162,10 +162,11 @@ def _hold(world: ServedWorld, bus: Bus, agents: Agents, stop: threading.Event) -
 
 
 def start_camera(scenario: Scenario, lockstep: bool) -> CameraProcess:
-    """The camera process of a world that renders its photos (``ServedWorld.RENDERS_PHOTOS``). Its start (NumPy,
-    Numba's loops, the terrain: a second or two of CPU) takes longer than the world's own, and the clock waits for
-    it: started first, it is ready about when the agents are."""
-    return CameraProcess(scenario, priority.for_camera(lockstep, len(scenario.rovers)))
+    """The camera process of a world that renders its photos (``ServedWorld.RENDERS_PHOTOS``), forked before the
+    world's Zenoh session opens. In real time it builds its ground (Numba's loops, the terrain: most of a CPU
+    second) as it starts, and the clock waits for it: started first, it is ready about when the agents are. In
+    lockstep it builds it at the first photo, which the clock waits for on its due tick anyway."""
+    return CameraProcess(scenario, priority.for_camera(lockstep, len(scenario.rovers)), eager=not lockstep)
 
 
 def serve(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event, report_file: Path | None = None,

@@ -96,11 +96,10 @@ class Photographer:
             return self.world.render(job)
 
     def await_camera(self, stop: threading.Event, waiting: Callable[[], None]) -> None:
-        """Before the clock starts, calling ``waiting`` every half second meanwhile. The camera process's start-up
-        (a second of CPU on this machine: NumPy, Numba's loops, the terrain) would otherwise compete for the cores
-        with the first seconds of the mission, and a five-rover lockstep mission lasts three or four. One that
-        fails to start is lost, as one that dies later; one not up after ``CAMERA_START_TIMEOUT_S`` is left to
-        finish while the mission runs."""
+        """Before the clock starts, calling ``waiting`` every half second meanwhile. A real-time camera builds its
+        ground as it starts (most of a CPU second: Numba's loops, the terrain), which would otherwise make the
+        first photos late; a lockstep one only starts its process here. One that fails to start is lost, as one
+        that dies later; one not up after ``CAMERA_START_TIMEOUT_S`` is left to finish while the mission runs."""
         if self.camera is None:
             return
         deadline = time.monotonic() + CAMERA_START_TIMEOUT_S

@@ -77,11 +77,16 @@ class CameraProcess:
     that from the world and the rover agents just when their samples are due; ``idle``, it renders on what the
     world leaves, sharing that with the agents. In lockstep the clock waits for the render, so it keeps the
     world's priority (``equal``).
+
+    ``eager``: build the ground (the terrain, Numba's loops: most of a CPU second) as the process starts, so the
+    first photo is not late; else at the first photo. Lockstep waits for each render on its due tick anyway, so
+    there a run that takes no photo never pays for the ground, and one that does pays when its first photo is
+    asked for instead of before its clock starts.
     """
 
-    def __init__(self, scenario: Scenario, priority: Priority = "equal") -> None:
+    def __init__(self, scenario: Scenario, priority: Priority = "equal", eager: bool = True) -> None:
         self.pool = ProcessPoolExecutor(max_workers=1, mp_context=_context(), initializer=_start,
-                                        initargs=(scenario, priority, os.getpid()))
+                                        initargs=(scenario, priority, os.getpid(), eager))
         self.started = self.pool.submit(int)  # start the process now, not at the first photo
 
     def submit(self, job: PhotoJob) -> Future:
@@ -93,7 +98,7 @@ class CameraProcess:
 
 def _context() -> multiprocessing.context.BaseContext:
     """Forked where the platform can: the world has imported NumPy, pydantic and the schemas by then, so the camera
-    starts with them in memory (about 0.4 CPU seconds of its one second's start, which the clock waits for).
+    starts with them in memory (about 0.4 CPU seconds of a cold start).
     Safe because the world starts it before it opens its Zenoh session (``service.start_camera``); started later,
     from a world with Zenoh's threads running, it is spawned."""
     if "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1:
@@ -103,21 +108,31 @@ def _context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("spawn")
 
 
+_scenario: Scenario | None = None
 _ground: tuple[rendering.HeightField, Scene, RoverParams] | None = None
 
 
-def _start(scenario: Scenario, priority: Priority, world_pid: int) -> None:
-    global _ground
+def _start(scenario: Scenario, priority: Priority, world_pid: int, eager: bool) -> None:
+    global _scenario
     # forked, it would show as a second world service (its command line) in ps, pkill -f and the launcher's count
     setproctitle.setproctitle(f"lunarsim camera of world {world_pid}")
     exit_when_orphaned(world_pid)  # a world killed with SIGKILL cannot shut its pool down
     lower(priority)
     heap.keep_freed_memory()  # a photo's rays are a few arrays of 0.5 MB, made and dropped each photo
-    from world_service.terrain import height_grid  # Numba: loaded in the camera process, not in the world's
-
-    _ground = (build_ground(scenario), Scene.from_scenario(scenario), scenario.rover_params)
-    height_grid.warm_up()
+    _scenario = scenario
+    if eager:
+        _prepared()
     atexit.register(_exit_now)
+
+
+def _prepared() -> tuple[rendering.HeightField, Scene, RoverParams]:
+    global _ground
+    if _ground is None:
+        from world_service.terrain import height_grid  # Numba: loaded in the camera process, not in the world's
+
+        _ground = (build_ground(_scenario), Scene.from_scenario(_scenario), _scenario.rover_params)
+        height_grid.warm_up()
+    return _ground
 
 
 def _exit_now() -> None:
@@ -130,5 +145,5 @@ def _exit_now() -> None:
 
 
 def _render(job: PhotoJob) -> m.Photo:
-    terrain, scene, params = _ground
+    terrain, scene, params = _prepared()
     return render_photo(terrain, scene, params, job)
