@@ -60,13 +60,18 @@ class Parsers:
     commands: dict[str, argparse.ArgumentParser]
 
 
-def build_parsers() -> Parsers:
+def build_parsers(only: str | None = None) -> Parsers:
+    """Every command's parser; with ``only``, that command's alone is built (its module imported), the others
+    listed by name and help line."""
     top = argparse.ArgumentParser(prog="lunarsim", description="Distributed lunar rover middleware and digital twin "
                                   "over Zenoh.")
     top.add_argument("--verbose", "-v", action="store_true", help="log progress at INFO level")
     sub = top.add_subparsers(dest="subcommand", required=True, metavar="COMMAND")
     commands: dict[str, argparse.ArgumentParser] = {}
     for name, (_, help_text) in COMMANDS.items():
+        if only is not None and name != only:
+            sub.add_parser(name, help=help_text)
+            continue
         module = importlib.import_module(command_module(name))
         command = commands[name] = sub.add_parser(name, help=help_text, description=plain(module.__doc__),
                                                   formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -86,8 +91,18 @@ def plain(doc: str | None) -> str | None:
     return doc.replace("``", "") if doc else doc
 
 
+def named_command(argv: list[str]) -> str | None:
+    """The command ``argv`` names, when its first word is one (after ``--verbose``): only that command's module is
+    imported to parse it, not every command's."""
+    for arg in argv:
+        if not arg.startswith("-"):
+            return arg if arg in COMMANDS else None
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
-    parsers = build_parsers()
+    argv = sys.argv[1:] if argv is None else argv
+    parsers = build_parsers(only=named_command(argv))
     args, unknown = parsers.top.parse_known_args(argv)
     if unknown:  # said by the command's own parser, with its usage, not the top-level one
         parsers.commands[args.subcommand].error(f"unrecognized arguments: {' '.join(unknown)}")

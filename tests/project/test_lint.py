@@ -8,6 +8,8 @@ import sys
 
 from procs import REPO
 
+from deploy.cli import COMMANDS, command_module
+
 
 def test_ruff_reports_nothing():
     ruff = shutil.which("ruff") or str(REPO / ".ci-venv" / "bin" / "ruff")
@@ -63,6 +65,12 @@ def test_the_rover_agents_flight_path_imports_no_pydantic():
 
 
 def test_the_lunarsim_parser_imports_no_web_server():
-    """Every command imports every command module to build its parser; aiohttp (a fifth of a second) waits until
-    a command serves a page, so ``lunarsim run`` starts its world that much sooner."""
+    """Help for every command imports every command module to build its parser; aiohttp (a fifth of a second)
+    waits until a command serves a page."""
     assert loaded_after("import deploy.cli; deploy.cli.build_parsers()", ("aiohttp", "numpy", "numba")) == []
+
+
+def test_a_lunarsim_command_imports_its_own_command_module_alone():
+    script = "import deploy.cli; deploy.cli.build_parsers(deploy.cli.named_command(['-v', 'scenario', 'check', 'x']))"
+    others = [command_module(name) for name in COMMANDS if name != "scenario"]
+    assert loaded_after(script, ("deploy.commands.scenario", *others)) == ["deploy.commands.scenario"]
