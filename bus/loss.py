@@ -6,10 +6,11 @@ from __future__ import annotations
 import hashlib
 from collections import OrderedDict
 
-HISTORY = 256
+HISTORY = 16
 """Payloads remembered per key. A sample sent again (a clock, an action's end, a final report) draws anew each
 time only while it is remembered; one resent after this many other payloads on its key would draw as it did
-the first time. The world resends well within it: the same clock over and over, an action's end each second."""
+the first time. The world resends well within it (the same clock over and over; a rover's unheard action ends
+in turn, each second), and a world of 1,000 rovers publishes on 13,000 keys: about 40 MB at 16."""
 
 
 class SeededLoss:
