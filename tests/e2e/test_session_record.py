@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import signal
+import threading
 import time
 from collections import Counter
 from pathlib import Path
@@ -28,7 +29,7 @@ from sessions.format import (
     read_metadata,
     read_samples,
 )
-from sessions.recorder import RollingBuffer
+from sessions.recorder import Recorder, RollingBuffer
 from sessions.recover import NotARecording, recover
 from sessions.writer import SessionWriter, SplittingWriter
 
@@ -331,3 +332,27 @@ def _router(port: int):
     proc = module("deploy.router", "--listen", f"tcp/127.0.0.1:{port}")
     assert wait_for_port("127.0.0.1", port, 15, proc), "the router did not start"
     return proc
+
+
+def test_a_writer_that_falls_behind_drops_and_counts_what_its_bound_cannot_hold_and_writes_the_rest():
+    """The recorder's inbox is bounded: a stalled disk costs samples, counted per key, never memory without end;
+    what was held is written once the writer moves again. One peer session delivers its own puts."""
+    session = zenoh.open(build_config("peer"))
+    stalled, written = threading.Event(), []
+
+    def sink(sample: Sample) -> None:
+        stalled.wait(30)
+        written.append(sample.payload)
+
+    recorder = Recorder(session, "lunar/w/**", sink, queue_samples=10)
+    try:
+        for i in range(50):
+            session.put("lunar/w/rover/1/perception", str(i).encode())
+        wait_for(lambda: recorder.received + sum(recorder.drops.values()) == 50, 10, "every put at the recorder")
+        stalled.set()
+        recorder.stop()
+        assert recorder.drops == Counter({"lunar/w/rover/1/perception": 50 - recorder.received})
+        assert 10 <= recorder.received <= 11  # the bound, and one the writer may have taken before it stalled
+        assert written == [str(i).encode() for i in range(recorder.received)]
+    finally:
+        session.close()
