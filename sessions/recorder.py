@@ -1,9 +1,10 @@
 """Recording Zenoh traffic: a subscriber that only enqueues, and a writer thread that drains to MCAP.
 
-The Zenoh callback copies the payload and stamps it, nothing more, so the receiving thread never waits on
-disk or compression; the writer takes what has arrived every ``DRAIN_S``. The inbox is bounded: if the writer ever falls that far behind, samples are dropped
-and counted per key (and written into the file's metadata), rather than memory growing without limit.
-In snapshot mode the writer keeps only a rolling window of the last N seconds and writes it on a trigger.
+The Zenoh callback copies the payload and stamps it, nothing more, so the receiving thread never waits on disk or
+compression; the writer takes what has arrived every ``DRAIN_S``. The inbox is bounded: if the writer ever falls
+that far behind, samples are dropped and counted per key (and written into the file's metadata), rather than memory
+growing without limit. In snapshot mode the writer keeps only a rolling window of the last N seconds and writes it
+on a trigger.
 
 What a recorder cut off from its router misses never reaches the queue, so it is counted apart: ``RouterWatch``
 polls the session for its router, and the writer thread shows every world clock (also one the filters leave out)

@@ -49,6 +49,8 @@ log = logging.getLogger("lunarsim.world")
 SAVE_PERIOD_S = 1.0
 """Simulated seconds between two saves of the world's state (``world_service.resume``): a rover walks at most 3.5 m
 in that time, which a restart may cost it."""
+
+
 @dataclass
 class ClockSettings:
     time_scale: float = 1.0

@@ -225,10 +225,11 @@ def test_a_photo_is_due_the_cameras_capture_time_after_its_action(crater_world):
     assert all(job.due_tick == world.clock.tick + round(capture / world.clock.dt) for job in _photo_jobs(world))
 
 
-def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world):
+@pytest.mark.parametrize("eager", [True, False], ids=["ground-at-start", "ground-at-first-photo"])
+def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world, eager):
     scenario, world = crater_world
     jobs = _photo_jobs(world)
-    process = CameraProcess(scenario)
+    process = CameraProcess(scenario, eager=eager)
     try:
         photos = [process.submit(job) for job in jobs]
         assert [f.result(timeout=60) for f in photos] == [world.render(job) for job in jobs]
