@@ -48,8 +48,8 @@ log = logging.getLogger("lunarsim.record")
 QUEUE_SAMPLES = 200_000
 DRAIN_S = 0.02
 """Seconds between the writer's turns at what has arrived. Woken for every sample instead, the writer thread took
-the GIL back from Zenoh's thread for each: about half of the recorder's CPU in a lockstep mission, which sends
-a dozen samples every few milliseconds."""
+the GIL back from Zenoh's thread for each: about a quarter of the recorder's CPU in a lockstep mission, which
+sends a dozen samples every few milliseconds."""
 FLUSH_S = 1.0
 """Seconds between chunk flushes while samples arrive: at most this much of a recording dies with a SIGKILL."""
 
