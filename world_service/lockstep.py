@@ -97,7 +97,7 @@ class ClockResend:
 
     def __init__(self) -> None:
         self.round_trip_s: float | None = None
-        self.resent = 0
+        self.resends = 0  # counted for the world's log
 
     def first_wait(self) -> float:
         if self.round_trip_s is None:
@@ -106,7 +106,7 @@ class ClockResend:
 
     def next_wait(self, wait: float) -> float:
         """The wait after a resend that followed ``wait``."""
-        self.resent += 1
+        self.resends += 1
         return min(2 * wait, self.CEILING_S)
 
     def acked(self, round_trip_s: float, resent: bool) -> None:

@@ -278,7 +278,7 @@ def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: t
             tally.publishing += time.perf_counter() - t2
     finally:
         log.info("%s; waiting for photos %.2f s; clocks sent again %d", tally.summary(world.clock.sim_time),
-                 photographer.waited_s, resend.resent)
+                 photographer.waited_s, resend.resends)
 
 
 @dataclass

@@ -137,7 +137,7 @@ def test_resends_back_off_to_a_second():
     for _ in range(12):
         wait = resend.next_wait(wait)
         waits.append(wait)
-    assert waits[:3] == [0.01, 0.02, 0.04] and waits[-1] == ClockResend.CEILING_S and resend.resent == 12
+    assert waits[:3] == [0.01, 0.02, 0.04] and waits[-1] == ClockResend.CEILING_S and resend.resends == 12
 
 
 def test_publishing_on_a_tick_nobody_waits_for_is_reported(caplog):
