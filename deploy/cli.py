@@ -102,6 +102,7 @@ def named_command(argv: list[str]) -> str | None:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    process.one_blas_thread()
     parsers = build_parsers(only=named_command(argv))
     args, unknown = parsers.top.parse_known_args(argv)
     if unknown:  # said by the command's own parser, with its usage, not the top-level one
