@@ -13,6 +13,7 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,6 +43,7 @@ class BatchSpec:
     seed: int = 1
     jobs: int = 1
     lockstep: bool = False
+    in_process: bool = False
     rovers: int | None = None
     params: Path | None = None
     max_sim_time: float = 900.0
@@ -62,10 +64,10 @@ def run_batch(spec: BatchSpec) -> int:
                                  "no run overwrites another's report")
     spec.out.mkdir(parents=True, exist_ok=True)
     runs = [Run(i, spec.seed + i, spec.out / run_folder(i + 1, spec.seed + i)) for i in range(spec.runs)]
-    console.print(f"{scenario.name}: {spec.runs} runs, {len(scenario.rovers)} rovers, {spec.jobs} at a time"
-                  + (", lockstep" if spec.lockstep else ""))
-    reports, failed = _run_all(runs, spec, console)
-    summary = summarise(scenario.name, len(scenario.rovers), spec.lockstep, reports, failed)
+    mode = ", lockstep in process" if spec.in_process else ", lockstep" if spec.lockstep else ""
+    console.print(f"{scenario.name}: {spec.runs} runs, {len(scenario.rovers)} rovers, {spec.jobs} at a time{mode}")
+    reports, failed = _run_all(runs, spec, scenario, console)
+    summary = summarise(scenario.name, len(scenario.rovers), spec.lockstep or spec.in_process, reports, failed)
     write_summary(spec.out / BATCH_FILE, summary, console)
     console.print(f"written {spec.out / BATCH_FILE}" + (f"; {len(failed)} run(s) failed" if failed else ""))
     return 1 if failed and not reports else 0
@@ -98,8 +100,29 @@ def write_summary(path: Path, summary: dict, console) -> None:
     console.print(table_2(summary["scenario"] or path.parent.name, summary["runs"], summary["aggregate"]))
 
 
-def _run_all(runs: list[Run], spec: BatchSpec, console) -> tuple[list[dict], list[dict]]:
-    waiting, active, reports, failed = list(runs), [], [], []
+def _run_all(runs: list[Run], spec: BatchSpec, scenario, console) -> tuple[list[dict], list[dict]]:
+    reports, failed = [], []
+    if spec.in_process:
+        from deploy.batch_in_process import run_all
+
+        ended = run_all(runs, scenario, spec.jobs, spec.max_sim_time)
+    else:
+        ended = _run_all_processes(runs, spec)
+    for run, failure in ended:
+        report = _collect(run, failure)
+        (reports if "error" not in report else failed).append(report)
+        done = len(reports) + len(failed)
+        console.print(f"[{done}/{len(runs)}] seed {run.seed}: " + (
+            f"{report['rovers_reached_final_goal']}/{report['rovers_total']} reached, "
+            f"{report['rover_collisions'] + report['obstacle_collisions']} collisions, "
+            f"{report['rovers_stuck']} stuck" if "error" not in report else f"failed: {report['error']}"))
+    return reports, failed
+
+
+def _run_all_processes(runs: list[Run], spec: BatchSpec) -> Iterator[tuple[Run, str]]:
+    """Each run as it ends, with what its output says if it gave no report: ``spec.jobs`` ``lunarsim run`` at a
+    time."""
+    waiting, active = list(runs), []
     while waiting or active:
         while waiting and len(active) < spec.jobs:
             run = waiting.pop(0)
@@ -108,14 +131,8 @@ def _run_all(runs: list[Run], spec: BatchSpec, console) -> tuple[list[dict], lis
         time.sleep(0.2)
         for run in [r for r in active if r.proc.poll() is not None]:
             active.remove(run)
-            report = _collect(run)
-            (reports if "error" not in report else failed).append(report)
-            done = len(reports) + len(failed)
-            console.print(f"[{done}/{len(runs)}] seed {run.seed}: " + (
-                f"{report['rovers_reached_final_goal']}/{report['rovers_total']} reached, "
-                f"{report['rover_collisions'] + report['obstacle_collisions']} collisions, "
-                f"{report['rovers_stuck']} stuck" if "error" not in report else f"failed: {report['error']}"))
-    return reports, failed
+            tail = (run.out / "run.log").read_text(errors="replace").strip().splitlines()[-3:]
+            yield run, f"exit {run.proc.returncode}: " + " | ".join(tail)
 
 
 def _start(run: Run, spec: BatchSpec) -> subprocess.Popen:
@@ -135,12 +152,12 @@ def _start(run: Run, spec: BatchSpec) -> subprocess.Popen:
     return proc
 
 
-def _collect(run: Run) -> dict:
+def _collect(run: Run, failure: str) -> dict:
+    """The run's report as batch.json lists it; ``failure`` says why when it left none (or an unreadable one)."""
     try:
         return read_run(run.out, run.index + 1)
     except (OSError, ValueError):
-        tail = (run.out / "run.log").read_text(errors="replace").strip().splitlines()[-3:]
-        return {"run": run.index + 1, "seed": run.seed, "error": f"exit {run.proc.returncode}: " + " | ".join(tail)}
+        return {"run": run.index + 1, "seed": run.seed, "error": failure or "no readable report.json"}
 
 
 def read_run(folder: Path, run: int) -> dict:
