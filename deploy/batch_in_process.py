@@ -18,11 +18,21 @@ from collections.abc import Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 if TYPE_CHECKING:
-    from deploy.batch import Run
     from schemas.scenario import Scenario
+
+
+class SeededRun(Protocol):
+    """A run of the batch (``deploy.batch.Run``): its seed and folder in, when it started out."""
+
+    seed: int
+    out: Path
+    started: float
+
+
+Run = TypeVar("Run", bound=SeededRun)
 
 
 def run_all(runs: list[Run], scenario: Scenario, jobs: int, max_sim_time: float) -> Iterator[tuple[Run, str]]:

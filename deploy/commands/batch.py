@@ -7,6 +7,10 @@ share of the mission connected to the lander, the most rovers relaying at once, 
 archived (``photos_at_lander``, counted from the run's ``lander_archive/index.jsonl``): the daisy chain's
 figures.
 
+--in-process runs each mission whole in one worker process (the world, the lander and the agents wired
+without Zenoh), --jobs at a time: the same reports and table as --lockstep, several times faster, with
+each run folder holding its report.json, the lander's archive and map, and no recording or logs.
+
 Runs made elsewhere (the Kubernetes Indexed Job, one run per pod) get the same batch.json and table from
 ``lunarsim collect-batch``, which shares this command's folder names, report reading and summary.
 """
