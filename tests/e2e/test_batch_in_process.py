@@ -11,8 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-import yaml
-from procs import REPO, SCENARIOS
+from procs import REPO, two_rover_scenario
 
 SEED = 21
 RUNS = 2
@@ -29,14 +28,6 @@ class Dies(DefaultBehaviour):
 '''
 
 
-def _two_rovers(folder: Path) -> Path:
-    data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
-    data["rovers"] = data["rovers"][:2]
-    path = folder / "two_rovers.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
-
-
 def _batch(scenario: Path, out: Path, *extra: str, env: dict | None = None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "deploy.cli", "batch", str(scenario), "--runs", str(RUNS), "--seed",
                            str(SEED), "--max-sim-time", MAX_SIM_TIME, "--out", str(out), *extra], cwd=REPO,
@@ -50,7 +41,7 @@ def _rows(stdout: str) -> list[str]:
 
 @pytest.mark.e2e
 def test_an_in_process_batch_gives_the_reports_and_table_of_a_lockstep_batch(tmp_path):
-    scenario = _two_rovers(tmp_path)
+    scenario = two_rover_scenario(tmp_path)
     fast = _batch(scenario, tmp_path / "in_process", "--in-process", "--jobs", "2")
     slow = _batch(scenario, tmp_path / "processes", "--lockstep", "--jobs", "2")
     assert fast.returncode == 0 and slow.returncode == 0, fast.stdout + fast.stderr + slow.stdout + slow.stderr
@@ -67,7 +58,7 @@ def test_an_in_process_batch_gives_the_reports_and_table_of_a_lockstep_batch(tmp
 @pytest.mark.e2e
 def test_a_run_that_kills_its_worker_fails_alone_and_the_batch_ends(tmp_path):
     (tmp_path / "dies.py").write_text(DIES)
-    scenario = _two_rovers(tmp_path)
+    scenario = two_rover_scenario(tmp_path)
     scenario.write_text(scenario.read_text() + "behaviour: dies:Dies\n")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(tmp_path), os.environ.get("PYTHONPATH")]))}
     done = _batch(scenario, tmp_path / "out", "--in-process", "--jobs", "1", env=env)
