@@ -139,6 +139,11 @@ SMOKES: dict[str, Smoke] = {
         r"\(viewport 640x360, states published at 20 Hz\)",
         r"scale    1:   10 rovers:\s+\d+\.\d frames/s at .*"),
         json_check=lambda doc: [r["rovers"] for r in doc["results"]] == [0, 10]),
+    "wake_cost": Smoke(args=("--port", "{port}"), lines=(
+        r"\d+ of 600 samples received; CPU per sample, medians of 1 round\(s\) of 200, the same span with nothing "
+        r"sent taken off:",
+        *(rf"  {n} a wake, {2 * n} ms apart: subscriber -?\d+ us, router -?\d+ us a sample" for n in (1, 2, 4))),
+        json_check=lambda doc: set(doc["us_per_sample"]) == {"1", "2", "4"} and doc["sent"] == 600),
     "web_upload": Smoke(lines=(
         r"idle\s+\{\"n\": 50, \"p50_ms\": [\d.]+, \"p95_ms\": [\d.]+, \"max_ms\": [\d.]+\}",
         r"yaml file\s+\{\"request_mib\": [\d.]+, \"status\": 200, .*\"info_during\": \{\"n\": \d+, .*",
