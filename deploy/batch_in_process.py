@@ -25,11 +25,10 @@ if TYPE_CHECKING:
 
 
 class SeededRun(Protocol):
-    """A run of the batch (``deploy.batch.Run``): its seed and folder in, when it started out."""
+    """A run of the batch (``deploy.batch.Run``): its seed, and the folder its report goes to."""
 
     seed: int
     out: Path
-    started: float
 
 
 Run = TypeVar("Run", bound=SeededRun)
@@ -51,7 +50,6 @@ def _in_pool(pending: list[Run], scenario: Scenario, jobs: int, max_sim_time: fl
         while pending or active:
             while pending and len(active) < jobs:
                 run = pending.pop(0)
-                run.started = time.monotonic()
                 active[pool.submit(run_seed, scenario, run.seed, run.out, max_sim_time)] = run
             done, _ = wait(active, return_when=FIRST_COMPLETED)
             broken = False

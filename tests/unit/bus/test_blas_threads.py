@@ -27,7 +27,7 @@ def test_a_thread_count_the_user_set_is_kept():
     assert _run(code, OPENBLAS_NUM_THREADS="4") == "4"
 
 
-def test_the_lunarsim_command_sets_it_for_itself_and_the_processes_it_starts():
+def test_the_lunarsim_command_sets_it_in_the_environment_its_processes_inherit():
     code = ("import os, sys; from deploy import cli; sys.stderr = open(os.devnull, 'w'); "
             "cli.main(['scenario', 'check', '/nonexistent.yaml']); print(os.environ['OPENBLAS_NUM_THREADS'])")
     assert _run(code) == "1"
