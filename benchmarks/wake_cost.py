@@ -54,12 +54,13 @@ def subscriber(endpoint: str) -> int:
     return 0
 
 
-def measure(publisher: zenoh.Publisher, pids: dict[str, int], samples: int, burst: int, gap_s: float) -> dict:
-    """CPU seconds of each process over ``samples`` sent ``burst`` at a time, ``gap_s`` apart (burst 0: the same span,
-    nothing sent)."""
+def measure(publisher: zenoh.Publisher, pids: dict[str, int], samples: int, burst: int, gap_s: float,
+            send: bool = True) -> dict:
+    """CPU seconds of each process over ``samples`` sent ``burst`` at a time, ``gap_s`` apart; with ``send`` False,
+    the same span with nothing sent."""
     before = {name: cpu_seconds(pid) for name, pid in pids.items()}
-    for _ in range(samples // max(burst, 1)):
-        for _ in range(burst):
+    for _ in range(samples // burst):
+        for _ in range(burst if send else 0):
             publisher.put(PAYLOAD)
         time.sleep(gap_s)
     time.sleep(0.2)  # the last samples delivered
@@ -87,8 +88,9 @@ def run(args: argparse.Namespace) -> dict:
             time.sleep(0.5)  # the subscription known to the router
             for _ in range(args.rounds):
                 for burst in BURSTS:
-                    busy = measure(publisher, pids, args.samples, burst, args.gap_ms / 1000 * burst)
-                    idle = measure(publisher, pids, args.samples, 0, args.gap_ms / 1000 * burst)
+                    gap_s = args.gap_ms / 1000 * burst
+                    busy = measure(publisher, pids, args.samples, burst, gap_s)
+                    idle = measure(publisher, pids, args.samples, burst, gap_s, send=False)
                     for name in pids:
                         per_sample[burst][name].append((busy[name] - idle[name]) / args.samples * 1e6)
         sub.stdin.close()
