@@ -30,7 +30,6 @@ class Run:
     seed: int
     out: Path
     proc: subprocess.Popen | None = None
-    started: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -126,7 +125,7 @@ def _run_all_processes(runs: list[Run], spec: BatchSpec) -> Iterator[tuple[Run, 
     while waiting or active:
         while waiting and len(active) < spec.jobs:
             run = waiting.pop(0)
-            run.proc, run.started = _start(run, spec), time.monotonic()
+            run.proc = _start(run, spec)
             active.append(run)
         time.sleep(0.2)
         for run in [r for r in active if r.proc.poll() is not None]:
