@@ -25,7 +25,7 @@ FEW_PAIRS = 4096
 of rovers and rocks costs ten times more than the test it saves."""
 
 
-def _near_pairs(px, pz, cx, cz, cr, reach: float) -> tuple[np.ndarray, np.ndarray]:
+def near_pairs(px, pz, cx, cz, cr, reach: float) -> tuple[np.ndarray, np.ndarray]:
     near = np.hypot(cx[None, :] - px[:, None], cz[None, :] - pz[:, None]) <= reach + cr[None, :]
     return np.nonzero(near)
 
@@ -50,7 +50,7 @@ class CircleGrid:
         if not len(self.keys):
             return np.zeros(0, int), np.zeros(0, int)
         if len(px) * len(self.x) <= FEW_PAIRS:
-            return _near_pairs(px, pz, self.x, self.z, self.r, reach)
+            return near_pairs(px, pz, self.x, self.z, self.r, reach)
         span = math.ceil((reach + float(self.r.max())) / self.cell)  # a wide circle's centre may lie farther
         offsets = np.arange(-span, span + 1)
         cx = np.floor(px / self.cell)[:, None, None] + offsets[None, :, None]
@@ -72,7 +72,7 @@ def circle_pairs(px: np.ndarray, pz: np.ndarray, cx: np.ndarray, cz: np.ndarray,
     grid when there are few pairs."""
     if len(px) * len(cx) > FEW_PAIRS:
         return CircleGrid(cx, cz, cr, cell).pairs(px, pz, reach)
-    return _near_pairs(px, pz, cx, cz, cr, reach)
+    return near_pairs(px, pz, cx, cz, cr, reach)
 
 
 @dataclass

@@ -16,10 +16,28 @@ import numpy as np
 
 from schemas.params import RoverParams
 from world_service import geometry as geo
-from world_service.scene import CRATER, LANDER, OBSTACLE, ROVER, TERRAIN, CircleGrid, Scene, circle_pairs
+from world_service.scene import (
+    CRATER,
+    FEW_PAIRS,
+    LANDER,
+    OBSTACLE,
+    ROVER,
+    TERRAIN,
+    CircleGrid,
+    Scene,
+    circle_pairs,
+    near_pairs,
+)
 
 TERRAIN_STEP_M = 1.0
 """Spacing of the samples along each ray that look for ground too steep to climb."""
+
+
+SOURCES = (OBSTACLE, LANDER, ROVER, CRATER)
+"""The kinds of circle a ray may meet (rocks, the lander's, other rovers, craters), in the order that wins a tie."""
+SOURCE_KINDS = np.array([*SOURCES, -1])
+"""A source's kind by its index; the last, -1, for a ray that met none."""
+_ROCKS, _LANDER, _ROVERS, _CRATERS = range(len(SOURCES))
 
 
 @dataclass
@@ -40,7 +58,14 @@ class Perceiver:
         widest = float(scene.circle_r[rocks].max()) if rocks.any() else 0.0
         self.rocks = CircleGrid(scene.circle_x[rocks], scene.circle_z[rocks], scene.circle_r[rocks],
                                 cell=max(p.perception_radius + widest, 5.0))  # a scan looks one cell around
-        self.lander = (scene.circle_x[~rocks], scene.circle_z[~rocks], scene.circle_r[~rocks])
+        others = (np.concatenate([scene.circle_x[~rocks], scene.crater_x]),
+                  np.concatenate([scene.circle_z[~rocks], scene.crater_z]),
+                  np.concatenate([scene.circle_r[~rocks], scene.crater_r]),
+                  np.repeat([_LANDER, _CRATERS], [int((~rocks).sum()), len(scene.crater_x)]))
+        self.others = others  # the lander's circles and the craters: a handful, tested without a grid
+        self.fixed = tuple(np.concatenate([part, other]) for part, other in
+                           zip((self.rocks.x, self.rocks.z, self.rocks.r, np.full(len(self.rocks.x), _ROCKS)),
+                               others, strict=True))
         self.max_rise = math.tan(math.radians(params.navigation.max_slope_deg))
         self.may_be_steep = terrain.max_slope_bound_deg() > params.navigation.max_slope_deg
 
@@ -51,38 +76,48 @@ class Perceiver:
         radius = self.params.perception.perception_radius
         ox, oz = xs[which], zs[which]
         dx, dz = geo.direction(hs[which][:, None] + self.rel[None, :])
-        best = np.full(dx.shape, np.inf)
-        kind = np.full(dx.shape, -1)
-        for t, k in self._solid(ox, oz, dx, dz, xs, zs, which, radius):
-            closer = t < best
-            best[closer], kind[closer] = t[closer], k
-        crater = self._craters(ox, oz, dx, dz, radius)
+        point, cx, cz, cr, source = self._circles(ox, oz, xs, zs, which, radius)
+        t = _rays_circles(ox, oz, dx, dz, point, cx, cz, cr)
+        n = len(which)  # craters show only where nothing solid is met: they go on rows of their own, n on
+        nearest, kinds = _nearest((2 * n, dx.shape[1]), point + n * (source == _CRATERS), t, source)
+        best, kind, crater = nearest[:n], kinds[:n], nearest[n:]
+        for t_other, k in self._flat_solids(ox, oz, dx, dz, radius):
+            closer = t_other < best
+            best[closer], kind[closer] = t_other[closer], k
         use = (best > radius) & (crater <= radius)
         best[use], kind[use] = crater[use], CRATER
         return [Scan(self.rel[hit], best[i][hit], kind[i][hit]) for i in range(len(which))
                 for hit in [best[i] <= radius]]
 
-    def _solid(self, ox, oz, dx, dz, xs, zs, which, radius):
-        point, circle = self.rocks.pairs(ox, oz, radius)
-        yield _min_per_rover(dx.shape, point, _rays_circles(ox, oz, dx, dz, point, self.rocks.x[circle],
-                                                            self.rocks.z[circle], self.rocks.r[circle])), OBSTACLE
-        lx, lz, lr = self.lander
-        if len(lx):
-            t = np.min([geo.ray_circle(ox[:, None], oz[:, None], dx, dz, x, z, r)
-                        for x, z, r in zip(lx, lz, lr, strict=True)], axis=0)
-            yield t, LANDER
-        yield self._rovers(ox, oz, dx, dz, xs, zs, which, radius), ROVER
+    def _circles(self, ox, oz, xs, zs, which, radius):
+        """Every circle within reach of each scanning rover, as (rover, x, z, radius, source), its source the index
+        into ``SOURCES``, which is the order a tie goes by. A circle out of reach is met, if at all, beyond
+        the perception radius, so leaving it out changes no scan."""
+        point, cx, cz, cr, source = self._fixed_circles(ox, oz, radius)
+        rr = self.params.behaviour.rover_radius
+        rover_point, other = circle_pairs(ox, oz, xs, zs, np.full(len(xs), rr), radius, max(radius + rr, 5.0))
+        keep = other != which[rover_point]
+        rover_point, other = rover_point[keep], other[keep]
+        return (np.concatenate([point, rover_point]), np.concatenate([cx, xs[other]]),
+                np.concatenate([cz, zs[other]]), np.concatenate([cr, np.full(len(other), rr)]),
+                np.concatenate([source, np.full(len(other), _ROVERS)]))
+
+    def _fixed_circles(self, ox, oz, radius):
+        """The rocks, the lander and the craters within reach: tested all at once when they are few, the rocks
+        through their grid when they are many."""
+        if len(ox) * len(self.fixed[0]) <= FEW_PAIRS:
+            point, c = near_pairs(ox, oz, *self.fixed[:3], radius)
+            return (point, *(a[c] for a in self.fixed))
+        point, rock = self.rocks.pairs(ox, oz, radius)
+        other_point, other = near_pairs(ox, oz, *self.others[:3], radius)
+        rocks = (self.rocks.x[rock], self.rocks.z[rock], self.rocks.r[rock], np.full(len(rock), _ROCKS))
+        return (np.concatenate([point, other_point]),
+                *(np.concatenate([a, b[other]]) for a, b in zip(rocks, self.others, strict=True)))
+
+    def _flat_solids(self, ox, oz, dx, dz, radius):
         yield self._walls(ox, oz, dx, dz, radius), OBSTACLE
         if self.may_be_steep:
             yield self._steep_ground(ox, oz, dx, dz, radius), TERRAIN
-
-    def _rovers(self, ox, oz, dx, dz, xs, zs, which, radius):
-        rr = self.params.behaviour.rover_radius
-        point, other = circle_pairs(ox, oz, xs, zs, np.full(len(xs), rr), radius, max(radius + rr, 5.0))
-        keep = other != which[point]
-        point, other = point[keep], other[keep]
-        return _min_per_rover(dx.shape, point, _rays_circles(ox, oz, dx, dz, point, xs[other], zs[other],
-                                                             np.full(len(other), rr)))
 
     def _walls(self, ox, oz, dx, dz, radius):
         e = self.scene.edges
@@ -95,15 +130,6 @@ class Perceiver:
         t = geo.ray_segment(ox[point, None], oz[point, None], dx[point], dz[point],
                             e[edge, 0, None], e[edge, 1, None], e[edge, 2, None], e[edge, 3, None])
         return _min_per_rover(dx.shape, point, t)
-
-    def _craters(self, ox, oz, dx, dz, radius):
-        s = self.scene
-        if not len(s.crater_x):
-            return np.full(dx.shape, np.inf)
-        d = np.hypot(s.crater_x[None, :] - ox[:, None], s.crater_z[None, :] - oz[:, None])
-        point, c = np.nonzero(d <= radius + s.crater_r[None, :])
-        return _min_per_rover(dx.shape, point, _rays_circles(ox, oz, dx, dz, point, s.crater_x[c], s.crater_z[c],
-                                                             s.crater_r[c]))
 
     def _steep_ground(self, ox, oz, dx, dz, radius):
         """Where the ground along a ray first rises faster than the rover can climb: a 'terrain' hit."""
@@ -122,6 +148,18 @@ def _rays_circles(ox, oz, dx, dz, point, cx, cz, cr) -> np.ndarray:
         return np.zeros((0, dx.shape[1]))
     return geo.ray_circle(ox[point, None], oz[point, None], dx[point], dz[point], cx[:, None], cz[:, None],
                           cr[:, None])
+
+
+def _nearest(shape: tuple[int, int], point: np.ndarray, t: np.ndarray, source: np.ndarray) -> tuple[np.ndarray,
+                                                                                                     np.ndarray]:
+    """Each rover's nearest pair along each ray, and its kind: of equal distances, the earlier source's."""
+    best = _min_per_rover(shape, point, t)
+    if not len(point):
+        return best, np.full(shape, -1)
+    met = np.where(t == best[point], source[:, None], len(SOURCES))
+    first = np.full(shape, len(SOURCES))
+    np.minimum.at(first, point, met)
+    return best, SOURCE_KINDS[first]
 
 
 def _min_per_rover(shape: tuple[int, int], point: np.ndarray, t: np.ndarray) -> np.ndarray:

@@ -13,12 +13,13 @@ from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.frames import wrap_deg
-from schemas.params import NavigationParams
+from schemas.params import BehaviourParams, NavigationParams
 from schemas.scenario import Crater, TerrainSpec, parse_scenario
 from world_service import geometry as geo
 from world_service.actuation import navigation as nav
 from world_service.radio.graph import build_graph
-from world_service.scene import FEW_PAIRS, CircleGrid, Scene, circle_pairs
+from world_service.scene import FEW_PAIRS, KIND_CODE, CircleGrid, Scene, circle_pairs
+from world_service.sensors import perception
 from world_service.sensors.perception import Perceiver
 from world_service.sim import World
 from world_service.terrain.heightmap import Heightmap
@@ -247,6 +248,32 @@ def test_crater_terrain_does_not_hide_a_rover(rover_z, distance):
     assert ahead[2] == "rover"
     assert ahead[1] == pytest.approx(distance)
     assert "crater_terrain" in {h[2] for h in hits}  # rays beside the rover still see the rim
+
+
+def test_a_rock_and_a_rover_met_at_the_same_distance_are_seen_as_the_rock():
+    radius = BehaviourParams().rover_radius
+    hits = _scan(_scenario(rovers=[(0.0, 0.0, 0.0), (0.0, 8.0, 0.0)], rocks=[(0.0, 8.0, radius)]))
+    assert {h[2] for h in hits} == {"obstacle"}
+
+
+def test_rovers_scanned_together_see_what_each_sees_alone(monkeypatch):
+    scenario = _scenario(rovers=[(0.0, 0.0, 0.0), (3.0, 4.0, 90.0), (-2.0, 6.0, 200.0), (30.0, 0.0, 0.0)],
+                         rocks=[(1.0, 5.0, 0.6), (-4.0, 3.0, 1.0), (5.0, 6.0, 0.8)], craters=[(0.0, 22.0, 10.0)],
+                         walls=[[(-6.0, -2.0), (-6.0, 9.0)]])
+    xs, zs, hs = (np.array([getattr(r, a) for r in scenario.rovers]) for a in ("x", "z", "heading_deg"))
+    terrain = Heightmap.from_scenario(scenario, np.random.default_rng(0))
+    perceiver = Perceiver(Scene.from_scenario(scenario), terrain, scenario.rover_params)
+    together = perceiver.scan(xs, zs, hs, np.arange(4))
+    for i, scan in enumerate(together):
+        alone = perceiver.scan(xs, zs, hs, np.array([i]))[0]
+        for field in ("angles_deg", "distances_m", "kinds"):
+            assert np.array_equal(getattr(scan, field), getattr(alone, field))
+    assert {k for s in together[:3] for k in s.kinds} >= {KIND_CODE[k] for k in ("rover", "obstacle")}
+    assert KIND_CODE["crater_terrain"] in together[0].kinds
+    monkeypatch.setattr(perception, "FEW_PAIRS", 0)  # the rocks through their grid, as in a wide rock field
+    for scan, gridded in zip(together, perceiver.scan(xs, zs, hs, np.arange(4)), strict=True):
+        for field in ("angles_deg", "distances_m", "kinds"):
+            assert np.array_equal(getattr(scan, field), getattr(gridded, field))
 
 
 # ---- navigation kinematics ----
