@@ -95,7 +95,8 @@ def _collect(folder: Path, *extra: str, shim: Path | None = None) -> tuple[int, 
 @pytest.fixture(scope="module")
 def sweep(tmp_path_factory, shim) -> dict:
     """The Job's indexes, all at once as real processes into one results folder, and ``lunarsim batch`` of the
-    same scenario and seeds afterwards (two runs at a time, as on this 2-core machine)."""
+    same scenario and seeds afterwards, in process (two at a time, as on this 2-core machine): the reports of
+    ``--lockstep``, which tests/e2e/test_batch_in_process.py holds it to."""
     root = tmp_path_factory.mktemp("sweep")
     data = yaml.safe_load((SCENARIOS / "crater_observation.yaml").read_text())
     data["rovers"] = data["rovers"][:2]  # short: two rovers round the rim
@@ -112,7 +113,7 @@ def sweep(tmp_path_factory, shim) -> dict:
         stop(*procs)
     out = root / "batch"
     max_sim_time = manifests.pod_env(job, container, 0)["MAX_SIM_TIME"]
-    proc = lunarsim("batch", str(scenario), "--runs", str(INDEXES), "--seed", str(BASE_SEED), "--lockstep",
+    proc = lunarsim("batch", str(scenario), "--runs", str(INDEXES), "--seed", str(BASE_SEED), "--in-process",
                     "--jobs", "2", "--max-sim-time", max_sim_time, "--out", str(out))
     batch_stdout, stderr = _finish(proc, "lunarsim batch")
     assert proc.returncode == 0, batch_stdout + stderr
