@@ -3,8 +3,10 @@
 Rays fan over the field of view in each rover's plane; each reports the nearest thing it meets within
 the perception radius. Solid things (rovers, rocks, walls, the lander, ground rising more steeply than a
 rover can climb) come first; crater terrain is walkable ground, so it shows only on rays that meet
-nothing solid. Rocks are found through a grid over their centres, everything else by culled pairs, so
-cost grows with what is near the rovers, not with everything in the world.
+nothing solid. Rocks are found through a grid over their centres (when they are many), everything else by
+culled pairs, so cost grows with what is near the rovers, not with everything in the world; every circle in
+reach (rock, lander, rover, crater) is then met by all the rays in one pass, since with a rover or two scanning
+a tick NumPy's cost per call is most of the cost.
 """
 
 from __future__ import annotations
@@ -38,6 +40,8 @@ SOURCES = (OBSTACLE, LANDER, ROVER, CRATER)
 SOURCE_KINDS = np.array([*SOURCES, -1])
 """A source's kind by its index; the last, -1, for a ray that met none."""
 _ROCKS, _LANDER, _ROVERS, _CRATERS = range(len(SOURCES))
+Rays = np.ndarray
+"""One value per rover and ray: shape (rovers, rays)."""
 
 
 @dataclass
@@ -150,13 +154,13 @@ def _rays_circles(ox, oz, dx, dz, point, cx, cz, cr) -> np.ndarray:
                           cr[:, None])
 
 
-def _nearest(shape: tuple[int, int], point: np.ndarray, t: np.ndarray, source: np.ndarray) -> tuple[np.ndarray,
-                                                                                                     np.ndarray]:
-    """Each rover's nearest pair along each ray, and its kind: of equal distances, the earlier source's."""
+def _nearest(shape: tuple[int, int], point: np.ndarray, t: np.ndarray, source: np.ndarray) -> tuple[Rays, Rays]:
+    """Each rover's nearest pair along each ray, and its kind: of equal distances, the earlier source's; -1 where
+    the ray met nothing."""
     best = _min_per_rover(shape, point, t)
     if not len(point):
         return best, np.full(shape, -1)
-    met = np.where(t == best[point], source[:, None], len(SOURCES))
+    met = np.where((t == best[point]) & (t < np.inf), source[:, None], len(SOURCES))
     first = np.full(shape, len(SOURCES))
     np.minimum.at(first, point, met)
     return best, SOURCE_KINDS[first]
