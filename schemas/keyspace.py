@@ -6,6 +6,7 @@ The ``<world>`` segment lets several simulations (or a replay beside a live run)
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 from typing import Final
@@ -106,8 +107,9 @@ class Keyspace:
     def __post_init__(self) -> None:
         check_world_name(self.world)
 
-    @property
+    @functools.cached_property
     def prefix(self) -> str:
+        """Every key's head; kept, since the world and the agents build keys from it for every sample."""
         return f"{ROOT}/{self.world}"
 
     @property

@@ -50,8 +50,8 @@ class Sensors:
         which = np.array([i for i, b in enumerate(bodies) if (tick + b.id) % self.perception_period == 0], int)
         scans = self.perceiver.scan(xs, zs, hs, which)
         return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
-                 m.Perception(stamp=stamp, angles_deg=np.round(s.angles_deg, 3).tolist(),
-                              distances_m=np.round(s.distances_m, 3).tolist(), kinds=KIND_NAMES[s.kinds].tolist()))
+                 m.Perception(stamp=stamp, angles_deg=s.angles_deg.round(3).tolist(),
+                              distances_m=s.distances_m.round(3).tolist(), kinds=KIND_NAMES[s.kinds].tolist()))
                 for i, s in zip(which, scans, strict=True)]
 
     def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:
@@ -62,7 +62,7 @@ class Sensors:
         stamp = self.clock.sim_time
         headings = self._sun_headings(hs)
         return [(self.keys.rover(b.id, ks.GYROSCOPE), m.Gyroscope(stamp=stamp, pitch_deg=p, heading_deg=h))
-                for b, p, h in zip(bodies, np.round(pitch, 4).tolist(), headings, strict=True)]
+                for b, p, h in zip(bodies, pitch.round(4).tolist(), headings, strict=True)]
 
     def _sun_headings(self, hs: np.ndarray) -> list[float | None]:
         """Each rover's sun sensor reading: its true heading with the sensor's noise (drawn after the pitch's, only
