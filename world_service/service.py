@@ -167,7 +167,8 @@ def start_camera(scenario: Scenario, lockstep: bool) -> CameraProcess:
     """The camera process of a world that renders its photos (``ServedWorld.RENDERS_PHOTOS``), forked before the
     world's Zenoh session opens. In real time it builds its ground (Numba's loops, the terrain: most of a CPU
     second) as it starts, and the clock waits for it: started first, it is ready about when the agents are. In
-    lockstep it builds it at the first photo, which the clock waits for on its due tick anyway."""
+    lockstep it builds it when the world asks (``Photographer.prepare``) or at the first photo, which the clock
+    waits for on its due tick anyway."""
     return CameraProcess(scenario, priority.for_camera(lockstep, len(scenario.rovers)), eager=not lockstep)
 
 
@@ -200,6 +201,8 @@ def run(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.E
         try:
             wait_for_agents(world, bus, settings, stop, agents)
             photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock.message(running=False)))
+            if settings.lockstep and world.scenario.observes_craters:
+                photographer.prepare()
             freeze_start_up_heap()
             agents.tick = LockstepTick(world, settings.max_sim_time) if settings.lockstep else None
             log.info("clock started at t = %.1f s: %s", world.clock.sim_time,

@@ -115,6 +115,16 @@ class Photographer:
         if not stop.is_set():
             log.warning("the camera process is not up after %g s; starting the clock anyway", CAMERA_START_TIMEOUT_S)
 
+    def prepare(self) -> None:
+        """Have the camera build its ground in the background, as the clock runs. A lockstep camera builds it at
+        the first photo otherwise, and the clock waits for that (about half a second here); a mission that will
+        photograph a crater is better served by building it while its rovers drive there, on the other core."""
+        if self.camera is not None:
+            try:
+                self.camera.prepare()
+            except BrokenExecutor:
+                self._lost_camera()
+
     def _lost_camera(self) -> None:
         if self.camera is not None:
             log.error("the camera process died; rendering photos in the world's own process from now on")

@@ -79,9 +79,9 @@ class CameraProcess:
     world's priority (``equal``).
 
     ``eager``: build the ground (the terrain, Numba's loops: most of a CPU second) as the process starts, so the
-    first photo is not late; else at the first photo. Lockstep waits for each render on its due tick anyway, so
-    there a run that takes no photo never pays for the ground, and one that does pays when its first photo is
-    asked for instead of before its clock starts.
+    first photo is not late; else when asked (``prepare``) or at the first photo. Lockstep waits for each render on
+    its due tick anyway, so there the clock starts without waiting for the ground, and a run that takes no photo
+    never pays for it.
     """
 
     def __init__(self, scenario: Scenario, priority: Priority = "equal", eager: bool = True) -> None:
@@ -91,6 +91,11 @@ class CameraProcess:
 
     def submit(self, job: PhotoJob) -> Future:
         return self.pool.submit(_render, job)
+
+    def prepare(self) -> None:
+        """Build the ground now, in the camera process, if not built yet: a photo asked for later waits only for
+        what is left of the build."""
+        self.pool.submit(_prepare)
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)
@@ -123,6 +128,10 @@ def _start(scenario: Scenario, priority: Priority, world_pid: int, eager: bool) 
     if eager:
         _prepared()
     atexit.register(_exit_now)
+
+
+def _prepare() -> None:
+    _prepared()
 
 
 def _prepared() -> tuple[rendering.HeightField, Scene, RoverParams]:

@@ -237,6 +237,29 @@ def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world
         process.close()
 
 
+def _ground_built(process: CameraProcess) -> bool:
+    """Whether the camera process holds its ground, asked in that process once what it was given before is done
+    (one worker, first in first out)."""
+    probe = "__import__('world_service.camera.photos', fromlist=['_'])._ground is not None"
+    return process.pool.submit(eval, probe).result(timeout=60)
+
+
+def test_a_lockstep_camera_builds_its_ground_in_the_background_when_asked_and_renders_the_same(crater_world):
+    scenario, world = crater_world
+    assert scenario.observes_craters  # what makes a lockstep world ask (world_service.service.run)
+    jobs = _photo_jobs(world)
+    process = CameraProcess(scenario, eager=False)
+    try:
+        photographer = Photographer(world, True, process)
+        photographer.await_camera(threading.Event(), lambda: None)
+        assert not _ground_built(process)  # a lockstep camera builds nothing until asked
+        photographer.prepare()
+        assert _ground_built(process)
+        assert [process.submit(job).result(timeout=60) for job in jobs] == [world.render(job) for job in jobs]
+    finally:
+        process.close()
+
+
 def test_the_camera_gives_way_in_a_real_time_crowd_only(crater_world):
     """With a crowd in real time it renders below the world, in the batch class and never idle, so other work on
     the machine cannot starve it; in lockstep the clock waits for it (bus.priority)."""
