@@ -227,11 +227,6 @@ class Scenario(Spec):
                                       "package.module:Class (importable from the folder lunarsim runs in)")
     sun: SunSpec | None = Field(None, description="sunlight, shadows, battery and temperature; none: off")
 
-    @property
-    def observes_craters(self) -> bool:
-        """The mission has a crater goal, where the rovers take photos of its rim."""
-        return any(goal.kind == "crater" for goal in self.mission)
-
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
         """Every problem at once, one a line starting with its field path (``error_lines`` splits them)."""

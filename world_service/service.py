@@ -34,7 +34,7 @@ from bus.process import freeze_start_up_heap
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from world_service.camera.photographer import Photographer
+from world_service.camera.photographer import CraterApproach, Photographer
 from world_service.camera.photos import CameraProcess
 from world_service.lockstep import ClockResend, LockstepTick
 from world_service.presence import Agents, agent_name, note_ack, note_liveliness
@@ -49,6 +49,8 @@ log = logging.getLogger("lunarsim.world")
 SAVE_PERIOD_S = 1.0
 """Simulated seconds between two saves of the world's state (``world_service.resume``): a rover walks at most 3.5 m
 in that time, which a restart may cost it."""
+APPROACH_CHECK_TICKS = 20
+"""How often (in ticks) a lockstep world asks whether a rover nears a crater goal (``CraterApproach``)."""
 
 
 @dataclass
@@ -201,8 +203,6 @@ def run(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.E
         try:
             wait_for_agents(world, bus, settings, stop, agents)
             photographer.await_camera(stop, lambda: bus.publish(world.keys.clock, world.clock.message(running=False)))
-            if settings.lockstep and world.scenario.observes_craters:
-                photographer.prepare()
             freeze_start_up_heap()
             agents.tick = LockstepTick(world, settings.max_sim_time) if settings.lockstep else None
             log.info("clock started at t = %.1f s: %s", world.clock.sim_time,
@@ -260,6 +260,7 @@ def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: t
     tick = agents.tick
     tally = LockstepTally(start=time.perf_counter())
     resend = ClockResend()
+    approach: CraterApproach | None = CraterApproach(world.scenario)
     try:
         while not stop.is_set():
             while world.clock.hold.held() and not stop.is_set():
@@ -267,6 +268,10 @@ def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: t
             _step_lockstep(world, bus, photographer, tick, agents, settings.state_file, tally)
             if tick.over:
                 return
+            if approach is not None and world.clock.tick % APPROACH_CHECK_TICKS == 0 and approach.reached(
+                    (b.x, b.z) for b in world.actuator.bodies.values()):
+                photographer.prepare()
+                approach = None
             tally.ticks += 1
             tally.waited += bool(tick.waiting)
             t0 = time.perf_counter()

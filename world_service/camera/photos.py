@@ -11,12 +11,14 @@ are byte for byte the ones the world would render itself.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import logging
 import multiprocessing
 import os
+import signal
 import sys
 import threading
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import BrokenExecutor, Future, ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,7 +89,8 @@ class CameraProcess:
     def __init__(self, scenario: Scenario, priority: Priority = "equal", eager: bool = True) -> None:
         self.pool = ProcessPoolExecutor(max_workers=1, mp_context=_context(), initializer=_start,
                                         initargs=(scenario, priority, os.getpid(), eager))
-        self.started = self.pool.submit(int)  # start the process now, not at the first photo
+        self.started = self.pool.submit(os.getpid)  # start the process now, not at the first photo
+        self._building: Future | None = None
 
     def submit(self, job: PhotoJob) -> Future:
         return self.pool.submit(_render, job)
@@ -95,9 +98,14 @@ class CameraProcess:
     def prepare(self) -> None:
         """Build the ground now, in the camera process, if not built yet: a photo asked for later waits only for
         what is left of the build."""
-        self.pool.submit(_prepare)
+        self._building = self.pool.submit(_prepare)
 
     def close(self) -> None:
+        """Stop the process; one still building its ground for a photo nobody will ask for now (a mission that
+        ended before its first) is stopped at once rather than waited for."""
+        if self._building is not None and not self._building.done() and self.started.done():
+            with contextlib.suppress(OSError, BrokenExecutor):
+                os.kill(self.started.result(), signal.SIGKILL)
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 

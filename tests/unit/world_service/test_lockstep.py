@@ -26,7 +26,7 @@ from schemas import messages as m
 from schemas.scenario import load_scenario
 from shared.lockstep import lockstep_answer
 from world_service.camera import rendering
-from world_service.camera.photographer import Photographer
+from world_service.camera.photographer import APPROACH_RADII, CraterApproach, Photographer
 from world_service.camera.photos import CameraProcess, build_ground
 from world_service.lockstep import AckPlan, ClockResend, LockstepTick
 from world_service.presence import Agents, note_ack
@@ -244,9 +244,21 @@ def _ground_built(process: CameraProcess) -> bool:
     return process.pool.submit(eval, probe).result(timeout=60)
 
 
+def test_the_camera_is_asked_for_its_ground_once_a_rover_nears_a_crater_goals_crater(crater_world):
+    scenario, _ = crater_world
+    crater = scenario.crater_of(next(goal for goal in scenario.mission if goal.kind == "crater"))
+    approach = CraterApproach(scenario)
+    starts = [(r.x, r.z) for r in scenario.rovers]
+    assert not approach.reached(starts)  # the rovers start far off: a short run never builds it
+    near = APPROACH_RADII * crater.radius_m * 0.99
+    assert approach.reached([*starts, (crater.x + near, crater.z)])
+    no_crater_goal = scenario.model_copy(update={"mission": [g.model_copy(update={"kind": "waypoint"})
+                                                              for g in scenario.mission]})
+    assert not CraterApproach(no_crater_goal).reached([(crater.x, crater.z)])
+
+
 def test_a_lockstep_camera_builds_its_ground_in_the_background_when_asked_and_renders_the_same(crater_world):
     scenario, world = crater_world
-    assert scenario.observes_craters  # what makes a lockstep world ask (world_service.service.run)
     jobs = _photo_jobs(world)
     process = CameraProcess(scenario, eager=False)
     try:
