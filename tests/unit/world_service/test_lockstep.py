@@ -272,6 +272,18 @@ def test_a_lockstep_camera_builds_its_ground_in_the_background_when_asked_and_re
         process.close()
 
 
+def test_a_camera_closed_while_it_builds_its_ground_ends_and_takes_no_more_work(crater_world):
+    """A mission that ends before its first photo does not wait for a build nobody needs."""
+    scenario, world = crater_world
+    process = CameraProcess(scenario, eager=False)
+    pid = process.started.result(timeout=60)
+    process.prepare()
+    process.close()
+    assert not os.path.exists(f"/proc/{pid}")  # closed means joined: the process is gone, not a zombie
+    with pytest.raises(RuntimeError):
+        process.submit(_photo_jobs(world)[0])
+
+
 def test_the_camera_gives_way_in_a_real_time_crowd_only(crater_world):
     """With a crowd in real time it renders below the world, in the batch class and never idle, so other work on
     the machine cannot starve it; in lockstep the clock waits for it (bus.priority)."""
