@@ -34,7 +34,7 @@ from bus.process import freeze_start_up_heap
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
-from world_service.camera.photographer import CraterApproach, Photographer
+from world_service.camera.photographer import Photographer
 from world_service.camera.photos import CameraProcess
 from world_service.lockstep import ClockResend, LockstepTick
 from world_service.presence import Agents, agent_name, note_ack, note_liveliness
@@ -49,8 +49,6 @@ log = logging.getLogger("lunarsim.world")
 SAVE_PERIOD_S = 1.0
 """Simulated seconds between two saves of the world's state (``world_service.resume``): a rover walks at most 3.5 m
 in that time, which a restart may cost it."""
-APPROACH_CHECK_TICKS = 20
-"""How often (in ticks) a lockstep world asks whether a rover nears a crater goal (``CraterApproach``)."""
 
 
 @dataclass
@@ -138,6 +136,7 @@ def _step_lockstep(world: ServedWorld, bus: Bus, photographer: Photographer, tic
     photos = photographer.take(world.clock.tick + 1)
     world.dropped_messages = sum(bus.inbox.dropped.values())
     samples, clock = tick.step(photos, set(agents.ids.values()))
+    photographer.watch(samples)
     _keep(world, state_file)
     t1 = time.perf_counter()
     for key, message in samples:
@@ -169,8 +168,8 @@ def start_camera(scenario: Scenario, lockstep: bool) -> CameraProcess:
     """The camera process of a world that renders its photos (``ServedWorld.RENDERS_PHOTOS``), forked before the
     world's Zenoh session opens. In real time it builds its ground (Numba's loops, the terrain: most of a CPU
     second) as it starts, and the clock waits for it: started first, it is ready about when the agents are. In
-    lockstep it builds it when the world asks (``Photographer.prepare``) or at the first photo, which the clock
-    waits for on its due tick anyway."""
+    lockstep it builds it as a rover nears a crater goal (``Photographer.watch``) or at the first photo, which the
+    clock waits for on its due tick anyway."""
     return CameraProcess(scenario, priority.for_camera(lockstep, len(scenario.rovers)), eager=not lockstep)
 
 
@@ -260,7 +259,6 @@ def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: t
     tick = agents.tick
     tally = LockstepTally(start=time.perf_counter())
     resend = ClockResend()
-    approach: CraterApproach | None = CraterApproach(world.scenario)
     try:
         while not stop.is_set():
             while world.clock.hold.held() and not stop.is_set():
@@ -268,10 +266,6 @@ def _run_lockstep(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: t
             _step_lockstep(world, bus, photographer, tick, agents, settings.state_file, tally)
             if tick.over:
                 return
-            if approach is not None and world.clock.tick % APPROACH_CHECK_TICKS == 0 and approach.reached(
-                    (b.x, b.z) for b in world.actuator.bodies.values()):
-                photographer.prepare()
-                approach = None
             tally.ticks += 1
             tally.waited += bool(tick.waiting)
             t0 = time.perf_counter()

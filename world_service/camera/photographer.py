@@ -33,6 +33,7 @@ class PhotoSource(Protocol):
     """Where the photos come from: a world's jobs, and a render in its own process should the camera's die."""
 
     keys: ks.Keyspace
+    scenario: Scenario
 
     def take_photo_jobs(self) -> list[PhotoJob]: ...
 
@@ -44,7 +45,7 @@ APPROACH_RADII = 2.0
 
 
 class CraterApproach:
-    """When a lockstep camera should build its ground (``Photographer.prepare``): once a rover nears a crater the
+    """When a lockstep camera should build its ground (``Photographer.watch``): once a rover nears a crater the
     mission sends it to photograph. Built at the first photo instead, with the clock waiting, it holds a crater
     mission up for about half a second; built as the clock starts, it takes a core from every short run that
     never gets there (most of the test suite's)."""
@@ -83,6 +84,7 @@ class Photographer:
         self.camera = camera
         self.queued: list[tuple[PhotoJob, Future]] = []
         self.waited_s = 0.0  # lockstep: how long the clock waited for renders
+        self.approach = CraterApproach(world.scenario) if lockstep and camera is not None else None
 
     def take(self, tick: int) -> list[Out]:
         """Start the new jobs; the photos due by ``tick`` (the tick about to be stepped), to publish."""
@@ -134,10 +136,20 @@ class Photographer:
         if not stop.is_set():
             log.warning("the camera process is not up after %g s; starting the clock anyway", CAMERA_START_TIMEOUT_S)
 
+    def watch(self, published: list[Out]) -> None:
+        """Lockstep: have the camera build its ground (``prepare``) once the world's published state shows a rover
+        nearing a crater goal's crater (``CraterApproach``)."""
+        if self.approach is None:
+            return
+        for key, message in published:
+            if key == self.world.keys.state and self.approach.reached((r.x, r.z) for r in message.rovers):
+                self.approach = None
+                self.prepare()
+                return
+
     def prepare(self) -> None:
         """Have the camera build its ground in the background, on the other core as the clock runs (a lockstep
-        camera builds it at the first photo otherwise, and the clock waits for that): ``CraterApproach`` says
-        when."""
+        camera builds it at the first photo otherwise, and the clock waits for that)."""
         if self.camera is not None:
             try:
                 self.camera.prepare()

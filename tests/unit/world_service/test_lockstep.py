@@ -257,15 +257,20 @@ def test_the_camera_is_asked_for_its_ground_once_a_rover_nears_a_crater_goals_cr
     assert not CraterApproach(no_crater_goal).reached([(crater.x, crater.z)])
 
 
-def test_a_lockstep_camera_builds_its_ground_in_the_background_when_asked_and_renders_the_same(crater_world):
-    scenario, world = crater_world
+def test_a_lockstep_camera_builds_its_ground_once_the_published_state_shows_a_rover_near_the_crater(crater_world):
+    scenario, _ = crater_world
+    world = World(scenario, KEYS)  # its own: a rover is moved
     jobs = _photo_jobs(world)
     process = CameraProcess(scenario, eager=False)
     try:
         photographer = Photographer(world, True, process)
         photographer.await_camera(threading.Event(), lambda: None)
-        assert not _ground_built(process)  # a lockstep camera builds nothing until asked
-        photographer.prepare()
+        photographer.watch([(world.keys.state, world.observed_state())])
+        assert not _ground_built(process)  # the rovers far from the crater: nothing built yet
+        crater = scenario.crater_of(next(goal for goal in scenario.mission if goal.kind == "crater"))
+        body = world.actuator.bodies[1]
+        body.x, body.z = crater.x + crater.radius_m, crater.z
+        photographer.watch([(world.keys.clock, world.clock.message()), (world.keys.state, world.observed_state())])
         assert _ground_built(process)
         assert [process.submit(job).result(timeout=60) for job in jobs] == [world.render(job) for job in jobs]
     finally:
@@ -274,14 +279,14 @@ def test_a_lockstep_camera_builds_its_ground_in_the_background_when_asked_and_re
 
 def test_a_camera_closed_while_it_builds_its_ground_ends_and_takes_no_more_work(crater_world):
     """A mission that ends before its first photo does not wait for a build nobody needs."""
-    scenario, world = crater_world
+    scenario, _ = crater_world
     process = CameraProcess(scenario, eager=False)
     pid = process.started.result(timeout=60)
     process.prepare()
     process.close()
     assert not os.path.exists(f"/proc/{pid}")  # closed means joined: the process is gone, not a zombie
-    with pytest.raises(RuntimeError):
-        process.submit(_photo_jobs(world)[0])
+    with pytest.raises(RuntimeError):  # shut down
+        process.prepare()
 
 
 def test_the_camera_gives_way_in_a_real_time_crowd_only(crater_world):
