@@ -20,8 +20,9 @@ class Contacts:
     rover_pairs: int = 0
 
 
-FEW_PAIRS = 256
-"""Up to this many (mover, circle) pairs, the movers are first cleared in plain Python (``_clear``)."""
+PLAIN_PAIRS = 256
+"""Up to this many (mover, circle) pairs, the movers are first cleared in plain Python (``_clear``); more, and
+NumPy's test is the cheaper."""
 SLACK = 1e-6
 """Relative room the plain test leaves round each contact distance: far above a sum of squares' rounding."""
 
@@ -47,7 +48,7 @@ def _clear(moved: list[nav.RoverBody], bodies: list[nav.RoverBody], scene: Scene
     a handful of rovers NumPy's cost per call is most of the exact test's, and nearly every tick nothing is near.
     The test leaves ``SLACK`` of room, so it clears no mover the exact test would find touching; a mover it does
     not clear goes to the exact test. Walls are left to the exact test."""
-    if len(scene.edges) or len(moved) * (len(scene.circle_x) + len(bodies)) > FEW_PAIRS:
+    if len(scene.edges) or len(moved) * (len(scene.circle_x) + len(bodies)) > PLAIN_PAIRS:
         return False
     room = 1.0 + SLACK
     fixed = [(x, z, ((r + radius) * room) ** 2) for x, z, r in

@@ -84,7 +84,8 @@ class Photographer:
         self.camera = camera
         self.queued: list[tuple[PhotoJob, Future]] = []
         self.waited_s = 0.0  # lockstep: how long the clock waited for renders
-        self.approach = CraterApproach(world.scenario) if lockstep and camera is not None else None
+        approach = CraterApproach(world.scenario)
+        self.approach = approach if lockstep and camera is not None and approach.craters else None
 
     def take(self, tick: int) -> list[Out]:
         """Start the new jobs; the photos due by ``tick`` (the tick about to be stepped), to publish."""
