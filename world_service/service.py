@@ -122,6 +122,7 @@ def _step_realtime(world: ServedWorld, bus: Bus, photographer: Photographer, sta
         bus.publish(key, message)
     world.dropped_messages = sum(bus.inbox.dropped.values())
     out = world.step()
+    photographer.watch(out)
     _keep(world, state_file)
     clock_key = world.keys.clock
     for key, message in out:
@@ -166,11 +167,9 @@ def _hold(world: ServedWorld, bus: Bus, agents: Agents, stop: threading.Event) -
 
 def start_camera(scenario: Scenario, lockstep: bool) -> CameraProcess:
     """The camera process of a world that renders its photos (``ServedWorld.RENDERS_PHOTOS``), forked before the
-    world's Zenoh session opens. In real time it builds its ground (Numba's loops, the terrain: most of a CPU
-    second) as it starts, and the clock waits for it: started first, it is ready about when the agents are. In
-    lockstep it builds it as a rover nears a crater goal (``Photographer.watch``) or at the first photo, which the
-    clock waits for on its due tick anyway."""
-    return CameraProcess(scenario, priority.for_camera(lockstep, len(scenario.rovers)), eager=not lockstep)
+    world's Zenoh session opens. It builds its ground (Numba's loops, the terrain: most of a CPU second) as a rover
+    nears a crater goal (``Photographer.watch``), or at the first photo if none does."""
+    return CameraProcess(scenario, priority.for_camera(lockstep, len(scenario.rovers)))
 
 
 def serve(world: ServedWorld, bus: Bus, settings: ClockSettings, stop: threading.Event, report_file: Path | None = None,

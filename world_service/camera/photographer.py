@@ -25,8 +25,8 @@ from world_service.camera.photos import CameraProcess, PhotoJob
 log = logging.getLogger("lunarsim.world")
 
 CAMERA_START_TIMEOUT_S = 60.0
-"""How long the clock waits for the camera process to start (about a second here; Numba compiles its loops on a
-first run without a cache, a few seconds)."""
+"""How long the clock waits for the camera process to start (forked from the world: a fraction of a second; spawned,
+where the platform cannot fork, about a second of imports)."""
 
 
 class PhotoSource(Protocol):
@@ -45,10 +45,10 @@ APPROACH_RADII = 2.0
 
 
 class CraterApproach:
-    """When a lockstep camera should build its ground (``Photographer.watch``): once a rover nears a crater the
-    mission sends it to photograph. Built at the first photo instead, with the clock waiting, it holds a crater
-    mission up for about half a second; built as the clock starts, it takes a core from every short run that
-    never gets there (most of the test suite's)."""
+    """When the camera should build its ground (``Photographer.watch``): once a rover nears a crater the mission
+    sends it to photograph. Built at the first photo instead, the photo is late by about half a second (in
+    lockstep the clock waits that long); built as the camera starts, it takes a core from every short run that
+    never gets there (most of the test suite's) and from every mission with no crater goal."""
 
     def __init__(self, scenario: Scenario) -> None:
         craters = [scenario.crater_of(goal) for goal in scenario.mission if goal.kind == "crater"]
@@ -85,7 +85,7 @@ class Photographer:
         self.queued: list[tuple[PhotoJob, Future]] = []
         self.waited_s = 0.0  # lockstep: how long the clock waited for renders
         approach = CraterApproach(world.scenario)
-        self.approach = approach if lockstep and camera is not None and approach.craters else None
+        self.approach = approach if camera is not None and approach.craters else None
 
     def take(self, tick: int) -> list[Out]:
         """Start the new jobs; the photos due by ``tick`` (the tick about to be stepped), to publish."""
@@ -118,10 +118,9 @@ class Photographer:
             return self.world.render(job)
 
     def await_camera(self, stop: threading.Event, waiting: Callable[[], None]) -> None:
-        """Before the clock starts, calling ``waiting`` every half second meanwhile. A real-time camera builds its
-        ground as it starts (most of a CPU second: Numba's loops, the terrain), which would otherwise make the
-        first photos late; a lockstep one only starts its process here. One that fails to start is lost, as one
-        that dies later; one not up after ``CAMERA_START_TIMEOUT_S`` is left to finish while the mission runs."""
+        """Before the clock starts, calling ``waiting`` every half second meanwhile: the camera's process is up (it
+        builds its ground later, ``watch``). One that fails to start is lost, as one that dies later; one not up
+        after ``CAMERA_START_TIMEOUT_S`` is left to finish while the mission runs."""
         if self.camera is None:
             return
         deadline = time.monotonic() + CAMERA_START_TIMEOUT_S
@@ -138,8 +137,8 @@ class Photographer:
             log.warning("the camera process is not up after %g s; starting the clock anyway", CAMERA_START_TIMEOUT_S)
 
     def watch(self, published: list[Out]) -> None:
-        """Lockstep: have the camera build its ground (``prepare``) once the world's published state shows a rover
-        nearing a crater goal's crater (``CraterApproach``)."""
+        """Have the camera build its ground (``prepare``) once the world's published state shows a rover nearing
+        a crater goal's crater (``CraterApproach``)."""
         if self.approach is None:
             return
         for key, message in published:
@@ -149,8 +148,8 @@ class Photographer:
                 return
 
     def prepare(self) -> None:
-        """Have the camera build its ground in the background, on the other core as the clock runs (a lockstep
-        camera builds it at the first photo otherwise, and the clock waits for that)."""
+        """Have the camera build its ground in the background, on the other core as the clock runs (else it builds
+        it at the first photo, which is then late; in lockstep the clock waits for it)."""
         if self.camera is not None:
             try:
                 self.camera.prepare()

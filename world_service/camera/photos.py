@@ -80,15 +80,14 @@ class CameraProcess:
     world leaves, sharing that with the agents. In lockstep the clock waits for the render, so it keeps the
     world's priority (``equal``).
 
-    ``eager``: build the ground (the terrain, Numba's loops: most of a CPU second) as the process starts, so the
-    first photo is not late; else when asked (``prepare``) or at the first photo. Lockstep waits for each render on
-    its due tick anyway, so there the clock starts without waiting for the ground, and a run that takes no photo
-    never pays for it.
+    The ground (the terrain, Numba's loops: most of a CPU second) is built when asked (``prepare``) or at the
+    first photo, not as the process starts: most runs take no photo, or stop before their first (the test suite's
+    short runs, a maze), and should not pay for it.
     """
 
-    def __init__(self, scenario: Scenario, priority: Priority = "equal", eager: bool = True) -> None:
+    def __init__(self, scenario: Scenario, priority: Priority = "equal") -> None:
         self.pool = ProcessPoolExecutor(max_workers=1, mp_context=_context(), initializer=_start,
-                                        initargs=(scenario, priority, os.getpid(), eager))
+                                        initargs=(scenario, priority, os.getpid()))
         self.started = self.pool.submit(os.getpid)  # start the process now, not at the first photo
         self._building: Future | None = None
 
@@ -125,7 +124,7 @@ _scenario: Scenario | None = None
 _ground: tuple[rendering.HeightField, Scene, RoverParams] | None = None
 
 
-def _start(scenario: Scenario, priority: Priority, world_pid: int, eager: bool) -> None:
+def _start(scenario: Scenario, priority: Priority, world_pid: int) -> None:
     global _scenario
     # forked, it would show as a second world service (its command line) in ps, pkill -f and the launcher's count
     setproctitle.setproctitle(f"lunarsim camera of world {world_pid}")
@@ -133,8 +132,6 @@ def _start(scenario: Scenario, priority: Priority, world_pid: int, eager: bool) 
     lower(priority)
     heap.keep_freed_memory()  # a photo's rays are a few arrays of 0.5 MB, made and dropped each photo
     _scenario = scenario
-    if eager:
-        _prepared()
     atexit.register(_exit_now)
 
 

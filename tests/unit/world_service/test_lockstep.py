@@ -225,12 +225,14 @@ def test_a_photo_is_due_the_cameras_capture_time_after_its_action(crater_world):
     assert all(job.due_tick == world.clock.tick + round(capture / world.clock.dt) for job in _photo_jobs(world))
 
 
-@pytest.mark.parametrize("eager", [True, False], ids=["ground-at-start", "ground-at-first-photo"])
-def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world, eager):
+@pytest.mark.parametrize("ahead", [True, False], ids=["ground-built-ahead", "ground-at-first-photo"])
+def test_the_camera_process_renders_the_worlds_photos_byte_for_byte(crater_world, ahead):
     scenario, world = crater_world
     jobs = _photo_jobs(world)
-    process = CameraProcess(scenario, eager=eager)
+    process = CameraProcess(scenario)
     try:
+        if ahead:
+            process.prepare()
         photos = [process.submit(job) for job in jobs]
         assert [f.result(timeout=60) for f in photos] == [world.render(job) for job in jobs]
     finally:
@@ -257,13 +259,14 @@ def test_the_camera_is_asked_for_its_ground_once_a_rover_nears_a_crater_goals_cr
     assert not CraterApproach(no_crater_goal).reached([(crater.x, crater.z)])
 
 
-def test_a_lockstep_camera_builds_its_ground_once_the_published_state_shows_a_rover_near_the_crater(crater_world):
+@pytest.mark.parametrize("lockstep", [True, False], ids=["lockstep", "real-time"])
+def test_the_camera_builds_its_ground_once_the_published_state_shows_a_rover_near_the_crater(crater_world, lockstep):
     scenario, _ = crater_world
     world = World(scenario, KEYS)  # its own: a rover is moved
     jobs = _photo_jobs(world)
-    process = CameraProcess(scenario, eager=False)
+    process = CameraProcess(scenario)
     try:
-        photographer = Photographer(world, True, process)
+        photographer = Photographer(world, lockstep, process)
         photographer.await_camera(threading.Event(), lambda: None)
         photographer.watch([(world.keys.state, world.observed_state())])
         assert not _ground_built(process)  # the rovers far from the crater: nothing built yet
@@ -280,7 +283,7 @@ def test_a_lockstep_camera_builds_its_ground_once_the_published_state_shows_a_ro
 def test_a_camera_closed_while_it_builds_its_ground_ends_and_takes_no_more_work(crater_world):
     """A mission that ends before its first photo does not wait for a build nobody needs."""
     scenario, _ = crater_world
-    process = CameraProcess(scenario, eager=False)
+    process = CameraProcess(scenario)
     pid = process.started.result(timeout=60)
     process.prepare()
     process.close()
