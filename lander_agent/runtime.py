@@ -30,6 +30,7 @@ def run(lander: Lander, bus: Bus, stop: threading.Event) -> None:
                 watch.heard()
             for key, message in lander.handle(item.key, item.payload):
                 bus.publish(key, message)
+            lander.catch_up()
     for key, message in lander.final_map():  # stopped before the world finished: the map as it stands
         bus.publish(key, message)
     log.info("lander: stopping at t = %.1f s; refused %d sample(s)", lander.now, lander.rejected.total)

@@ -138,14 +138,15 @@ def _step_lockstep(world: ServedWorld, bus: Bus, photographer: Photographer, tic
     world.dropped_messages = sum(bus.inbox.dropped.values())
     samples, clock = tick.step(photos, set(agents.ids.values()))
     photographer.watch(samples)
-    _keep(world, state_file)
     t1 = time.perf_counter()
     for key, message in samples:
         bus.publish(key, message)
     if clock is not None:
         bus.publish(world.keys.clock, clock)
-    tally.stepping += t1 - t0
-    tally.publishing += time.perf_counter() - t1
+    t2 = time.perf_counter()
+    _keep(world, state_file)  # the tick is out: saved while the agents handle it, not before they get it
+    tally.stepping += t1 - t0 + time.perf_counter() - t2
+    tally.publishing += t2 - t1
 
 
 def _keep(world: ServedWorld, state_file: Path | None) -> None:
