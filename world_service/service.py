@@ -122,7 +122,6 @@ def _step_realtime(world: ServedWorld, bus: Bus, photographer: Photographer, sta
         bus.publish(key, message)
     world.dropped_messages = sum(bus.inbox.dropped.values())
     out = world.step()
-    photographer.watch(out)
     _keep(world, state_file)
     clock_key = world.keys.clock
     for key, message in out:
@@ -168,8 +167,8 @@ def _hold(world: ServedWorld, bus: Bus, agents: Agents, stop: threading.Event) -
 
 def start_camera(scenario: Scenario, lockstep: bool) -> CameraProcess:
     """The camera process of a world that renders its photos (``ServedWorld.RENDERS_PHOTOS``), forked before the
-    world's Zenoh session opens. It builds its ground (Numba's loops, the terrain: most of a CPU second) as a rover
-    nears a crater goal (``Photographer.watch``), or at the first photo if none does."""
+    world's Zenoh session opens. It builds its ground (Numba's loops, the terrain: most of a CPU second) when the
+    photographer asks (``Photographer.await_camera`` says when), or at the first photo."""
     return CameraProcess(scenario, priority.for_camera(lockstep, len(scenario.rovers)))
 
 

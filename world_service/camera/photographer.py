@@ -45,10 +45,10 @@ APPROACH_RADII = 2.0
 
 
 class CraterApproach:
-    """When the camera should build its ground (``Photographer.watch``): once a rover nears a crater the mission
-    sends it to photograph. Built at the first photo instead, the photo is late by about half a second (in
-    lockstep the clock waits that long); built as the camera starts, it takes a core from every short run that
-    never gets there (most of the test suite's) and from every mission with no crater goal."""
+    """When a lockstep camera should build its ground (``Photographer.watch``): once a rover nears a crater the
+    mission sends it to photograph. Built at the first photo instead, with the clock waiting, it holds a crater
+    mission up for about half a second; built as the clock starts, it takes a core from every short run that
+    never gets there (most of the test suite's)."""
 
     def __init__(self, scenario: Scenario) -> None:
         craters = [scenario.crater_of(goal) for goal in scenario.mission if goal.kind == "crater"]
@@ -85,7 +85,8 @@ class Photographer:
         self.queued: list[tuple[PhotoJob, Future]] = []
         self.waited_s = 0.0  # lockstep: how long the clock waited for renders
         approach = CraterApproach(world.scenario)
-        self.approach = approach if camera is not None and approach.craters else None
+        self.approach = approach if lockstep and camera is not None and approach.craters else None
+        self.build_first = not lockstep and camera is not None and bool(approach.craters)  # ``await_camera``
 
     def take(self, tick: int) -> list[Out]:
         """Start the new jobs; the photos due by ``tick`` (the tick about to be stepped), to publish."""
@@ -118,27 +119,33 @@ class Photographer:
             return self.world.render(job)
 
     def await_camera(self, stop: threading.Event, waiting: Callable[[], None]) -> None:
-        """Before the clock starts, calling ``waiting`` every half second meanwhile: the camera's process is up (it
-        builds its ground later, ``watch``). One that fails to start is lost, as one that dies later; one not up
-        after ``CAMERA_START_TIMEOUT_S`` is left to finish while the mission runs."""
+        """Before the clock starts, calling ``waiting`` every half second meanwhile: the camera's process is up, and in
+        real time, if the mission has a crater goal, its ground built. A real-time clock does not wait for a photo,
+        and a rover gives up one not back within ``PHOTO_TIMEOUT_S`` simulated seconds, which at a high time scale,
+        in a crowd or with Numba's cache still empty (a few seconds to compile) the build could take; a mission
+        with no crater goal, which the shipped behaviour photographs nothing in, builds it at its first photo, if
+        any. In lockstep the clock waits for each photo anyway (``watch``). One that fails to start is lost, as one
+        that dies later; one not up after ``CAMERA_START_TIMEOUT_S`` is left to finish while the mission runs."""
         if self.camera is None:
             return
+        if self.build_first:
+            self.prepare()
         deadline = time.monotonic() + CAMERA_START_TIMEOUT_S
-        while not stop.is_set() and time.monotonic() < deadline:
+        while self.camera is not None and not stop.is_set() and time.monotonic() < deadline:
             try:
-                self.camera.started.result(timeout=0.5)
+                self.camera.ready().result(timeout=0.5)
                 return
             except TimeoutError:
                 waiting()
             except BrokenExecutor:
                 self._lost_camera()
                 return
-        if not stop.is_set():
+        if self.camera is not None and not stop.is_set():
             log.warning("the camera process is not up after %g s; starting the clock anyway", CAMERA_START_TIMEOUT_S)
 
     def watch(self, published: list[Out]) -> None:
-        """Have the camera build its ground (``prepare``) once the world's published state shows a rover nearing
-        a crater goal's crater (``CraterApproach``)."""
+        """Lockstep: have the camera build its ground (``prepare``) once the world's published state shows a rover
+        nearing a crater goal's crater (``CraterApproach``)."""
         if self.approach is None:
             return
         for key, message in published:
@@ -148,8 +155,7 @@ class Photographer:
                 return
 
     def prepare(self) -> None:
-        """Have the camera build its ground in the background, on the other core as the clock runs (else it builds
-        it at the first photo, which is then late; in lockstep the clock waits for it)."""
+        """Have the camera build its ground in the background (else it builds it at the first photo)."""
         if self.camera is not None:
             try:
                 self.camera.prepare()

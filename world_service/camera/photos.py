@@ -81,8 +81,8 @@ class CameraProcess:
     world's priority (``equal``).
 
     The ground (the terrain, Numba's loops: most of a CPU second) is built when asked (``prepare``) or at the
-    first photo, not as the process starts: most runs take no photo, or stop before their first (the test suite's
-    short runs, a maze), and should not pay for it.
+    first photo, not as the process starts: many runs take no photo, or stop before their first (the test suite's
+    short runs, a maze), and should not pay for it (``Photographer.await_camera`` says when it is asked).
     """
 
     def __init__(self, scenario: Scenario, priority: Priority = "equal") -> None:
@@ -93,6 +93,10 @@ class CameraProcess:
 
     def submit(self, job: PhotoJob) -> Future:
         return self.pool.submit(_render, job)
+
+    def ready(self) -> Future:
+        """Done once the process is up and, if it was asked to (``prepare``), has built its ground."""
+        return self._building or self.started
 
     def prepare(self) -> None:
         """Build the ground now, in the camera process, if not built yet: a photo asked for later waits only for

@@ -74,9 +74,9 @@ class HeightGrid:
 
 def warm_up() -> None:
     """Compile the loops the camera uses now, so that the first photo does not wait for it: the camera process
-    calls this as it builds its ground, once a rover nears a crater it will photograph. From Numba's cache on disk
-    it takes about 0.4 s here, nearly all of it Numba readying its compiler on the first load; without the cache, a
-    few seconds."""
+    calls this as it builds its ground, ahead of the first photo or at it (``Photographer.await_camera``). From
+    Numba's cache on disk it takes about 0.4 s here, nearly all of it Numba readying its compiler on the first load;
+    without the cache, a few seconds."""
     grid = HeightGrid(np.zeros((2, 2), np.float32), 0, 0, 2, 2, 0.0, 0.0, 1.0, 0.0)
     grid.height(np.zeros(1), np.zeros(1))
     grid.surface(np.array([0.0, 1.0, 0.0]), np.array([[0.0, -1.0, 0.0]]), 1.0, 0.2, 0.2, 0.03, 0.25)

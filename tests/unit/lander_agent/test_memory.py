@@ -40,15 +40,16 @@ def test_the_state_is_written_after_the_answer_to_the_clock_not_before_its_ack(t
     assert _saved(tmp_path) is None  # and nothing was written on its way
     lander.catch_up()  # what the runtime does once it has published the answer
     saved = _saved(tmp_path)
-    assert isinstance(saved, Saved) and saved.run == "r1" and saved.plan is not lander.plan
+    assert isinstance(saved, Saved) and saved.run == "r1" and saved.plan.scenario == lander.plan.scenario
+    assert (saved.map.classes() == lander.map.classes()).all()
     (tmp_path / FILE_NAME).unlink()
     lander.catch_up()  # nothing more is due until the next clock
     assert not (tmp_path / FILE_NAME).exists()
 
 
 def test_a_save_left_due_is_made_before_the_next_sample_is_handled(tmp_path):
-    """A caller that never calls ``catch_up`` (the in-process harness) still gets the file, holding the state as the
-    clock left it: the map report handled after the clock is not in it."""
+    """A loop that does not call ``catch_up`` after publishing still gets the file, holding the state as the clock
+    left it: the map report handled after the clock is not in it."""
     lander = _lander(tmp_path)
     lander.handle(KEYS.clock, _clock(1))
     report = radio.MapReport.build(0, 0.5, 0.0, 0.0, [(1, 2, 0), (3, 4, 1)])

@@ -259,14 +259,13 @@ def test_the_camera_is_asked_for_its_ground_once_a_rover_nears_a_crater_goals_cr
     assert not CraterApproach(no_crater_goal).reached([(crater.x, crater.z)])
 
 
-@pytest.mark.parametrize("lockstep", [True, False], ids=["lockstep", "real-time"])
-def test_the_camera_builds_its_ground_once_the_published_state_shows_a_rover_near_the_crater(crater_world, lockstep):
+def test_a_lockstep_camera_builds_its_ground_once_the_published_state_shows_a_rover_near_the_crater(crater_world):
     scenario, _ = crater_world
     world = World(scenario, KEYS)  # its own: a rover is moved
     jobs = _photo_jobs(world)
     process = CameraProcess(scenario)
     try:
-        photographer = Photographer(world, lockstep, process)
+        photographer = Photographer(world, True, process)
         photographer.await_camera(threading.Event(), lambda: None)
         photographer.watch([(world.keys.state, world.observed_state())])
         assert not _ground_built(process)  # the rovers far from the crater: nothing built yet
@@ -276,6 +275,29 @@ def test_the_camera_builds_its_ground_once_the_published_state_shows_a_rover_nea
         photographer.watch([(world.keys.clock, world.clock.message()), (world.keys.state, world.observed_state())])
         assert _ground_built(process)
         assert [process.submit(job).result(timeout=60) for job in jobs] == [world.render(job) for job in jobs]
+    finally:
+        process.close()
+
+
+@pytest.mark.parametrize("crater_goal", [True, False], ids=["crater-goal", "no-crater-goal"])
+def test_a_real_time_camera_has_its_ground_before_the_clock_only_for_a_mission_with_a_crater_goal(crater_world,
+                                                                                                 crater_goal):
+    """A real-time clock does not wait for a photo: one of a crater's rim must not be late by the build. A mission
+    with no crater goal builds nothing ahead, however near a crater its rovers drive."""
+    scenario, _ = crater_world
+    if not crater_goal:
+        scenario = scenario.model_copy(update={"mission": [g.model_copy(update={"kind": "waypoint"})
+                                                           for g in scenario.mission]})
+    world = World(scenario, KEYS)
+    process = CameraProcess(scenario)
+    try:
+        photographer = Photographer(world, False, process)
+        photographer.await_camera(threading.Event(), lambda: None)
+        assert process.ready().done() and _ground_built(process) == crater_goal
+        crater = next(c for goal in scenario.mission if (c := scenario.crater_of(goal)) is not None)
+        world.actuator.bodies[1].x, world.actuator.bodies[1].z = crater.x + crater.radius_m, crater.z
+        photographer.watch([(world.keys.state, world.observed_state())])
+        assert _ground_built(process) == crater_goal
     finally:
         process.close()
 

@@ -5,14 +5,20 @@ from __future__ import annotations
 
 import logging
 
+import zenoh
 from procs import SCENARIOS
 
 from bus import snapshot
+from bus.bus import Bus
+from bus.zenoh_config import build_config
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
 from schemas.scenario import load_scenario
-from world_service import resume
+from world_service import resume, service
+from world_service.camera.photographer import Photographer
+from world_service.lockstep import LockstepTick
+from world_service.presence import Agents
 from world_service.sim import World
 
 KEYS = ks.Keyspace("resume")
@@ -72,3 +78,38 @@ def test_a_saved_world_holds_its_terrain_tiles_by_key_and_resumes_with_the_same_
     assert resumed.sensors.terrain is resumed.terrain  # one terrain, shared by every part, as before the save
     for _ in range(20):
         assert resumed.step() == world.step()
+
+
+class _Sent(Bus):
+    """A bus on a session of its own (no router, nothing listening) that keeps the keys it put, in order."""
+
+    def __init__(self) -> None:
+        super().__init__(zenoh.open(build_config(mode="peer")), declare_publishers=False)
+        self.keys: list[str] = []
+
+    def put(self, key: str, payload: bytes) -> None:
+        self.keys.append(key)
+        super().put(key, payload)
+
+
+def test_a_lockstep_world_saves_its_state_once_the_tick_is_out_not_before(tmp_path, monkeypatch):
+    """The save (a millisecond or more) would otherwise sit between the agents and the tick they wait for."""
+    world = World(SCENARIO, KEYS)
+    world.clock.lockstep = True
+    sent_at_save: dict[int, int] = {}  # the step that saved -> how many samples were out then
+    sent_after_step: list[int] = []
+    real_save = snapshot.save
+    with _Sent() as bus:
+        def save(state: object, path) -> None:
+            sent_at_save[len(sent_after_step)] = len(bus.keys)
+            real_save(state, path)
+
+        monkeypatch.setattr(service.snapshot, "save", save)
+        tick, tally = LockstepTick(world), service.LockstepTally(start=0.0)
+        photographer = Photographer(world, True, None)
+        for _ in range(2 * world.clock.period(1.0 / service.SAVE_PERIOD_S)):
+            service._step_lockstep(world, bus, photographer, tick, Agents(KEYS), tmp_path / "world.state", tally)
+            sent_after_step.append(len(bus.keys))
+    assert len(sent_at_save) == 2 and (tmp_path / "world.state").exists()
+    for step, sent in sent_at_save.items():  # every sample of the saving tick was out before its save
+        assert sent == sent_after_step[step] > sent_after_step[step - 1], (step, sent, sent_after_step)
