@@ -86,7 +86,8 @@ class Photographer:
         self.waited_s = 0.0  # lockstep: how long the clock waited for renders
         approach = CraterApproach(world.scenario)
         self.approach = approach if lockstep and camera is not None and approach.craters else None
-        self.build_first = not lockstep and camera is not None and bool(approach.craters)  # ``await_camera``
+        if not lockstep and approach.craters:
+            self.prepare()  # built while the agents connect, and awaited before the clock (``await_camera``)
 
     def take(self, tick: int) -> list[Out]:
         """Start the new jobs; the photos due by ``tick`` (the tick about to be stepped), to publish."""
@@ -120,16 +121,15 @@ class Photographer:
 
     def await_camera(self, stop: threading.Event, waiting: Callable[[], None]) -> None:
         """Before the clock starts, calling ``waiting`` every half second meanwhile: the camera's process is up, and in
-        real time, if the mission has a crater goal, its ground built. A real-time clock does not wait for a photo,
-        and a rover gives up one not back within ``PHOTO_TIMEOUT_S`` simulated seconds, which at a high time scale,
-        in a crowd or with Numba's cache still empty (a few seconds to compile) the build could take; a mission
-        with no crater goal, which the shipped behaviour photographs nothing in, builds it at its first photo, if
-        any. In lockstep the clock waits for each photo anyway (``watch``). One that fails to start is lost, as one
-        that dies later; one not up after ``CAMERA_START_TIMEOUT_S`` is left to finish while the mission runs."""
+        real time, if the mission has a crater goal, its ground built (asked for as the photographer was made). A
+        real-time clock does not wait for a photo, and a rover gives up one not back within ``PHOTO_TIMEOUT_S``
+        simulated seconds, which at a high time scale, in a crowd or with Numba's cache still empty (a few seconds to
+        compile) a build started later could take. A mission with no crater goal (the shipped behaviour photographs
+        only a crater's rim) builds it at its first photo, if any; in lockstep the clock waits for each photo anyway
+        (``watch``). A camera that fails to start is lost, as one that dies later; one not up after
+        ``CAMERA_START_TIMEOUT_S`` is left to finish while the mission runs."""
         if self.camera is None:
             return
-        if self.build_first:
-            self.prepare()
         deadline = time.monotonic() + CAMERA_START_TIMEOUT_S
         while self.camera is not None and not stop.is_set() and time.monotonic() < deadline:
             try:
