@@ -140,6 +140,8 @@ def _start(scenario: Scenario, priority: Priority, world_pid: int) -> None:
 
 
 def _prepare() -> None:
+    """``_prepared`` for ``CameraProcess.prepare``, returning nothing: the ground's arrays stay in this process rather
+    than being pickled back to the world."""
     _prepared()
 
 
