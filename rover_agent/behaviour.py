@@ -26,6 +26,7 @@ behaviour shares is in ``rover_agent.decisions``.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from typing import ClassVar
 
 from rover_agent.decisions import BaseBehaviour, Decision, Finish, Goal, Hit, Hold, MoveTo, Rotate, TakePhoto, View
@@ -320,7 +321,7 @@ class DefaultBehaviour(BaseBehaviour):
 
     # ---- the footing the rules ask of (``rules.walking``) ----
 
-    def candidates(self, to_goal: float, window: float) -> list[float]:
+    def candidates(self, to_goal: float, window: float) -> Iterator[float]:
         return free_space.candidates(to_goal, window, self.params.behaviour.scan_angle, self._refused)
 
     def free_distance(self, angle: float, hits: tuple[Hit, ...]) -> float:

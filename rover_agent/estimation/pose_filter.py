@@ -116,7 +116,7 @@ class Localisation:
     @property
     def exact(self) -> bool:
         """Nothing to correct: the rover knows no noise, or has not moved since it was told where it stands."""
-        return all(v == 0.0 for row in self.cov for v in row)
+        return not any(map(any, self.cov))  # a float is false only when it is 0.0 (NaN is true)
 
     @property
     def position_std(self) -> float:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 
 from rover_agent.decisions import Hit
 from schemas.params import BehaviourParams, PerceptionParams, RoverParams
@@ -18,13 +18,20 @@ ROVER_GAP_CLOSE = 0.5
 still: on a crater rim, and near the rover's station at a waypoint."""
 
 
-def candidates(to_goal: float, window: float, scan: float, rejected: Iterable[float]) -> list[float]:
-    """Directions to try, nearest the goal first, right before left, leaving out those the world refused."""
-    rejected = list(rejected)
-    out = [to_goal]
-    for k in range(1, int(2 * window / scan) + 2):
-        out += [to_goal + k * scan, to_goal - k * scan]
-    return [a for a in out if abs(a) <= window and all(abs(a - r) > scan / 2 for r in rejected)]
+def candidates(to_goal: float, window: float, scan: float, rejected: Iterable[float]) -> Iterator[float]:
+    """Directions to try, nearest the goal first, right before left, leaving out those the world refused.
+
+    Lazily: a rover with its way ahead clear takes the first, and building the whole fan for every decision was
+    about a third of a decision's time under cProfile. The refused directions are taken as they stand now."""
+    return _fan(to_goal, window, scan, tuple(rejected))
+
+
+def _fan(to_goal: float, window: float, scan: float, refused: tuple[float, ...]) -> Iterator[float]:
+    half = scan / 2
+    for k in range(int(2 * window / scan) + 2):
+        for a in ((to_goal,) if k == 0 else (to_goal + k * scan, to_goal - k * scan)):
+            if abs(a) <= window and all(abs(a - r) > half for r in refused):
+                yield a
 
 
 def free_distance(angle: float, hits: tuple[Hit, ...], params: RoverParams, rover_gap: float) -> float:

@@ -6,6 +6,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
     from rover_agent.decisions import Decision, Hit, View
 
 
@@ -20,7 +22,7 @@ class Footing(Protocol):
     def free_distance(self, angle: float, hits: tuple[Hit, ...]) -> float:
         """Metres the body can go along ``angle`` (degrees, rover-relative) before coming too close to a hit."""
 
-    def candidates(self, to_goal: float, window: float) -> list[float]:
+    def candidates(self, to_goal: float, window: float) -> Iterator[float]:
         """Directions to try, nearest ``to_goal`` first, leaving out those the world refused."""
 
     def forget_refused(self) -> None:
