@@ -1,12 +1,12 @@
 """Control-loop latency over Zenoh: a Perception published by the world -> the rover's MoveAction received back.
 
-Starts a real Zenoh router, one real rover agent and a bare Zenoh echo (``benchmarks/zenoh_floor.py``) as
-separate processes, and plays the world in this process: it starts the run's clock, calibrates the rover, gives
-it a waypoint 100 m ahead, then runs ``--loops`` control loops (after a few uncounted warm-up loops). Each loop
-publishes a Perception with no hits, times until the MoveAction arrives, then answers as the world would
-(NavigationStatus "completed", a fresh Gyroscope) so the rover is idle and ready to decide on the next Perception.
-The rover walks 9 m per move with the default parameters, so the world moves the waypoint on (a new
-MissionDirection) before the rover can reach it.
+Starts a real Zenoh router, one real rover agent (keeping its state in a file, as deployed; ``--no-state``: not) and
+a bare Zenoh echo (``benchmarks/zenoh_floor.py``) as separate processes, and plays the world in this process: it
+starts the run's clock, calibrates the rover, gives it a waypoint 100 m ahead, then runs ``--loops`` control loops
+(after a few uncounted warm-up loops). Each loop publishes a Perception with no hits, times until the MoveAction
+arrives, then answers as the world would (NavigationStatus "completed", a fresh Gyroscope) so the rover is idle and
+ready to decide on the next Perception. The rover walks 9 m per move with the default parameters, so the world moves
+the waypoint on (a new MissionDirection) before the rover can reach it.
 
 Before each control loop, one ping of the same bytes goes through the same router to the echo and back: the
 floor that Zenoh alone sets. Interleaved loop by loop, both see the same machine, and the benchmark prints the
@@ -17,7 +17,7 @@ A third figure runs the same loop against ``RoverAgent.handle`` in this process 
 ``--gap-ms`` of quiet: after one, the agent's code runs from cold caches at several times its cost back to back,
 and so does the rover's over Zenoh.
 
-    python benchmarks/control_loop_latency.py [--loops 1000] [--port P] [--json FILE]
+    python benchmarks/control_loop_latency.py [--loops 1000] [--port P] [--no-state] [--json FILE]
     python benchmarks/control_loop_latency.py --quick     # 50 loops: a smoke check in seconds
 
 Targets: p50 under 1 ms and p99 under 5 ms on loopback, and both within 1.2 times the floor.
@@ -123,15 +123,16 @@ class RoverLink:
         self.session.close()
 
 
-def start_processes(children: Children, port: int) -> str:
+def start_processes(children: Children, port: int, keep_state: bool) -> str:
     endpoint = f"tcp/{HOST}:{port}"
     router = children.start("router", "deploy.router", "--listen", endpoint)
     if not wait_for_port(HOST, port, STARTUP_DEADLINE_S, router):
         raise BenchmarkError(f"the Zenoh router did not open {endpoint} within {STARTUP_DEADLINE_S:g} s"
                              + _tail(children, "router"))
-    # no saved state: a state left by an earlier run of the benchmark (same run name) would be resumed
-    children.start("rover", "rover_agent", "--id", str(ROVER_ID), "--world", WORLD, "--connect", endpoint,
-                   "--no-state")
+    # as deployed, the agent keeps its state in a file; a fresh one, or a state left by an earlier run of the
+    # benchmark (same run name) would be resumed
+    state = ("--state", str(children.log_dir / "rover1.json")) if keep_state else ("--no-state",)
+    children.start("rover", "rover_agent", "--id", str(ROVER_ID), "--world", WORLD, "--connect", endpoint, *state)
     children.procs["floor"] = start_echo(endpoint, children.log_dir / "floor.log")
     return endpoint
 
@@ -297,6 +298,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="pause after answering an action before the next Perception, so the rover is idle "
                              "when it arrives, as between 5 Hz scans (default 20; longer gaps measure the same, "
                              "shorter ones keep Zenoh's threads awake and measure less; 0 sends back to back)")
+    parser.add_argument("--no-state", action="store_true",
+                        help="run the rover with --no-state: without the state file it keeps as deployed (its "
+                             "write, after each action, shares the machine with the action on its way)")
     args = quick.parse_args(parser, QUICK, argv)
     if args.loops < 1 or args.warmup < 0:
         parser.error("--loops must be 1 or more and --warmup 0 or more")
@@ -318,7 +322,7 @@ def run(args: argparse.Namespace) -> int:
         link: RoverLink | None = None
         floor: FloorLink | None = None
         try:
-            endpoint = start_processes(children, port)
+            endpoint = start_processes(children, port, keep_state=not args.no_state)
             session = open_session(build_config(connect=[endpoint]), endpoint, 10.0, who="benchmark")
             link, floor = RoverLink(session, keys), FloorLink(session)
             print(f"router on {endpoint}; waiting for rover {ROVER_ID} ...", file=sys.stderr, flush=True)

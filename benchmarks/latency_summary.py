@@ -58,7 +58,8 @@ def print_table(zenoh_summary: Summary, floor: Summary, local: Summary, endpoint
             ("bare Zenoh floor (ping -> router -> echo -> router -> pong)", floor),
             ("agent only, in process (decode + decide + encode)", local)]
     print(f"\nControl-loop latency: Perception -> MoveAction, rover {rover_id}, router {endpoint}, "
-          f"{args.warmup} warm-up loops not counted, {args.gap_ms:g} ms idle gap between loops")
+          f"{args.warmup} warm-up loops not counted, {args.gap_ms:g} ms idle gap between loops, "
+          f"{'no state file' if args.no_state else 'its state kept in a file'}")
     print(f"{'':60}{'loops':>7}{'p50':>9}{'p90':>9}{'p99':>9}{'max':>9}{'mean':>9}   (ms)")
     for label, s in rows:
         print(f"{label:60}{s.loops:>7}{s.p50_ms:>9.3f}{s.p90_ms:>9.3f}{s.p99_ms:>9.3f}{s.max_ms:>9.3f}"
@@ -84,6 +85,7 @@ def write_json(path: Path, zenoh_summary: Summary, floor: Summary, local: Summar
         "warmup": args.warmup,
         "gap_ms": args.gap_ms,
         "stall_ms": args.stall_ms,
+        "state_file": not args.no_state,
         "missed_perceptions": missed,
         "python": platform.python_version(),
         "platform": platform.platform(),

@@ -13,6 +13,7 @@ from rover_agent.restarts.saved_state import STATE_WRITER
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
+from schemas.messages import Out
 
 log = logging.getLogger("lunarsim.rover")
 
@@ -75,18 +76,18 @@ class _Handler:
             self.stop.set()
 
     def _handle(self, item: Received) -> None:
+        with STATE_WRITER.held():  # the states the answer leaves are written once it is out
+            for key, message in self._answer(item):
+                self.bus.publish(key, message)
+
+    def _answer(self, item: Received) -> list[Out]:
         if item.key == self.clock_key:
             with self._watch_lock:
                 self.watch.heard()
             clock = _decode_clock(self.agents, item.payload)
-            out = [o for agent in self.agents for o in agent.on_clock(clock)] if clock is not None else []
-            for key, message in out:
-                self.bus.publish(key, message)
-            return
+            return [o for agent in self.agents for o in agent.on_clock(clock)] if clock is not None else []
         prefix = item.key[:item.key.rindex("/") + 1]
-        agent = self.by_prefix[prefix]
-        for key, message in agent.handle(item.key[len(prefix):], item.payload):
-            self.bus.publish(key, message)
+        return self.by_prefix[prefix].handle(item.key[len(prefix):], item.payload)
 
     def check(self) -> None:
         with self._watch_lock:

@@ -9,12 +9,14 @@ by another run is never taken for this one.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import math
 import os
 import resource
 import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -168,6 +170,7 @@ class StateWriter:
         self._wake = threading.Condition()
         self._writing = threading.Lock()  # a flush must not overtake a write of an older state
         self._thread: threading.Thread | None = None
+        self._holds = 0
 
     def save(self, path: Path, state: SavedState) -> None:
         with self._wake:
@@ -175,7 +178,28 @@ class StateWriter:
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, name="state-writer", daemon=True)
                 self._thread.start()
-            self._wake.notify()
+            if not self._holds:
+                self._wake.notify()
+
+    @property
+    def holding(self) -> bool:
+        """Whether saves wait for a block under ``held`` to end."""
+        return self._holds > 0
+
+    @contextlib.contextmanager
+    def held(self) -> Iterator[None]:
+        """Saves made inside the block are written once it is over. An agent saves as it starts an action, before
+        the action is published: woken then, the writer took the interpreter's lock to serialise the state while
+        the action waited to be encoded and sent (a tenth of a millisecond on the control loop, measured)."""
+        with self._wake:
+            self._holds += 1
+        try:
+            yield
+        finally:
+            with self._wake:
+                self._holds -= 1
+                if not self._holds and self._pending:
+                    self._wake.notify()
 
     def flush(self) -> None:
         self._write_pending()
@@ -211,7 +235,7 @@ class StateWriter:
     def _run(self) -> None:
         while True:
             with self._wake:
-                self._wake.wait_for(lambda: self._pending)
+                self._wake.wait_for(lambda: self._pending and not self._holds)
             self._write_pending()
 
 

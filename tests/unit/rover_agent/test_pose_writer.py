@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import threading
+import time
+
 from procs import wait_for
 
 from rover_agent.restarts.saved_state import (
@@ -94,3 +97,21 @@ def test_more_agents_than_open_files_keep_every_state(tmp_path):
             writer.save(path, _state(float(step), float(i), 0.0))
         writer.flush()
     assert all(load_pose(p) == Pose(1.0, float(i), 0.0) for i, p in enumerate(files))
+
+
+def test_a_state_saved_while_the_writer_is_held_is_written_once_the_hold_ends(tmp_path):
+    """An agent holds the writer while its answer goes out (``rover_agent.runtime``): the write would otherwise take
+    the interpreter's lock from the thread publishing the answer."""
+    writer = StateWriter()
+    path = tmp_path / "rover8.json"
+    with writer.held():
+        writer.save(path, _state(1.0, 2.0, 3.0))
+        with writer.held():  # nested holds: the outer one still holds
+            pass
+        assert writer.holding
+        deadline = time.monotonic() + 0.3  # the writer's thread, started by the save, is awake and would write
+        while time.monotonic() < deadline:
+            assert not path.exists(), "written while held"
+            threading.Event().wait(0.01)
+    assert not writer.holding
+    wait_for(lambda: load_pose(path) == Pose(1.0, 2.0, 3.0), 10, "the state on disk once the hold ended")
