@@ -71,7 +71,7 @@ class MapRecorder:
         for ray, (distance, kind) in reach.items():
             dx, dz = math.sin(math.radians(heading_deg + self.rays[ray])), math.cos(math.radians(heading_deg
                                                                                                 + self.rays[ray]))
-            self._free_along(x, z, dx, dz, distance)
+            self._free_along(x, z, dx, dz, min(distance, self.radius))  # a forged hit may lie beyond sight
             if kind in KIND_OF_HIT:
                 self._add(x + dx * distance, z + dz * distance, KIND_OF_HIT[kind])
 

@@ -22,12 +22,14 @@ from rover_agent.registry import load_behaviour
 from schemas import codec, radio
 from schemas.params import MappingParams, PerceptionParams, RoverParams
 from schemas.scenario import load_scenario, parse_scenario
+from schemas.wire_limits import DISTANCE_LIMIT_M
 from world_service.outcome import map_truth
 
 SCENARIOS = Path(__file__).resolve().parents[3] / "scenarios"
 PARAMS = RoverParams(perception=PerceptionParams(field_of_view_degrees=180.0, perception_radius=5.0,
                                                  perception_granularity=5))
 """Five rays: -90, -45, 0, 45 and 90 degrees, 5 m long."""
+RADIUS = PARAMS.perception.perception_radius
 
 
 def _cells(recorder: MapRecorder, kind: int) -> set[tuple[int, int]]:
@@ -67,6 +69,16 @@ def test_a_scan_marks_the_hit_cell_and_the_free_cells_before_it():
     assert {(-1, 0)} <= free and (-2, 0) not in free  # a rover is not mapped; the ray is free up to it
     assert {(3, 3), (-3, 3)} <= free  # rays that met nothing: free out to the perception radius
     assert max(ix for ix, iz in free if iz == 0) <= 1  # the ray to the right stopped at the crater
+
+
+def test_a_hit_beyond_the_perception_radius_frees_no_cell_beyond_it():
+    """A forged perception may put a hit anywhere the wire allows (40,000 km): walked to it half a cell at a time,
+    one such ray held the rover's agent for half a minute."""
+    recorder = MapRecorder(PARAMS)
+    recorder.fold_scan(0.5, 0.5, 0.0, [Hit(0.0, DISTANCE_LIMIT_M, "obstacle"), Hit(90.0, 25.0, "obstacle")])
+    free = _cells(recorder, FREE)
+    assert (0, int(RADIUS) - 1) in free and (int(RADIUS) - 1, 0) in free  # walked out to the radius...
+    assert max(max(abs(ix), abs(iz)) for ix, iz in free) <= RADIUS  # ...and no farther
 
 
 def test_the_same_pose_twice_adds_nothing_and_every_cell_is_kept_once():
