@@ -90,10 +90,13 @@ class Lander:
             self.next_map_save = clock.sim_time + MAP_SAVE_PERIOD_S
             self.map.save(self.map_folder)
         self._keep_due = True
-        if clock.lockstep:  # its timers: the next broadcast and the next map
-            wake = min(self.next_send, self.next_map)
-            out = lockstep_answer(out, clock, ks.LANDER_ID, self.keys.lander(ks.ACK), wake)
+        if clock.lockstep:
+            out = lockstep_answer(out, clock, ks.LANDER_ID, self.keys.lander(ks.ACK), self.next_wake)
         return out
+
+    def next_wake(self) -> float:
+        """The next broadcast or map, whichever is first: the lander's timers."""
+        return min(self.next_send, self.next_map)
 
     def _join(self, clock: m.Clock) -> None:
         """The first clock of a run: the plan and map a killed lander saved of it, if there are any."""

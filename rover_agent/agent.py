@@ -125,7 +125,7 @@ class RoverAgent:
             out += [self.send.radio([ks.LANDER_ID], report)
                     for report in self.map.due(self.now, pose.x, pose.z, reachable=reachable)]
         if clock.lockstep:
-            out = lockstep_answer(out, clock, self.id, self.keys.rover(self.id, ks.ACK), self.next_wake())
+            out = lockstep_answer(out, clock, self.id, self.keys.rover(self.id, ks.ACK), self.next_wake)
         return out
 
     def next_wake(self) -> float:

@@ -108,10 +108,10 @@ def _clock(tick: int, acks: list[int] | None) -> m.Clock:
 
 def test_an_agent_acks_with_its_wake_time_only_when_asked():
     status = (KEYS.rover(1, ks.STATUS), m.RoverStatus(stamp=0.0, state="waiting"))
-    asked = lockstep_answer([status], _clock(3, [1, 4]), 1, KEYS.rover(1, ks.ACK), 1.5)
+    asked = lockstep_answer([status], _clock(3, [1, 4]), 1, KEYS.rover(1, ks.ACK), lambda: 1.5)
     assert asked == [status, (KEYS.rover(1, ks.ACK), m.Ack(tick=3, wake=1.5))]
-    assert lockstep_answer([], _clock(3, [4]), 1, KEYS.rover(1, ks.ACK), 1.5) == []
-    everyone = lockstep_answer([], _clock(3, None), 1, KEYS.rover(1, ks.ACK), 1.5)
+    assert lockstep_answer([], _clock(3, [4]), 1, KEYS.rover(1, ks.ACK), lambda: 1.5) == []
+    everyone = lockstep_answer([], _clock(3, None), 1, KEYS.rover(1, ks.ACK), lambda: 1.5)
     assert everyone == [(KEYS.rover(1, ks.ACK), m.Ack(tick=3, wake=1.5))]
 
 
@@ -143,7 +143,7 @@ def test_resends_back_off_to_a_second():
 def test_publishing_on_a_tick_nobody_waits_for_is_reported(caplog):
     status = (KEYS.rover(1, ks.STATUS), m.RoverStatus(stamp=0.0, state="waiting"))
     with caplog.at_level(logging.WARNING, logger="lunarsim.lockstep"):
-        out = lockstep_answer([status], _clock(7, [2]), 1, KEYS.rover(1, ks.ACK), 9.0)
+        out = lockstep_answer([status], _clock(7, [2]), 1, KEYS.rover(1, ks.ACK), lambda: 9.0)
     assert out == [status], "what it sends still goes out"
     assert "agent 1 publishes status on tick 7" in caplog.text and "next_wake" in caplog.text
 
