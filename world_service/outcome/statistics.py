@@ -207,20 +207,25 @@ class MissionStats:
                 self._turn(self.missions.apply(command) if command.command != "stop" else [])
 
     def _turn(self, rovers: Sequence[int]) -> None:
-        """Rovers given a new goal: one not done with its last goal turned where it stood."""
+        """Rovers given a new goal: one not done with its last goal turned where it stood. The goal it was on is
+        the one its status names (the rover's word), if that comes before the new one; else its first."""
         latest = {r.id: r for r in self.last.rovers} if self.last is not None else {}
         for rid in rovers:
             r = latest.get(rid)
             if r is None or r.state != "done":
-                index = r.goal_index if r is not None and r.goal_index >= 0 else 0
+                new = self.missions.final_index(rid)
+                index = r.goal_index if r is not None and 0 <= r.goal_index < new else 0
                 x, z = (r.x, r.z) if r is not None else (self.scenario.rovers[rid - 1].x,
                                                           self.scenario.rovers[rid - 1].z)
-                self.turned.setdefault(rid, []).append((index, self.missions.final_index(rid), x, z))
+                self.turned.setdefault(rid, []).append((index, new, x, z))
 
     def ideal_goals(self, rid: int) -> list[Goal]:
         """The goals a rover was asked to walk through: its mission's, up to the point where the ground sent it
-        elsewhere (that point stands in for the goals left unfinished), then the new ones."""
-        instead = {index: (new, Goal(x=x, z=z, kind="waypoint")) for index, new, x, z in self.turned.get(rid, [])}
+        elsewhere (that point stands in for the goals left unfinished), then the new ones. Each turn leads on to
+        a later goal, so the walk through them ends (a rover that claimed a goal beyond its plan once sent it
+        round in a circle for ever, the world with it)."""
+        instead = {index: (new, Goal(x=x, z=z, kind="waypoint"))
+                   for index, new, x, z in self.turned.get(rid, []) if new > index}
         goals, i = [], 0
         while i <= self.missions.final_index(rid):
             if i in instead:  # goals i .. new - 1 left unfinished: the point where the rover turned

@@ -6,7 +6,7 @@ import msgspec
 import pytest
 
 from schemas import messages as m
-from schemas.scenario import parse_scenario
+from schemas.scenario import Goal, parse_scenario
 from shared.mission import RoverMissions
 from world_service.outcome.completion import Completion, all_finished
 from world_service.outcome.statistics import MissionStats
@@ -107,3 +107,23 @@ def test_a_mission_with_relays_among_the_finished_ends_once_they_stayed_so_dated
     at_once = Completion(wait)
     at_once.check(30.0, {1: done, 2: done}, still, no_route)  # no relay: nothing more can come
     assert at_once.at == 30.0
+
+
+def test_a_rover_claiming_a_goal_beyond_its_plan_while_the_ground_turns_it_leaves_the_report_finite():
+    """A status is the rover's word: one naming goal 5 of a one-goal plan, then re-targeted by the ground, made the
+    walk through its goals turn back to goal 1 at goal 5 for ever, and the world's step with it."""
+    stats = MissionStats(SCENARIO, RoverMissions(SCENARIO))
+    claim = msgspec.structs.replace(_truth(1, 0.0, 20.0, 10.0, "migration"), goal_index=5)
+    stats.observe(m.WorldState(stamp=10.0, rovers=[claim, _truth(2, 10.0, 30.0, 20.0, "migration")]))
+    def target(n: int) -> m.GroundCommand:
+        return m.GroundCommand(request_id=f"t{n}", command="set_target", rover_id=1, x=0.0, z=12.0)
+
+    stats.command(target(0))
+    done = msgspec.structs.replace(claim, state="done")
+    stats.observe(m.WorldState(stamp=20.0, rovers=[done, _truth(2, 10.0, 30.0, 20.0, "migration")]))
+    for n in range(1, 5):
+        stats.command(target(n))
+    assert stats.missions.final_index(1) == 5
+    goals = stats.ideal_goals(1)  # turned before its first goal (it named none of its plan), then goals 1 to 5
+    assert goals[0] == Goal(x=0.0, z=20.0, kind="waypoint") and len(goals) == 6
+    assert stats.report().rovers_reached_final_goal == 1  # done, as its status says
