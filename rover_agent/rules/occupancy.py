@@ -64,10 +64,11 @@ class OccupancyGrid:
 
         ``free_angles`` are the relative angles (degrees, negative left) of rays that hit nothing within
         ``radius``. A cell hit in this scan is not also counted free by it: a ray grazing a wall's cell does
-        not contradict the hit inside it.
+        not contradict the hit inside it. A hit beyond ``radius`` is none a sensor makes: kept, one forged a
+        kilometre off would stretch every plan's search over the ground between (``planner``).
         """
         hit_cells = {self.cell_of(*ray_point(pose, h.angle_deg, h.distance_m))
-                     for h in hits if h.kind in STATIC_KINDS}
+                     for h in hits if h.kind in STATIC_KINDS and h.distance_m <= radius}  # a forged one, not kept
         for cell in hit_cells:
             self._hits[cell] = self._hits.get(cell, 0) + 1
         seen_free: set[Cell] = set()

@@ -14,7 +14,15 @@ import pytest
 
 from rover_agent.behaviour import Hit
 from rover_agent.rules.occupancy import Point
-from rover_agent.rules.planner import OccupancyGrid, _farthest_visible, _forbidden, disc_offsets, next_waypoint, plan
+from rover_agent.rules.planner import (
+    PLAN_REACH_CELLS,
+    OccupancyGrid,
+    _farthest_visible,
+    _forbidden,
+    disc_offsets,
+    next_waypoint,
+    plan,
+)
 from schemas.scenario import load_scenario
 from shared.pose import Pose
 
@@ -228,6 +236,13 @@ def test_a_free_ray_does_not_outvote_a_hit_in_the_same_scan_or_clear_beyond_the_
     assert grid.blocked(0, 12), "12 m is beyond the 10 m radius of the free ray"
 
 
+def test_a_hit_beyond_the_radius_is_no_obstacle_kept():
+    """No sensor sees farther; a forged hit a thousand kilometres off stretched every plan's search to it."""
+    grid = OccupancyGrid(1.0)
+    grid.observe(Pose(0.0, 0.0, 0.0), [Hit(0.0, 1e6, "obstacle"), Hit(0.0, 10.0, "obstacle")], radius=10.0)
+    assert _blocked_cells(grid) == {grid.cell_of(0.0, 10.0)}
+
+
 # ---- planning ----
 
 def test_open_space_path_ends_at_the_goal_and_simplifies_to_one_straight_leg():
@@ -238,6 +253,19 @@ def test_open_space_path_ends_at_the_goal_and_simplifies_to_one_straight_leg():
     assert all(math.dist(a, b) <= SQRT2 + 1e-9 for a, b in itertools.pairwise([start, *path[:-1]]))
     assert simplify(path, grid, CLEARANCE, start_xz=start) == [goal]
     assert simplify(path, grid, CLEARANCE) == [path[0], goal]
+
+
+def test_a_plan_goes_a_bounded_way_towards_a_far_goal():
+    """A goal a thousand kilometres off (a slip in a ground command): the plan heads for it over what the rover
+    has seen, a few kilometres at most, rather than search a box that size round a wall (6.7 s a decision)."""
+    grid = OccupancyGrid(1.0)
+    grid.block((x, 5) for x in range(-20, 21))  # a wall across the way
+    start, goal = (0.0, 0.0), (0.0, 1e6)
+    path = plan(grid, start, goal, CLEARANCE)
+    assert path is not None
+    end = path[-1]
+    assert end == pytest.approx((0.0, PLAN_REACH_CELLS * grid.cell_m))  # on the way to the goal, within reach
+    assert all(not grid.blocked(*grid.cell_of(*p)) for p in path)
 
 
 def test_plan_goes_through_the_gap_of_a_wall_and_keeps_its_clearance():
