@@ -356,11 +356,12 @@ def map_grid(msg: LanderMap, ns: int, elevation: float = 0.0) -> fm.Grid:
     spec, codes = from_message(msg)
     if codes.size and int(codes.max()) >= len(msg.classes):
         raise ValueError(f"lander map: class code {int(codes.max())} but only {len(msg.classes)} classes named")
-    palette = np.zeros((max(len(msg.classes), 1), 4), np.uint8)
+    table = np.zeros((256, 5), np.uint8)  # each code's five bytes: itself, then its colour (one lookup, one array)
+    table[:, 0] = np.arange(256)
     for code, name in enumerate(msg.classes):
         if name in CLASSES and name != "unknown":
-            palette[code] = (*COLOURS[CLASSES.index(name)], MAP_ALPHA)
-    cells = np.concatenate([codes[..., None], palette[codes]], axis=-1)
+            table[code, 1:] = (*COLOURS[CLASSES.index(name)], MAP_ALPHA)
+    cells = table[codes]
     fields = [fm.PackedElementField(name=name, offset=offset, type=fm.PackedElementFieldNumericType.Uint8)
               for offset, name in enumerate(("class", "red", "green", "blue", "alpha"))]
     return fm.Grid(timestamp=timestamp(ns), frame_id=FRAME,

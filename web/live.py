@@ -14,7 +14,6 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 import msgspec
-import numpy as np
 
 from lander_agent import mapping
 from schemas import codec
@@ -140,7 +139,7 @@ def map_json(msg: m.LanderMap) -> dict:
     grid's full size. Decoded here once all the same, so a map that does not fit its shape never reaches a page,
     and so the page gets each class's cell count and colour (those of the map's PNG)."""
     _, cells = mapping.from_message(msg)
-    counts = np.bincount(cells.ravel(), minlength=len(msg.classes))
+    counts = mapping.class_counts(cells, len(msg.classes))
     return {"type": "map", "stamp": msg.stamp, "cell_m": msg.cell_m, "origin_x": msg.origin_x,
             "origin_z": msg.origin_z, "width": msg.width, "height": msg.height, "classes": msg.classes,
             "colours": mapping.COLOURS[:len(msg.classes)].tolist(), "counts": counts.tolist(),
