@@ -158,8 +158,9 @@ def from_message(msg: m.LanderMap) -> tuple[GridSpec, np.ndarray]:
 
 
 def class_counts(codes: np.ndarray, classes: int) -> np.ndarray:
-    """Cells of each code, ``np.bincount``'s answer (at least ``classes`` long), counted a slice at a time: bincount
-    widens its input to int64, eight times the grid, and a map may hold a billion cells (2.3 GB at 268 million)."""
+    """Cells of each uint8 code, ``np.bincount``'s answer (at least ``classes`` long), counted a slice at a time:
+    bincount widens its input to int64, eight times the grid, and a map may hold a billion cells (the web view
+    peaked at 2.3 GB for 268 million)."""
     flat = codes.ravel()
     counts = np.zeros(max(classes, 256), np.int64)
     for start in range(0, flat.size, COUNT_SLICE):
