@@ -14,6 +14,7 @@ Pure functions of the hits: tested with scripted perception, no router.
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -121,16 +122,35 @@ def match_teammates(centres: list[tuple[float, float]], teammates: list[Teammate
         return [(centres[0], t) for t in fresh if t.rover_id == rovers_in_range[0]]
     known = fresh + [t for t in teammates if ESTIMATE_MAX_AGE_S < now - t.estimate.stamp <= FORGET_AFTER_S]
     d = [[distance(centre, mate) for mate in known] for centre in centres]
+    rows = [_Least(row) for row in d]
+    columns = [_Least([row[j] for row in d]) for j in range(len(fresh))]
     pairs = []
     for k, centre in enumerate(centres):
         for j, mate in enumerate(fresh):
             best = d[k][j]
             if best > MATCH_GATE:
                 continue
-            others = [d[k][i] for i in range(len(known)) if i != j] + [d[i][j] for i in range(len(centres)) if i != k]
-            if all(other >= best + AMBIGUITY for other in others):
+            if rows[k].all_but(j, best + AMBIGUITY) and columns[j].all_but(k, best + AMBIGUITY):
                 pairs.append((centre, mate))
     return pairs
+
+
+class _Least:
+    """The two least numbers of a row (or column) of distances, and how many are NaN: whether all but one are at
+    least a bound, in constant time. Listing the others for each candidate pair made matching grow with the cube
+    of the rovers seen and the teammates heard (14 s a scan with 800 and 200 in a forged one)."""
+
+    def __init__(self, values: list[float]) -> None:
+        self.values = values
+        self.nans = sum(v != v for v in values)
+        self.least = heapq.nsmallest(2, ((v, i) for i, v in enumerate(values) if v == v))
+
+    def all_but(self, skip: int, floor: float) -> bool:
+        """``all(v >= floor for i, v in enumerate(values) if i != skip)``: a NaN is never at least anything."""
+        if self.nans - (self.values[skip] != self.values[skip]):
+            return False
+        others = [v for v, i in self.least if i != skip][:1]
+        return not others or others[0] >= floor
 
 
 def teammate_landmark(centre: tuple[float, float], mate: Teammate, now: float, top_speed: float) -> Landmark:

@@ -6,6 +6,7 @@ true pose. No world, no router."""
 from __future__ import annotations
 
 import math
+import random
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from hostile import pack_radio
 from rover_agent.decisions import Hit
 from rover_agent.estimation.pose_filter import CI_WEIGHTS, Landmark, Localisation, NoiseModel
 from rover_agent.estimation.sightings import (
+    AMBIGUITY,
     FORGET_AFTER_S,
     MATCH_GATE,
     Teammate,
@@ -450,3 +452,31 @@ def test_a_rover_hit_at_no_distance_gives_a_centre_rather_than_a_crash():
     """The Perception schema allows a distance of 0 (a distance under half a millimetre, rounded)."""
     centres = rover_centres((Hit(0.0, 0.0, "rover"), Hit(4.0, 0.0, "rover")), 0.5, RAY_STEP)
     assert len(centres) == 1 and all(math.isfinite(v) for v in centres[0])
+
+
+def test_matching_takes_the_pairs_no_other_pairing_comes_near_as_a_table_of_distances_says():
+    """The rule, checked pair by pair against every other pairing of either (as matching first did it, in time
+    growing with the cube of the rovers), on random tables with ties, infinities and NaNs."""
+    rng = random.Random(12)
+    for _ in range(400):
+        n_seen, n_fresh, n_stale = rng.randint(1, 6), rng.randint(0, 5), rng.randint(0, 3)
+        pool = [0.5, 3.0, 9.0, 9.21, 12.0, 18.21, 30.0, math.inf, math.nan]
+        table = [[rng.choice(pool) if rng.random() < 0.4 else rng.uniform(0.0, 40.0)
+                  for _ in range(n_fresh + n_stale)] for _ in range(n_seen)]
+        fresh = [Teammate(2 + j, estimate(0.0, 0.0, 1.0)) for j in range(n_fresh)]
+        stale = [Teammate(20 + j, estimate(0.0, 0.0, 1.0, stamp=10.0 - 1.5)) for j in range(n_stale)]
+        centres = [(float(k), 5.0) for k in range(n_seen)]
+        column = {id(mate): j for j, mate in enumerate(fresh + stale)}
+
+        def distance(seen, mate, table=table, column=column):
+            return table[int(seen[0])][column[id(mate)]]
+
+        expected = []
+        for k in range(n_seen):
+            for j in range(n_fresh):
+                best = table[k][j]
+                others = [v for i, v in enumerate(table[k]) if i != j] + [table[i][j] for i in range(n_seen) if i != k]
+                if not best > MATCH_GATE and all(other >= best + AMBIGUITY for other in others):
+                    expected.append((centres[k], fresh[j]))
+        got = match_teammates(centres, fresh + stale, [0, 2, 3, 4], 10.0, 1.0, distance)
+        assert got == expected, table
