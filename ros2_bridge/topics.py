@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from lander_agent.map_view import VIEW_CELLS
+
 ROVER = "/rover_{id}"
 
 
@@ -65,8 +67,9 @@ NAVIGATION = Topic(f"{ROVER}/navigation_status", "diagnostic_msgs/msg/Diagnostic
 MISSION_GOAL = Topic(f"{ROVER}/mission_goal", "geometry_msgs/msg/PointStamped", "out", "rover/<id>/mission_direction",
                      "rover_<id>/odom", "the goal the lander sends the rover to (over the radio: only while in reach)")
 MAP = Topic("/lander/map", "nav_msgs/msg/OccupancyGrid", "out", "lander/map", "map",
-            "the lander's traverse map: -1 unknown, 0 free (or a rover seen), 50 crater terrain, 100 obstacle; "
-            "transient local, keep last 1 (a late transient-local subscription gets the last map)", latched=True)
+            "the lander's traverse map: -1 unknown, 0 free (or a rover seen), 50 crater terrain, 100 obstacle "
+            f"(past {VIEW_CELLS:,} cells, blocks of cells at their strongest class); transient local, keep last 1 "
+            "(a late transient-local subscription gets the last map)", latched=True)
 CLOCK = Topic("/clock", "rosgraph_msgs/msg/Clock", "out", "world/clock", "-",
               "simulated time, for nodes with use_sim_time (every stamp the bridge writes is simulated time)")
 TF = Topic("/tf", "tf2_msgs/msg/TFMessage", "out", "world/state", "map -> rover_<id>/base_link",

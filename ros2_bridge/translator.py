@@ -174,9 +174,10 @@ class Translator:
         return [(tp.CLOCK.name, tp.CLOCK.ros_type, mapping.clock(msg))]
 
     def _map(self, payload: bytes) -> list[RosOut]:
+        from lander_agent.map_view import for_viewers
         from lander_agent.mapping import from_message
 
-        msg = codec.decode(m.LanderMap, payload)
+        msg = for_viewers(codec.decode(m.LanderMap, payload))
         _, codes = from_message(msg)
         return [(tp.MAP.name, tp.MAP.ros_type, mapping.occupancy(msg, codes))]
 

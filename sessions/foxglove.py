@@ -349,10 +349,13 @@ def map_grid(msg: LanderMap, ns: int, elevation: float = 0.0) -> fm.Grid:
     The colours are the map PNG's (``lander_agent.mapping.COLOURS``, looked up by class name) with ``MAP_ALPHA``,
     unknown cells fully clear; Foxglove's 3D panel shows them in its "RGBA (separate fields)" colour mode.
     Row j, column i of the map is Foxglove's (x, y) = (origin_x + i * cell_m, origin_z + j * cell_m).
-    A payload that does not fit its shape, or a class code without a name, is a ValueError.
+    A map past ``map_view.VIEW_CELLS`` cells is coarsened to fit. A payload that does not fit its shape, or a
+    class code without a name, is a ValueError.
     """
+    from lander_agent.map_view import for_viewers
     from lander_agent.mapping import CLASSES, COLOURS, from_message
 
+    msg = for_viewers(msg)
     spec, codes = from_message(msg)
     if codes.size and int(codes.max()) >= len(msg.classes):
         raise ValueError(f"lander map: class code {int(codes.max())} but only {len(msg.classes)} classes named")

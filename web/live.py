@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import msgspec
 
-from lander_agent import mapping
+from lander_agent import map_view, mapping
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import REPLAY_STATES
@@ -136,8 +136,10 @@ def lander_json(status: m.LanderStatus) -> dict:
 
 def map_json(msg: m.LanderMap) -> dict:
     """The lander's traverse map, still zlib-compressed (the page inflates it): a few kB every 5 s, not the
-    grid's full size. Decoded here once all the same, so a map that does not fit its shape never reaches a page,
-    and so the page gets each class's cell count and colour (those of the map's PNG)."""
+    grid's full size, and coarsened past ``map_view.VIEW_CELLS`` cells. Decoded here once all the same, so a map
+    that does not fit its shape never reaches a page, and so the page gets each class's cell count and colour
+    (those of the map's PNG)."""
+    msg = map_view.for_viewers(msg)
     _, cells = mapping.from_message(msg)
     counts = mapping.class_counts(cells, len(msg.classes))
     return {"type": "map", "stamp": msg.stamp, "cell_m": msg.cell_m, "origin_x": msg.origin_x,

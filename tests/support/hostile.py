@@ -115,3 +115,17 @@ def radio_payloads(draw: st.DrawFn) -> bytes:
     """A radio transmission's payload: a hostile application message of any radio type."""
     tag = draw(st.sampled_from(sorted(radio.RADIO_TYPES)))
     return pack_radio(tag, draw(fields_for(radio.RADIO_TYPES[tag])))
+
+
+def huge_lander_map(width: int = 4096, height: int = 2048) -> bytes:
+    """A valid LanderMap of width x height cells (8 million by default: twice a viewer's bound), an obstacle in
+    its first cell and the rest free, in a few kilobytes of zlib."""
+    import zlib
+
+    from schemas import messages as m
+
+    packer = zlib.compressobj(6)
+    cells = packer.compress(b"\x02" + b"\x01" * (width - 1)) + packer.compress(b"\x01" * (width * (height - 1)))
+    return codec.encode(m.LanderMap(stamp=1.0, cell_m=1.0, origin_x=0.0, origin_z=0.0, width=width, height=height,
+                                    classes=["unknown", "free", "obstacle", "crater", "rover"],
+                                    cells=cells + packer.flush()))

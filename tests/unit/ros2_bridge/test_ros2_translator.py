@@ -8,7 +8,7 @@ import math
 import zlib
 
 import pytest
-from hostile import pack
+from hostile import huge_lander_map, pack
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -165,6 +165,13 @@ def test_clock_and_map_frames():
     assert (name, ros_type) == ("/lander/map", "nav_msgs/msg/OccupancyGrid")
     assert occupancy["header"]["frame_id"] == "map" and occupancy["info"]["origin"]["position"]["y"] == 5.0
     assert list(occupancy["data"]) == [255, 100, 50]  # int8 -1 as a byte
+
+
+def test_a_map_past_the_viewers_bound_is_published_coarsened():
+    (_, _, occupancy), = _bridge().outbound(KEYS.lander("map"), huge_lander_map(4096, 2048))
+    info = occupancy["info"]
+    assert (info["width"], info["height"], info["resolution"]) == (2048, 1024, 2.0)
+    assert len(occupancy["data"]) == 2048 * 1024 and occupancy["data"][:2] == bytes([100, 0])
 
 
 def test_ground_truth_only_when_asked():

@@ -14,6 +14,7 @@ import msgspec
 import numpy as np
 import pytest
 from google.protobuf.message import Message
+from hostile import huge_lander_map
 from procs import SCENARIOS, free_port
 from protobuf_schemas import message_class
 
@@ -338,6 +339,16 @@ def test_export_writes_the_lander_map_as_a_grid(recording: Path, tmp_path: Path)
     assert (cells[0, 3, 1:4] == COLOURS[2]).all() and cells[0, 3, 4] > 0  # obstacle red, seen
     assert (cells[1, 2, 1:4] == COLOURS[4]).all()  # a rover
     assert (cells[..., 4][MAP_CODES == 0] == 0).all() and (cells[..., 4][MAP_CODES != 0] > 0).all()
+
+
+def test_a_map_past_the_viewers_bound_becomes_a_coarser_grid():
+    from sessions import foxglove as fx
+
+    encoded = fx.map_grid(codec.decode(m.LanderMap, huge_lander_map(4096, 2048)), T0)
+    schema = type(encoded).get_schema()
+    grid = message_class(schema.data, schema.name).FromString(encoded.encode())
+    assert grid.column_count == 2048 and grid.cell_size.x == 2.0 and len(grid.data) == 2048 * 1024 * 5
+    assert grid.data[0] == 2 and grid.data[5] == 1  # the obstacle's block, then free ground
 
 
 def test_a_malformed_map_is_skipped_with_a_warning(tmp_path: Path, capsys):

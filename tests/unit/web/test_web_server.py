@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 import yaml
 from aiohttp.test_utils import TestClient, TestServer
+from hostile import huge_lander_map
 from procs import SCENARIOS
 
 from lander_agent import mapping
@@ -178,6 +179,13 @@ def test_the_lander_map_is_decoded_and_forwarded_compressed_with_counts_and_colo
     json.dumps(page)
     torn = msgspec.structs.replace(msg, cells=zlib.compress(b"\x01" * 10))  # not width x height cells
     assert live.stream_message("map", codec.encode(torn)) is None
+
+
+def test_a_map_past_the_viewers_bound_reaches_the_page_coarsened():
+    page = live.stream_message("map", huge_lander_map(4096, 2048))
+    assert (page["width"], page["height"], page["cell_m"]) == (2048, 1024, 2.0)
+    assert page["counts"][2] == 1 and sum(page["counts"]) == 2048 * 1024
+    assert zlib.decompress(base64.b64decode(page["cells"]))[:2] == b"\x02\x01"
 
 
 def test_power_fields_reach_the_page_only_when_the_scenario_has_a_sun():
