@@ -26,7 +26,7 @@ class NothingToReport(LunarSimError, ValueError):
 def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: str,
                         malformed: Counter[str] | None = None) -> m.MissionReport:
     """The statistics; a sample that does not decode is skipped and counted per key in ``malformed``, as the world
-    and the viewers skip one."""
+    and the viewers skip one, and so is a last map that is not the grid this scenario's lander builds."""
     keys = ks.Keyspace(world)
     stats = MissionStats(scenario, RoverMissions(scenario))
     skipped: Counter[str] = Counter() if malformed is None else malformed
@@ -44,16 +44,27 @@ def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: st
     if stats.last is None:
         raise NothingToReport(f"no {keys.state} samples: nothing to compute statistics from")
     report = stats.report()  # wall_time_s stays None: the launcher's stopwatch is not in the world's data
-    return report if last_map is None else _with_map_figures(report, scenario, last_map)
+    if last_map is None:
+        return report
+    try:
+        figures = _map_figures(scenario, last_map)
+    except (codec.DecodeError, ValueError):
+        skipped[keys.lander(ks.MAP)] += 1
+        return report
+    return codec.checked(msgspec.structs.replace(report, **figures))
 
 
-def _with_map_figures(report: m.MissionReport, scenario: Scenario, payload: bytes) -> m.MissionReport:
-    """The last recorded ``lander/map`` scored as the launcher scores ``map.npz`` (a bad sample is skipped)."""
+def _map_figures(scenario: Scenario, payload: bytes) -> dict:
+    """A recorded ``lander/map`` scored as the launcher scores ``map.npz``. Only the grid the scenario's lander
+    builds is unpacked: scoring takes several times the grid's size in memory, and a sample on the lander's key
+    may claim a billion cells."""
     from lander_agent import mapping
     from world_service.outcome.map_truth import map_figures
 
-    try:
-        spec, classes = mapping.from_message(codec.decode(m.LanderMap, payload))
-    except (codec.DecodeError, ValueError):
-        return report
-    return codec.checked(msgspec.structs.replace(report, **map_figures(scenario, spec, classes).report_fields()))
+    msg = codec.decode(m.LanderMap, payload)
+    spec = mapping.GridSpec.for_scenario(scenario, scenario.rover_params.mapping.cell_m)
+    if (msg.origin_x, msg.origin_z, msg.cell_m, msg.width, msg.height) != (
+            spec.origin_x, spec.origin_z, spec.cell_m, spec.width, spec.height):
+        raise ValueError(f"lander map: a {msg.width} x {msg.height} grid, not this scenario's")
+    _, classes = mapping.from_message(msg)
+    return map_figures(scenario, spec, classes).report_fields()

@@ -1,6 +1,6 @@
 """``lunarsim report FILE.mcap``: the mission statistics (report 3.4.7) and a trajectory plot, from a
 recording alone, with no live system. What the file cannot vouch for (channels skipped, samples that do not decode,
-gaps the recorder noted) is said below the table."""
+a lander map that is not the scenario's grid, gaps the recorder noted) is said below the table."""
 
 from __future__ import annotations
 
@@ -72,6 +72,6 @@ def _notes(recording: Recording, malformed: Counter[str]) -> list[str]:
     notes = [note for note in (recording.foreign_note(), gaps and f"{gaps}: the figures hold only what was recorded")
              if note]
     if malformed:
-        notes.append(f"{recording.path}: skipped {sum(malformed.values())} samples that do not decode "
+        notes.append(f"{recording.path}: skipped {sum(malformed.values())} malformed samples "
                      f"({', '.join(sorted(malformed))})")
     return notes

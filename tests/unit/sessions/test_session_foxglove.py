@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import socket
+from collections import Counter
 from pathlib import Path
 
 import msgspec
@@ -238,8 +239,10 @@ def test_report_skips_and_counts_world_states_that_do_not_decode(recording: Path
     stats = tmp_path / "stats.json"
     assert cli.main(["report", str(broken), "--json", str(stats), "--plot", str(tmp_path / "paths.png")]) == 0
     out = capsys.readouterr().out
-    assert (f"warning: {broken}: skipped 2 samples that do not decode (lunar/test/ground/command, "
+    # the recording's map is a hand-made 4 x 3 grid, not the scenario's: counted too, not scored
+    assert (f"warning: {broken}: skipped 3 malformed samples (lunar/test/ground/command, {MAP_KEY}, "
             f"{STATE_KEY})") in out
+    assert json.loads(stats.read_text())["map_corridor_mapped"] is None
     assert json.loads(stats.read_text())["mission_duration_s"] == 2.0  # the last state that decodes
     assert (tmp_path / "paths.png").stat().st_size > 10_000
 
@@ -349,6 +352,23 @@ def test_a_map_past_the_viewers_bound_becomes_a_coarser_grid():
     grid = message_class(schema.data, schema.name).FromString(encoded.encode())
     assert grid.column_count == 2048 and grid.cell_size.x == 2.0 and len(grid.data) == 2048 * 1024 * 5
     assert grid.data[0] == 2 and grid.data[5] == 1  # the obstacle's block, then free ground
+
+
+def test_report_scores_only_a_map_of_the_scenarios_grid():
+    """A map on the lander's key that is not the grid the scenario's lander builds (here 8 million cells) is
+    neither unpacked nor scored; the scenario's own grid is."""
+    from lander_agent.mapping import TraverseMap
+    from sessions.report import report_from_samples
+
+    scenario = load_scenario(SCENARIO_FILE)
+    own = TraverseMap.for_scenario(scenario).to_message(2.0)
+    state = codec.encode(m.WorldState(stamp=2.0, rovers=[]))
+    for payload, scored in ((huge_lander_map(4096, 2048), False), (codec.encode(own), True)):
+        malformed = Counter()
+        report = report_from_samples(scenario, [Sample(STATE_KEY, state, T0, T0), Sample(MAP_KEY, payload, T0, T0)],
+                                     "test", malformed)
+        assert (report.map_corridor_mapped is not None) == scored
+        assert malformed == (Counter() if scored else Counter({MAP_KEY: 1}))
 
 
 def test_a_malformed_map_is_skipped_with_a_warning(tmp_path: Path, capsys):
