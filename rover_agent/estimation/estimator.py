@@ -34,6 +34,7 @@ from rover_agent.estimation.pose_filter import Localisation, NoiseModel
 from rover_agent.estimation.sightings import (
     ESTIMATE_MAX_AGE_S,
     FORGET_AFTER_S,
+    MAX_RIM_RMS_M,
     Teammate,
     lander_centre,
     lander_landmark,
@@ -65,6 +66,9 @@ STILL_STATES = ("done", "relay", "stuck", "stopped")
 """A rover in these states stays where it is until it is given a new goal: its estimate holds until it says
 otherwise. Any other may be walking by the time a teammate sees it, so its estimate counts as less sure by how far
 it can have walked since (``sightings.teammate_landmark``)."""
+
+MAX_RIM_FITS = 4
+"""Rim radii one scan fits at most (``Estimator._rim_seen``): a plan's craters seldom crowd one view."""
 
 
 class Estimator:
@@ -183,9 +187,23 @@ class Estimator:
 
     def _rim_seen(self, loc: Localisation, hits: tuple[Hit, ...]) -> None:
         """Correct the estimate with the rim of a known crater in view: the one whose fitted centre lies nearest
-        where the estimate expects it (gated: crater terrain of a crater not in the plan fits none)."""
-        marks = [rim_landmark(centre, rim) for rim in set(self.rims.values())
-                 if (centre := rim_centre(hits, rim[2])) is not None]
+        where the estimate expects it (gated: crater terrain of a crater not in the plan fits none).
+
+        A fit depends only on the hits and the rim's radius, so it is made once a radius, and only for rims whose
+        sighting could pass the gate: a fitted centre lies within the farthest hit plus the radius and the
+        largest residual a fit may have. A fit of 4,096 hits takes tens of milliseconds, so a scan fits at most
+        ``MAX_RIM_FITS`` radii, those of the rims nearest the estimate: the rims a rover keeps, which the lander
+        names, do not set the cost of its every scan."""
+        farthest = max((h.distance_m for h in hits if h.kind == "crater_terrain"), default=0.0)
+        rims = [rim for rim in set(self.rims.values())
+                if loc.may_pass(rim_landmark((0.0, 0.0), rim), farthest + rim[2] + MAX_RIM_RMS_M)]
+        radii: dict[float, None] = {}
+        for rim in sorted(rims, key=lambda rim: math.dist((loc.pose.x, loc.pose.z), rim[:2]) - rim[2]):
+            if len(radii) == MAX_RIM_FITS:
+                break
+            radii[rim[2]] = None
+        fits = {radius: rim_centre(hits, radius) for radius in radii}
+        marks = [rim_landmark(centre, rim) for rim in rims if (centre := fits.get(rim[2])) is not None]
         if marks:
             loc.observe(min(marks, key=loc.mahalanobis))
 

@@ -301,6 +301,18 @@ class Localisation:
         r = add(landmark.cov, [[sensor + turn * oz * oz, -turn * oz * ox], [-turn * oz * ox, sensor + turn * ox * ox]])
         return y, r
 
+    def may_pass(self, landmark: Landmark, seen_within: float, gate: float = GATE_999) -> bool:
+        """Whether a sighting of a landmark of known place (not ``shared``), seen no farther than ``seen_within``
+        from the rover, could pass ``gate``: its innovation is at least the predicted range less that, and its
+        Mahalanobis distance at least the innovation's square over the largest eigenvalue of its covariance. So a
+        caller need not make a sighting (fit a rim, say) that observe would turn away."""
+        h, jac, r = _predicted(self.pose, landmark)
+        s = add(mul(mul(jac, self.cov), transpose(jac)), r)
+        half_trace = (s[0][0] + s[1][1]) / 2
+        largest = half_trace + math.sqrt(max(half_trace ** 2 - (s[0][0] * s[1][1] - s[0][1] * s[1][0]), 0.0))
+        least = math.hypot(h[0], h[1]) - seen_within
+        return not (least > 0.0 and least * least > gate * largest * (1 + 1e-6))
+
     def mahalanobis(self, landmark: Landmark) -> float:
         """How far a sighting lies from what the estimate predicts, in their uncertainty (squared)."""
         if landmark.shared:

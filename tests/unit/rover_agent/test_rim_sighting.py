@@ -3,15 +3,18 @@ perception draws them, where rays enter the circle at which the crater's terrain
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
+import random
 
 from bus.rejections import Rejections
 from rover_agent.decisions import Goal, Hit, MoveTo
+from rover_agent.estimation import estimator as estimator_module
 from rover_agent.estimation import rim_look
 from rover_agent.estimation.estimator import Estimator
 from rover_agent.estimation.pose_filter import Localisation, NoiseModel
-from rover_agent.estimation.sightings import rim_centre
+from rover_agent.estimation.sightings import rim_centre, rim_landmark
 from rover_agent.mission.goals import Mission
 from schemas import messages as m
 from schemas.params import NavigationParams, RoverParams
@@ -99,3 +102,64 @@ def test_the_estimator_looks_back_once_a_crater():
     onward = Goal(1, 2, "waypoint", 0.0, 150.0)
     assert abs(est.look_back(onward, 10.0)) == 180.0
     assert est.look_back(onward, 10.0) is None
+
+
+def _walked_off(rng: random.Random) -> tuple[Estimator, tuple[float, float]]:
+    """An estimator that walked ~100 m north with slip and heading noise, and where the rover truly stands."""
+    params = RoverParams(navigation=NavigationParams(slip_std=rng.uniform(0.01, 0.1),
+                                                     heading_noise_std_deg=rng.uniform(0.1, 3.0)))
+    est = Estimator(1, params, Rejections(logging.getLogger("test")))
+    est.place(Pose(0.0, 0.0, 0.0))
+    for _ in range(12):
+        est.completed(est.pose, MoveTo(0.0, 8.0))
+    return est, (est.pose.x + rng.uniform(-8.0, 8.0), est.pose.z + rng.uniform(-8.0, 8.0))
+
+
+def _counted_fits(monkeypatch) -> list[float]:
+    """The radius of each rim fit the estimator makes from now on."""
+    fitted: list[float] = []
+
+    def counted(hits: tuple[Hit, ...], edge: float) -> tuple[float, float] | None:
+        fitted.append(edge)
+        return rim_centre(hits, edge)
+
+    monkeypatch.setattr(estimator_module, "rim_centre", counted)
+    return fitted
+
+
+def test_rims_a_scan_cannot_show_cost_no_fit_and_change_no_correction(monkeypatch):
+    """Against the plain rule (fit every rim kept, take the nearest sighting, gate it): the same pose and
+    covariance after each scan, with rims near and far, of the crater seen, of its radius elsewhere and of other
+    radii; and only rims the gate could take are fitted."""
+    fitted = _counted_fits(monkeypatch)
+    rng = random.Random(11)
+    for case in range(150):
+        est, truth = _walked_off(rng)
+        crater = (truth[0] + rng.uniform(-5.0, 5.0), truth[1] + rng.uniform(22.0, 30.0), rng.choice([15.6, 19.5]))
+        hits = scan((crater[0] - truth[0], crater[1] - truth[1]), crater[2])
+        rims = [crater] + [(crater[0] + rng.uniform(-60.0, 60.0), crater[1] + rng.uniform(-60.0, 60.0),
+                            rng.choice([crater[2], 12.0, 30.0])) for _ in range(rng.randrange(0, 6))]
+        rims += [(rng.uniform(1e3, 1e5), rng.uniform(-1e5, 1e5), 5.0 + i) for i in range(rng.randrange(0, 40))]
+        for index, rim in enumerate(rims):
+            est.learn(Goal(index, len(rims), "crater", rim[0], rim[1], rim=rim))
+        plain = copy.deepcopy(est.localisation)
+        marks = [rim_landmark(centre, rim) for rim in set(est.rims.values())
+                 if (centre := rim_centre(hits, rim[2])) is not None]
+        if marks:
+            plain.observe(min(marks, key=plain.mahalanobis))
+        fitted.clear()
+        est.localise(100.0, hits, "migrating", [])
+        assert (est.pose, est.localisation.cov) == (plain.pose, plain.cov), f"case {case}"
+        assert len(fitted) == len(set(fitted)) <= 4, f"case {case}: fitted {fitted}"
+
+
+def test_a_scan_fits_the_radii_of_the_nearest_rims_only_however_many_the_lander_names(monkeypatch):
+    fitted = _counted_fits(monkeypatch)
+    est, truth = _walked_off(random.Random(3))
+    crater = (truth[0], truth[1] + 25.0, 19.5)
+    rims = [(crater[0] + 0.01 * i, crater[1] + 0.5 * i, 19.0 + 0.01 * i) for i in range(1, 60)] + [crater]
+    for index, rim in enumerate(rims):
+        est.learn(Goal(index, len(rims), "crater", rim[0], rim[1], rim=rim))
+    est.localise(100.0, scan((0.0, 25.0), 19.5), "migrating", [])
+    assert len(fitted) == estimator_module.MAX_RIM_FITS
+    assert sorted(fitted) == [19.01, 19.02, 19.03, 19.5]  # the rims whose edges lie nearest the estimate
