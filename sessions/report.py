@@ -9,6 +9,7 @@ from collections.abc import Iterable
 
 import msgspec
 
+from lander_agent import mapping
 from schemas import codec
 from schemas import keyspace as ks
 from schemas import messages as m
@@ -26,45 +27,51 @@ class NothingToReport(LunarSimError, ValueError):
 def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: str,
                         malformed: Counter[str] | None = None) -> m.MissionReport:
     """The statistics; a sample that does not decode is skipped and counted per key in ``malformed``, as the world
-    and the viewers skip one, and so is a last map that is not the grid this scenario's lander builds."""
+    and the viewers skip one, and so is a map that is not the grid this scenario's lander builds."""
     keys = ks.Keyspace(world)
     stats = MissionStats(scenario, RoverMissions(scenario))
     skipped: Counter[str] = Counter() if malformed is None else malformed
-    last_map: bytes | None = None
+    grid = mapping.GridSpec.for_scenario(scenario, scenario.rover_params.mapping.cell_m)
+    last_map: m.LanderMap | None = None
     for sample in samples:
         try:
             if sample.key == keys.lander(ks.MAP):
-                last_map = sample.payload
+                last_map = _scenario_map(codec.decode(m.LanderMap, sample.payload), grid)
             elif sample.key == keys.state:
                 stats.observe(codec.decode(m.WorldState, sample.payload))
             elif sample.key == keys.ground_command:
                 stats.command(codec.decode(m.GroundCommand, sample.payload))
-        except codec.DecodeError:
+        except (codec.DecodeError, _ForeignMap):
             skipped[sample.key] += 1
     if stats.last is None:
         raise NothingToReport(f"no {keys.state} samples: nothing to compute statistics from")
     report = stats.report()  # wall_time_s stays None: the launcher's stopwatch is not in the world's data
-    if last_map is None:
-        return report
-    try:
-        figures = _map_figures(scenario, last_map)
-    except (codec.DecodeError, ValueError):
+    fields = _map_fields(scenario, grid, last_map) if last_map is not None else {}
+    if fields is None:
         skipped[keys.lander(ks.MAP)] += 1
-        return report
-    return codec.checked(msgspec.structs.replace(report, **figures))
+    return codec.checked(msgspec.structs.replace(report, **fields)) if fields else report
 
 
-def _map_figures(scenario: Scenario, payload: bytes) -> dict:
-    """A recorded ``lander/map`` scored as the launcher scores ``map.npz``. Only the grid the scenario's lander
-    builds is unpacked: scoring takes several times the grid's size in memory, and a sample on the lander's key
-    may claim a billion cells."""
-    from lander_agent import mapping
+def _map_fields(scenario: Scenario, grid: mapping.GridSpec, msg: m.LanderMap) -> dict | None:
+    """The map's scores as the launcher scores ``map.npz``; None if its cells do not fit its grid."""
     from world_service.outcome.map_truth import map_figures
 
-    msg = codec.decode(m.LanderMap, payload)
-    spec = mapping.GridSpec.for_scenario(scenario, scenario.rover_params.mapping.cell_m)
+    try:
+        _, classes = mapping.from_message(msg)
+    except ValueError:
+        return None
+    return map_figures(scenario, grid, classes).report_fields()
+
+
+class _ForeignMap(ValueError):
+    """A map on the lander's key whose grid is not the one the scenario's lander builds."""
+
+
+def _scenario_map(msg: m.LanderMap, grid: mapping.GridSpec) -> m.LanderMap:
+    """``msg`` if it is the scenario's grid, the one the launcher scores in ``map.npz``. Another is not unpacked:
+    scoring takes several times the grid's size in memory, and a sample on the lander's key may claim a billion
+    cells."""
     if (msg.origin_x, msg.origin_z, msg.cell_m, msg.width, msg.height) != (
-            spec.origin_x, spec.origin_z, spec.cell_m, spec.width, spec.height):
-        raise ValueError(f"lander map: a {msg.width} x {msg.height} grid, not this scenario's")
-    _, classes = mapping.from_message(msg)
-    return map_figures(scenario, spec, classes).report_fields()
+            grid.origin_x, grid.origin_z, grid.cell_m, grid.width, grid.height):
+        raise _ForeignMap(f"lander map: a {msg.width} x {msg.height} grid, not this scenario's")
+    return msg
