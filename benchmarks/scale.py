@@ -33,6 +33,7 @@ Then it fits cost against rover count (the slope) and checks the scale targets.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
@@ -52,6 +53,7 @@ from control_loop_latency import BenchmarkError, guarded
 from proc_meter import ProcessMeter, cpu_seconds
 from scale_args import parse_args
 from scale_cluster import WORLD, Cluster, Plan, Setting, periods, progress, sampled_ids
+from scale_hosts import two_hosts
 from scale_observe import (
     Observer,
     agent_lag,
@@ -87,7 +89,7 @@ def measure(plan: Plan, s: Setting) -> dict:
     scenario_file = run_dir / "scenario.yaml"
     scenario_file.write_text(dump_scenario(scenario))
     cluster = Cluster(run_dir / "logs", plan, scenario_file, scenario, s.router_process(plan),
-                      priority.for_mode(s.agent_priority, plan.lockstep, plan.rovers))
+                      priority.for_mode(s.agent_priority, plan.lockstep, plan.rovers), s.hosts)
     observer = None
     load_before = os.getloadavg()
     try:
@@ -114,7 +116,8 @@ def measure(plan: Plan, s: Setting) -> dict:
     row = summarise(plan, s, scenario, observer, window)
     if watched:
         row["witness"] = compare_witness(run_dir / "witness.json", observer, window, scenario, plan.lockstep)
-    row.update(routing="router process" if cluster.router_process else "world", agent_priority=cluster.agents,
+    row.update(routing="router process" if cluster.router_process else "world", hosts=2 if s.hosts else 1,
+               agent_priority=cluster.agents,
                startup_s=round(startup, 2), startup_cpu_s_per_process=round(startup_cpu, 3), load_before=load_before,
                load_after=os.getloadavg())
     progress(f"done: real-time factor {row['real_time_factor']:.3f}, CPU per rover "
@@ -285,7 +288,13 @@ def run(args: argparse.Namespace) -> int:
                 args.lockstep_sim_time, args.lockstep_timeout, work, not args.no_witness, args.lockstep_sample,
                 args.routing, args.agent_priority)
     try:
-        run_series(args, s, doc)
+        with contextlib.ExitStack() as stack:
+            if args.two_hosts:
+                s.hosts = stack.enter_context(two_hosts())
+                doc["hosts"] = {"hub": s.hosts.hub, "fleet": s.hosts.fleet}
+                progress(f"two hosts: namespace {s.hosts.hub} (world, lander, router) and {s.hosts.fleet} (rovers, "
+                         "router)")
+            run_series(args, s, doc)
     finally:
         doc["load_at_end"] = os.getloadavg()
         doc["slopes"] = slopes(doc["rows"], os.cpu_count() or 1)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from scale_hosts import unavailable
 from world_scale import SCENARIO
 
 from bus import priority
@@ -54,6 +55,10 @@ def parse_args(argv: list[str] | None = None, description: str = "") -> argparse
     parser.add_argument("--routing", choices=("auto", "world", "process"), default="auto",
                         help="who routes: the world (as lunarsim run), a router process, or auto (default): the "
                              "world, but a router process for the shared-process real-time series")
+    parser.add_argument("--two-hosts", action="store_true",
+                        help="the world and the lander on one host, the rovers on another, each behind its own "
+                             "router: two network namespaces of this machine, as tests/e2e/test_multihost.py makes "
+                             "(needs root; they share this machine's cores)")
     parser.add_argument("--agent-priority", choices=priority.CHOICES, default="auto",
                         help="as lunarsim run's (the witness runs at it too): " + priority.HELP)
     parser.add_argument("--scenario", type=Path, default=SCENARIO, help="default: crater_observation.yaml")
@@ -76,5 +81,7 @@ def check_args(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Non
         parser.error("--seconds and --lockstep-sim-time must be more than 0, --warmup 0 or more")
     if not args.scenario.is_file():
         parser.error(f"--scenario {args.scenario}: no such file")
+    if args.two_hosts and (why := unavailable()):
+        parser.error(why)
     if args.logs is not None:
         args.logs.mkdir(parents=True, exist_ok=True)

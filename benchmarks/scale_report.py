@@ -41,7 +41,12 @@ def print_report(doc: dict) -> None:
           f"{_load(doc.get('load_at_end', doc['load_at_start']))} (it counts this benchmark's own threads too); "
           "'others' below: CPU used outside the benchmark during each window (/proc/stat), other work's noise")
     routing = doc.get("settings", {}).get("routing", "process")
-    print({"world": "routing: the world is the Zenoh router in every series (its routing CPU is in 'world')",
+    if doc.get("settings", {}).get("two_hosts"):
+        routing = "two_hosts"
+    print({"two_hosts": "routing: two hosts (network namespaces of this machine, sharing its cores): the world and "
+                        "the lander behind one router process, the rovers behind another joined to it ('router' "
+                        "below: both)",
+           "world": "routing: the world is the Zenoh router in every series (its routing CPU is in 'world')",
            "process": "routing: a Zenoh router process that every process joins ('router' below)",
            "auto": "routing: the world is the Zenoh router (as in lunarsim run; its routing CPU is in 'world'), "
                    "except in the shared-process real-time series: a router process there ('router' below)"}

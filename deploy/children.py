@@ -36,12 +36,14 @@ class Children:
     """What the warm server imports before it forks (``start(..., warm=True)``, see ``deploy.warm_start``)."""
 
     def start(self, name: str, module: str, *args: str, warm: bool = False,
-              priority: Priority = "equal") -> subprocess.Popen | WarmProcess:
+              priority: Priority = "equal", prefix: tuple[str, ...] = ()) -> subprocess.Popen | WarmProcess:
         """``python -m module args``, logging into ``<log_dir>/<name>.log``; ``warm``: forked from the warm
         server, for the many agents of one run, which would otherwise each spend their start importing;
-        ``priority``: its CPU priority against this machine's other processes (``bus.priority``)."""
+        ``priority``: its CPU priority against this machine's other processes (``bus.priority``); ``prefix``: a
+        command that runs it, such as ``ip netns exec NS`` for another network namespace (never warm: the warm
+        server's children share its namespaces)."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
-        if warm:
+        if warm and not prefix:
             from deploy import warm_start
 
             if warm_start.available():
@@ -49,9 +51,9 @@ class Children:
                                                            priority)
                 return proc
         log = open(self.log_dir / f"{name}.log", "wb")  # noqa: SIM115 - owned by the child for its lifetime
-        proc = subprocess.Popen([sys.executable, "-P", "-m", module, *args], stdout=log, stderr=subprocess.STDOUT,
-                                stdin=subprocess.DEVNULL, preexec_fn=partial(_child_setup, priority),
-                                env=environment())
+        proc = subprocess.Popen([*prefix, sys.executable, "-P", "-m", module, *args], stdout=log,
+                                stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                preexec_fn=partial(_child_setup, priority), env=environment())
         log.close()
         self.procs[name] = proc
         return proc

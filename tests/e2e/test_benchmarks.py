@@ -6,7 +6,9 @@ the figures. How fast anything was is for the benchmarks to print, never for a t
 from __future__ import annotations
 
 import json
+import os
 import re
+import shutil
 import subprocess
 import sys
 from collections.abc import Callable
@@ -21,7 +23,8 @@ pytestmark = pytest.mark.bench_smoke
 
 BENCHMARKS = REPO / "benchmarks"
 SUPPORT = {"behaviour_tables", "control_loop_world", "host", "latency_summary", "lockstep_speed_report", "proc_meter",
-           "quick", "scale_args", "scale_cluster", "scale_observe", "scale_report", "scale_witness", "tick_costs",
+           "quick", "scale_args", "scale_cluster", "scale_hosts", "scale_observe", "scale_report", "scale_witness",
+           "tick_costs",
            "zenoh_floor", "ros2_sdk_meter"}
 """Modules the benchmarks import or start, not benchmarks themselves."""
 MS = r"\d+\.\d{3}"
@@ -198,3 +201,23 @@ def test_the_quick_run_prints_its_figures(name, tmp_path, request):
         again = subprocess.run([sys.executable, str(BENCHMARKS / "behaviour_suite.py"), "--table", str(figures)],
                                cwd=REPO, capture_output=True, text=True, timeout=60)
         assert again.returncode == 0 and re.search(r"^all\s+2\s", again.stdout, re.M), again
+
+
+def test_the_scale_benchmark_runs_its_shared_series_on_two_hosts(tmp_path):
+    """``--two-hosts``: the rovers on a network namespace of their own behind a second router; the namespaces are
+    gone afterwards."""
+    if os.geteuid() != 0 or shutil.which("ip") is None:
+        pytest.skip("network namespaces need root and iproute2 (.ci/run runs as root)")
+    figures = tmp_path / "scale.json"
+    proc = subprocess.run([sys.executable, str(BENCHMARKS / "scale.py"), "--quick", "--two-hosts", "--skip-lockstep",
+                           "--counts", "2", "--shared-counts", "4", "--per-process", "2", "--json", str(figures)],
+                          cwd=REPO, capture_output=True, text=True, timeout=600)
+    output = proc.stdout + proc.stderr
+    assert proc.returncode == 0, output[-4000:]
+    assert "routing: two hosts" in output
+    doc = json.loads(figures.read_text())
+    assert [(r["rovers"], r["hosts"], r["processes"]) for r in doc["rows"]] == [(2, 2, 2), (4, 2, 2)], doc["rows"]
+    assert all(r["cpu_cores"]["router"] > 0 for r in doc["rows"])  # both routers' CPU counted
+    namespaces = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True).stdout
+    assert doc["hosts"]["hub"] not in namespaces and doc["hosts"]["fleet"] not in namespaces
+
