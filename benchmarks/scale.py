@@ -28,6 +28,7 @@ Then it fits cost against rover count (the slope) and checks the scale targets.
     python benchmarks/scale.py --quick                      # a smoke check in seconds
     python benchmarks/scale.py [--counts 10 50 100] [--seconds 30] [--shared-counts 1000 750 500]
                                [--per-process 250] [--lockstep-counts 5 20 100] [--json FILE]
+    python benchmarks/scale.py --two-hosts ...               # the rovers on a second host (scale_hosts.py)
 """
 
 from __future__ import annotations
