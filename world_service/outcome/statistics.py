@@ -179,10 +179,10 @@ def lander_component(state: WorldState) -> set[int]:
     for a, b in state.comm_links:
         neighbours.setdefault(a, []).append(b)
         neighbours.setdefault(b, []).append(a)
-    seen, frontier = {0}, [0]
-    while frontier:
-        frontier = [n for node in frontier for n in neighbours.get(node, ()) if n not in seen]
-        seen.update(frontier)
+    seen, frontier = {0}, {0}
+    while frontier:  # a set: a node reached from two of the frontier's enters the next once, not once a path
+        frontier = {n for node in frontier for n in neighbours.get(node, ()) if n not in seen}
+        seen |= frontier
     return seen
 
 

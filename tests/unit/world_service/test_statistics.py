@@ -9,7 +9,7 @@ from schemas import messages as m
 from schemas.scenario import Goal, parse_scenario
 from shared.mission import RoverMissions
 from world_service.outcome.completion import Completion, all_finished
-from world_service.outcome.statistics import MissionStats
+from world_service.outcome.statistics import MissionStats, lander_component
 
 SCENARIO = parse_scenario({
     "name": "two", "lander": {"x": 0.0, "z": 0.0},
@@ -127,3 +127,16 @@ def test_a_rover_claiming_a_goal_beyond_its_plan_while_the_ground_turns_it_leave
     goals = stats.ideal_goals(1)  # turned before its first goal (it named none of its plan), then goals 1 to 5
     assert goals[0] == Goal(x=0.0, z=20.0, kind="waypoint") and len(goals) == 6
     assert stats.report().rovers_reached_final_goal == 1  # done, as its status says
+
+
+def test_the_lander_component_takes_each_rover_once_however_many_routes_reach_it():
+    """A chain of 60 'diamonds' (each rover reached from the last by two relays): 2**60 shortest routes from the
+    lander, one component of 181 nodes. A frontier kept per route never ended here."""
+    links, top = [], 0
+    for d in range(60):
+        a, b, c = 3 * d + 1, 3 * d + 2, 3 * d + 3
+        links += [(top, a), (top, b), (a, c), (b, c)]
+        top = c
+    links.append((500, 501))  # two rovers that hear only each other
+    state = m.WorldState(stamp=1.0, rovers=[], comm_links=links)
+    assert lander_component(state) == set(range(181))
