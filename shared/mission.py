@@ -6,11 +6,13 @@ which goal is each rover's final one. One implementation, so the two never disag
 
 from __future__ import annotations
 
+import bisect
 from collections import defaultdict
 
 from schemas.errors import LunarSimError
 from schemas.messages import Calibration, GroundCommand
 from schemas.scenario import Goal, LanderSpec, RoverSpawn, Scenario
+from schemas.scenario_limits import MAX_GOALS
 
 
 def calibration(scenario: Scenario, rover_id: int) -> Calibration:
@@ -28,12 +30,20 @@ class CommandRefused(LunarSimError, ValueError):
     """A ground command that cannot be carried out; the message says why, for the operator."""
 
 
+COMMANDED_GOALS = MAX_GOALS
+"""Goals the ground may add to one rover's mission beyond the scenario's (as many as a scenario's mission may hold):
+each is kept for the mission's statistics and in the lander's saved state, so a stream of commands must end."""
+REQUESTS_KEPT = 4096
+"""Request ids whose outcome is remembered, to answer a resend with the first outcome; the oldest is forgotten first
+(the ground resends within seconds, not thousands of commands later)."""
+
+
 class RoverMissions:
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario
         self.goals: dict[int, list[Goal]] = {i + 1: list(scenario.mission) for i in range(len(scenario.rovers))}
         self.outcomes: dict[str, list[int] | CommandRefused] = {}  # request id -> what applying it gave
-        self._sharing: dict[tuple[int, Goal], list[int]] | None = None  # (index, goal) -> rovers; None: stale
+        self._sharing: dict[tuple[int, Goal], list[int]] | None = None  # (index, goal) -> rovers; None: not built
 
     def final_index(self, rover_id: int) -> int:
         return len(self.goals[rover_id]) - 1
@@ -43,15 +53,18 @@ class RoverMissions:
         return goals[min(max(index, 0), len(goals) - 1)]
 
     def sharing(self, index: int, goal: Goal) -> list[int]:
-        """The rovers whose goal ``index`` is ``goal``. Indexed once each time the goals change: the lander asks on
+        """The rovers whose goal ``index`` is ``goal``, from an index kept as goals are added: the lander asks on
         every broadcast for every rover, and a scan of all the rovers' goals for each would make a broadcast
         quadratic in the number of rovers."""
-        if self._sharing is None:
+        return list(self._index().get((index, goal), ()))
+
+    def _index(self) -> dict[tuple[int, Goal], list[int]]:
+        if self._sharing is None:  # built once (also for a state saved before it was kept)
             self._sharing = defaultdict(list)
             for rid, goals in self.goals.items():
                 for i, g in enumerate(goals):
                     self._sharing[(i, g)].append(rid)
-        return list(self._sharing.get((index, goal), ()))
+        return self._sharing
 
     def apply(self, command: GroundCommand) -> list[int]:
         """Carry out a command; returns the rovers whose mission changed. Raises CommandRefused.
@@ -65,6 +78,8 @@ class RoverMissions:
                 self.outcomes[command.request_id] = self._apply(command)
             except CommandRefused as exc:
                 self.outcomes[command.request_id] = exc
+            if len(self.outcomes) > REQUESTS_KEPT:
+                del self.outcomes[next(iter(self.outcomes))]
         outcome = self.outcomes[command.request_id]
         if isinstance(outcome, CommandRefused):
             raise outcome
@@ -75,9 +90,14 @@ class RoverMissions:
         if command.command == "stop":
             return rovers
         goal = self._new_goal(command)
-        self._sharing = None
+        limit = len(self.scenario.mission) + COMMANDED_GOALS
+        if full := [rid for rid in rovers if len(self.goals[rid]) >= limit]:
+            raise CommandRefused(f"rover {full[0]} has had {COMMANDED_GOALS} goals from the ground, the most a "
+                                 "mission takes" + (f" (and {len(full) - 1} more rovers)" if len(full) > 1 else ""))
+        index = self._index()
         for rid in rovers:
             self.goals[rid].append(goal)
+            bisect.insort(index[(len(self.goals[rid]) - 1, goal)], rid)  # in id order, as built
         return rovers
 
     def _rovers(self, command: GroundCommand) -> list[int]:

@@ -182,8 +182,8 @@ def test_the_lander_gives_each_rover_of_a_team_its_own_station_on_a_shared_crate
 
 
 def test_the_team_at_a_goal_follows_ground_commands():
-    """Who shares a goal is indexed once per change of the goals (``RoverMissions.sharing``): a command that sends
-    one rover elsewhere and then the others after it must show in the next directions, not in a stale index."""
+    """Who shares a goal is indexed as goals are added (``RoverMissions.sharing``): a command that sends one rover
+    elsewhere and then the others after it must show in the next directions, not in a stale index."""
     scenario = load_scenario(SCENARIOS / "crater_and_return.yaml").with_overrides(rovers=3)
     plan = MissionPlan(scenario)
     last = len(scenario.mission)
