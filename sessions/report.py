@@ -27,7 +27,8 @@ class NothingToReport(LunarSimError, ValueError):
 def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: str,
                         malformed: Counter[str] | None = None) -> m.MissionReport:
     """The statistics; a sample that does not decode is skipped and counted per key in ``malformed``, as the world
-    and the viewers skip one, and so is a map that is not the grid this scenario's lander builds."""
+    and the viewers skip one, and so is a state naming a rover the scenario does not have, or a map that is not
+    the grid this scenario's lander builds."""
     keys = ks.Keyspace(world)
     stats = MissionStats(scenario, RoverMissions(scenario))
     skipped: Counter[str] = Counter() if malformed is None else malformed
@@ -38,13 +39,14 @@ def report_from_samples(scenario: Scenario, samples: Iterable[Sample], world: st
             if sample.key == keys.lander(ks.MAP):
                 last_map = _scenario_map(codec.decode(m.LanderMap, sample.payload), grid)
             elif sample.key == keys.state:
-                stats.observe(codec.decode(m.WorldState, sample.payload))
+                stats.observe(_of_scenario(codec.decode(m.WorldState, sample.payload), len(scenario.rovers)))
             elif sample.key == keys.ground_command:
                 stats.command(codec.decode(m.GroundCommand, sample.payload))
-        except (codec.DecodeError, _ForeignMap):
+        except (codec.DecodeError, _NotThisScenario):
             skipped[sample.key] += 1
     if stats.last is None:
-        raise NothingToReport(f"no {keys.state} samples: nothing to compute statistics from")
+        why = f" ({skipped[keys.state]} skipped: malformed, or of another scenario)" if skipped[keys.state] else ""
+        raise NothingToReport(f"no {keys.state} samples{why}: nothing to compute statistics from")
     report = stats.report()  # wall_time_s stays None: the launcher's stopwatch is not in the world's data
     fields = _map_fields(scenario, grid, last_map) if last_map is not None else {}
     if fields is None:
@@ -63,8 +65,15 @@ def _map_fields(scenario: Scenario, grid: mapping.GridSpec, msg: m.LanderMap) ->
     return map_figures(scenario, grid, classes).report_fields()
 
 
-class _ForeignMap(ValueError):
-    """A map on the lander's key whose grid is not the one the scenario's lander builds."""
+class _NotThisScenario(LunarSimError, ValueError):
+    """A sample that decodes but cannot be of the scenario's mission: a state naming a rover it does not have, a map
+    whose grid is not the one its lander builds."""
+
+
+def _of_scenario(state: m.WorldState, rovers: int) -> m.WorldState:
+    if any(not 1 <= r.id <= rovers for r in state.rovers):
+        raise _NotThisScenario(f"a world state names a rover outside 1..{rovers}")
+    return state
 
 
 def _scenario_map(msg: m.LanderMap, grid: mapping.GridSpec) -> m.LanderMap:
@@ -73,5 +82,5 @@ def _scenario_map(msg: m.LanderMap, grid: mapping.GridSpec) -> m.LanderMap:
     cells."""
     if (msg.origin_x, msg.origin_z, msg.cell_m, msg.width, msg.height) != (
             grid.origin_x, grid.origin_z, grid.cell_m, grid.width, grid.height):
-        raise _ForeignMap(f"lander map: a {msg.width} x {msg.height} grid, not this scenario's")
+        raise _NotThisScenario(f"lander map: a {msg.width} x {msg.height} grid, not this scenario's")
     return msg

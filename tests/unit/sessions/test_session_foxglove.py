@@ -371,6 +371,21 @@ def test_report_scores_only_a_map_of_the_scenarios_grid():
         assert malformed[MAP_KEY] == sum(payload != own for payload in maps) and set(malformed) <= {MAP_KEY}
 
 
+def test_report_skips_and_counts_states_naming_rovers_the_scenario_does_not_have():
+    from sessions.report import report_from_samples
+
+    scenario = load_scenario(SCENARIO_FILE)  # five rovers
+
+    def state(stamp: float, *ids: int) -> Sample:
+        rovers = [m.RoverTruth(id=i, x=0.0, z=0.0, heading_deg=0.0, action="idle", state="done", goal_index=0,
+                               distance_to_goal_m=0.0, distance_covered_m=0.0, alive=True) for i in ids]
+        return Sample(STATE_KEY, codec.encode(m.WorldState(stamp=stamp, rovers=rovers)), T0, T0)
+
+    malformed = Counter()
+    report = report_from_samples(scenario, [state(1.0, 1, 2), state(2.0, 1, 9), state(3.0, 0, 1)], "test", malformed)
+    assert malformed == Counter({STATE_KEY: 2}) and report.mission_duration_s == 1.0
+
+
 def test_a_malformed_map_is_skipped_with_a_warning(tmp_path: Path, capsys):
     path = tmp_path / "bad.mcap"
     writer = SessionWriter(path, {"scenario": SCENARIO_FILE.read_text(encoding="utf-8")})
