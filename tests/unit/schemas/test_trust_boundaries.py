@@ -164,6 +164,26 @@ def test_a_photo_label_is_data_never_a_file_name(tmp_path):
     assert lander.rejected.total == 1
 
 
+def test_a_rover_fills_no_more_than_its_share_of_the_archive_in_bytes_even_across_a_restart(tmp_path, monkeypatch):
+    from lander_agent import archive as archive_module
+
+    monkeypatch.setattr(archive_module, "MAX_BYTES_PER_ROVER", 100_000)
+    png = b"\x89PNG\r\n\x1a\n" + bytes(30_000)
+
+    def send(lander: Lander, sender: int, label: str) -> bool:
+        report = radio.PhotoReport(goal_index=0, label=label, stamp=1.0, png=png)
+        return lander.handle(KEYS.lander(ks.COMM_IN), codec.encode(m.InboundComm(
+            sender=sender, payload=radio.pack(report)))) != []  # acked: archived
+
+    lander = Lander(MissionPlan(SCENARIO), KEYS, PhotoArchive(tmp_path))
+    assert [send(lander, 1, f"p{i}") for i in range(5)] == [True, True, True, False, False]
+    assert send(lander, 2, "p0") and lander.archive.refused == 2 and lander.rejected.total == 2
+    again = Lander(MissionPlan(SCENARIO), KEYS, PhotoArchive(tmp_path))  # a restarted lander, the same folder
+    assert not send(again, 1, "p9") and send(again, 2, "p1")
+    assert len(list((tmp_path / "rover1").glob("*.png"))) == 3
+    assert sorted(p.name for p in (tmp_path / "rover2").glob("*.png")) == ["00001.png", "00002.png"]  # none over
+
+
 # ---- a rover agent ----
 
 AGENT_INPUTS = [(topic, m.TOPIC_MODELS[topic]) for topic in ks.ROVER_INPUTS]
