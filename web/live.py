@@ -22,6 +22,10 @@ from schemas.keyspace import REPLAY_STATES
 
 STREAM_HZ = 10.0
 """World states pushed to each browser per second at most."""
+PHOTO_BYTES_KEPT = 64 * 2**20
+"""The newest photo of each rover is kept for the page, and a page that opens gets them all: at most this many
+bytes of them (a photo may be 48 MiB on the wire, and any rover id may carry one). Past it the photos that arrived
+first are let go; a photo larger than this alone is not kept."""
 
 
 @dataclass
@@ -33,6 +37,9 @@ class Latest:
     versions: dict[str, int] = field(default_factory=dict)
     photos: dict[int, bytes] = field(default_factory=dict)
     photo_versions: dict[int, int] = field(default_factory=dict)
+    photo_bytes: int = 0
+    photo_clock: int = 0
+    photos_dropped: int = 0
     arrived: dict[str, float] = field(default_factory=dict)
 
     def put(self, stream: str, payload: bytes) -> None:
@@ -47,10 +54,21 @@ class Latest:
             at = self.arrived.get(stream) if stream in self.payloads else None
         return None if at is None else round(time.monotonic() - at, 3)
 
-    def put_photo(self, rover_id: int, payload: bytes) -> None:
+    def put_photo(self, rover_id: int, payload: bytes) -> bool:
+        """Keep a rover's newest photo; False if it alone is over ``PHOTO_BYTES_KEPT`` (not kept, counted)."""
+        if len(payload) > PHOTO_BYTES_KEPT:
+            self.photos_dropped += 1
+            return False
         with self.lock:
-            self.photos[rover_id] = payload
-            self.photo_versions[rover_id] = self.photo_versions.get(rover_id, 0) + 1
+            self.photo_bytes += len(payload) - len(self.photos.pop(rover_id, b""))
+            self.photos[rover_id] = payload  # (re-)inserted last: the dict's order is the order of arrival
+            self.photo_clock += 1  # one count for all rovers: a rover let go and back gets a version never seen
+            self.photo_versions[rover_id] = self.photo_clock
+            while self.photo_bytes > PHOTO_BYTES_KEPT:
+                oldest = next(iter(self.photos))
+                self.photo_bytes -= len(self.photos.pop(oldest))
+                del self.photo_versions[oldest]
+        return True
 
     def newer(self, seen: dict[str, int]) -> dict[str, bytes]:
         """Streams whose version moved past ``seen`` (updated in place)."""
@@ -70,6 +88,8 @@ class Latest:
         with self.lock:
             self.payloads.clear()
             self.photos.clear()
+            self.photo_versions.clear()
+            self.photo_bytes = 0
 
 
 @dataclass

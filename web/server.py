@@ -189,6 +189,7 @@ async def info(request: web.Request) -> web.Response:
     viewer = _viewer(request)
     return web.json_response({"world": viewer.world, "scenario": viewer.scene["name"], "clients": len(viewer.clients),
                               "launch": viewer.launcher.status(), "undecodable": viewer.undecodable,
+                              "photos_dropped": viewer.latest.photos_dropped,
                               "validating": viewer.worker.running, **viewer.source.status()})
 
 

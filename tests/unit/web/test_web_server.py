@@ -188,6 +188,19 @@ def test_a_map_past_the_viewers_bound_reaches_the_page_coarsened():
     assert zlib.decompress(base64.b64decode(page["cells"]))[:2] == b"\x02\x01"
 
 
+def test_the_photos_kept_for_the_page_stay_within_their_bytes_the_first_to_arrive_let_go_first(monkeypatch):
+    monkeypatch.setattr(live, "PHOTO_BYTES_KEPT", 1000)
+    latest, seen = live.Latest(), {}
+    assert not latest.put_photo(1, bytes(1001)) and latest.photos_dropped == 1  # alone over the bound: not kept
+    for rover in range(1, 6):
+        assert latest.put_photo(rover, bytes(300))
+    assert set(latest.newer_photos(seen)) == {3, 4, 5} and latest.photo_bytes == 900
+    latest.put_photo(3, bytes(250))  # rover 3's newer photo: now the last to have arrived
+    latest.put_photo(1, bytes(300))  # back, and rover 4 let go for it
+    assert set(latest.photos) == {5, 3, 1} and latest.photo_bytes == 850
+    assert set(latest.newer_photos(seen)) == {1, 3}  # rover 1 came back: the page gets it again
+
+
 def test_power_fields_reach_the_page_only_when_the_scenario_has_a_sun():
     common = dict(id=1, x=0.0, z=0.0, heading_deg=90.0, action="move", state="migration", goal_index=0,
                   distance_to_goal_m=10.0, distance_covered_m=1.0, alive=True)
