@@ -16,6 +16,7 @@ killed, the disk filled) and ``lunarsim recover`` rewrites what it holds.
 
 from __future__ import annotations
 
+import heapq
 import json
 import shlex
 from collections.abc import Callable, Iterator
@@ -95,16 +96,41 @@ class TopicFilter:
         return not any(fnmatchcase(key, g) for g in self.exclude)
 
 
+READ_WINDOW_BYTES = 512 * 2**20
+"""Chunk bytes that reading in log-time order may hold at once: chunks whose times overlap are unpacked together.
+A recorder writes them in time order; a file whose chunks all overlap would be unpacked whole (1.7 GB from 5 MB)."""
+
+
 def read_samples(path: str | Path | BinaryIO, keep: Callable[[str], bool] | None = None,
                  start_ns: int | None = None) -> Iterator[Sample]:
-    """Every sample of a recording in log-time order (those whose key ``keep`` accepts, from ``start_ns`` on)."""
+    """Every sample of a recording in log-time order (those whose key ``keep`` accepts, from ``start_ns`` on).
+    A file whose overlapping chunks hold more than ``READ_WINDOW_BYTES`` at once is a ``BadRecording``."""
     from mcap.reader import make_reader
 
     with _open(path) as stream:
         reader = make_reader(stream)
+        summary = reader.get_summary()
+        if summary is not None and (held := overlap_bytes(summary.chunk_indexes)) > READ_WINDOW_BYTES:
+            name = path if isinstance(path, str | Path) else getattr(path, "name", "the recording")
+            raise BadRecording(f"{name}: its chunks overlap in time, {held / 2**20:.0f} MiB to unpack at once to "
+                               f"read it in order (at most {READ_WINDOW_BYTES / 2**20:.0f}): not as a recorder "
+                               "writes one")
         for _, channel, message in reader.iter_messages(start_time=start_ns, log_time_order=True):
             if keep is None or keep(channel.topic):
                 yield Sample(channel.topic, bytes(message.data), message.log_time, message.publish_time)
+
+
+def overlap_bytes(chunks: list) -> int:
+    """The most uncompressed chunk bytes whose log-time ranges meet at one time (``mcap`` ChunkIndex records)."""
+    ends: list[tuple[int, int]] = []  # (end time, size) of the chunks still open, a heap
+    held = most = 0
+    for chunk in sorted(chunks, key=lambda c: c.message_start_time):
+        while ends and ends[0][0] < chunk.message_start_time:
+            held -= heapq.heappop(ends)[1]
+        heapq.heappush(ends, (chunk.message_end_time, chunk.uncompressed_size))
+        held += chunk.uncompressed_size
+        most = max(most, held)
+    return most
 
 
 def read_metadata(path: str | Path) -> dict[str, dict[str, str]]:

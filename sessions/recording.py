@@ -112,6 +112,8 @@ def reading(path: Path, samples: Iterable[Sample]) -> Iterator[Sample]:
             sample = next(iterator)
         except StopIteration:
             return
+        except BadRecording:  # already says what is wrong with the file
+            raise
         except Exception as exc:  # the mcap reader and its decompressors raise many kinds
             raise BadRecording(damaged(path, exc)) from None
         yield sample

@@ -15,6 +15,7 @@ import bisect
 import queue
 import threading
 import time
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
@@ -60,23 +61,35 @@ def world_remapper(recorded: str, target: str) -> Callable[[str], str]:
     return remap
 
 
-def prefetch(samples: Iterable[Sample], size: int = 20_000) -> Iterator[Sample]:
-    """Read ahead on a thread: decompressing and parsing a dense recording costs more per sample than the
-    gaps between samples, so reading in line with playback made replays run late. Closing the iterator
-    (a seek or the end) stops the reader."""
-    buffer: queue.Queue = queue.Queue(maxsize=size)
+READ_AHEAD_BYTES = 64 * 2**20
+"""Payload bytes ``prefetch`` holds at most (one sample larger than this alone still passes): a world state may be
+1.75 MB, and 20,000 of them read ahead would hold 35 GB."""
+
+
+def prefetch(samples: Iterable[Sample], size: int = 20_000, max_bytes: int = READ_AHEAD_BYTES) -> Iterator[Sample]:
+    """Read ahead on a thread, up to ``size`` samples and ``max_bytes`` of payload: decompressing and parsing a
+    dense recording costs more per sample than the gaps between samples, so reading in line with playback made
+    replays run late. Closing the iterator (a seek or the end) stops the reader."""
+    ahead: deque[object] = deque()
+    held = [0]  # payload bytes in ``ahead``
+    room = threading.Condition()
     stop = threading.Event()
     done = object()
 
     def put(item: object) -> bool:
-        """Wait for room, unless the consumer has gone; False once it has."""
-        while not stop.is_set():
-            try:
-                buffer.put(item, timeout=0.1)
-                return True
-            except queue.Full:
-                continue
-        return False
+        """Wait for room (an empty buffer always has it), unless the consumer has gone; False once it has."""
+        n = len(item.payload) if isinstance(item, Sample) else 0
+        with room:
+            while ahead and (len(ahead) >= size or held[0] + n > max_bytes):
+                if stop.is_set():
+                    return False
+                room.wait(0.1)
+            if stop.is_set():
+                return False
+            ahead.append(item)
+            held[0] += n
+            room.notify_all()
+        return True
 
     def read() -> None:
         try:
@@ -88,9 +101,18 @@ def prefetch(samples: Iterable[Sample], size: int = 20_000) -> Iterator[Sample]:
             item = exc
         put(item)
 
+    def take() -> object:
+        with room:
+            while not ahead:
+                room.wait()
+            item = ahead.popleft()
+            held[0] -= len(item.payload) if isinstance(item, Sample) else 0
+            room.notify_all()
+            return item
+
     threading.Thread(target=read, name="replay-read-ahead", daemon=True).start()
     try:
-        while (item := buffer.get()) is not done:
+        while (item := take()) is not done:
             if isinstance(item, Exception):
                 raise item
             yield item

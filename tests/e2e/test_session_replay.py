@@ -7,6 +7,7 @@ import contextlib
 import signal
 import subprocess
 import threading
+import time
 from types import SimpleNamespace
 
 import pytest
@@ -356,6 +357,27 @@ def test_prefetch_yields_everything_in_order_passes_errors_on_and_stops_its_read
     partial.close()  # a seek: the reader thread must not stay blocked on its full buffer
     wait_for(lambda: not any(t.name == "replay-read-ahead" for t in threading.enumerate()), 5,
              "the read-ahead thread to stop")
+
+
+def test_prefetch_holds_at_most_its_bytes_ahead_and_passes_a_larger_sample_alone():
+    from sessions.replay import prefetch
+
+    pulled = [0]
+
+    def source():
+        for i in range(100):
+            pulled[0] += 1
+            yield Sample(f"lunar/w/k{i}", bytes(5000 if i == 50 else 100), i, i)
+
+    reader = prefetch(source(), size=1000, max_bytes=1000)
+    assert next(reader).log_time_ns == 0
+    wait_for(lambda: pulled[0] >= 11, 5, "the reader to fill its 1,000 bytes")
+    deadline = time.monotonic() + 0.3  # nothing marks a reader that stays put: watch it, bounded
+    while time.monotonic() < deadline:
+        assert pulled[0] <= 12  # ten held, one waiting for room, one consumed
+        time.sleep(0.01)
+    assert [len(s.payload) for s in reader][49] == 5000  # the large one came through, alone
+    assert pulled[0] == 100
 
 
 @USES_DEFAULT_PORT
