@@ -25,6 +25,7 @@ from schemas import keyspace as ks
 from schemas.messages import LanderMap, Photo, WorldState
 from schemas.scenario import Scenario
 from schemas.wire_limits import MAX_ID
+from sessions.radio_links import drawn_links
 
 FRAME = "world"
 SCENE_TOPIC = "/scene"
@@ -277,14 +278,12 @@ class DynamicScene:
                        metadata=[fm.KeyValuePair(key="stamp", value=f"{state.stamp:.3f}")])
 
     def _links(self, state: WorldState, where: dict[int, tuple[float, float, float]], ns: int) -> fm.SceneEntity:
-        """Radio links thin and blue; links touching a relay (the daisy chain) thick and magenta."""
-        relays = set(state.relays)
-        plain, chain = [], []
-        for a, b in state.comm_links:
-            if a in where and b in where:
-                (chain if relays & {a, b} else plain).extend(_point(*where[i]) for i in (a, b))
-        lines = [_line(pts, rgb, width, fm.LinePrimitiveLineType.LineList)
-                 for pts, rgb, width in ((plain, (0.3, 0.6, 1.0), 1.5), (chain, (1.0, 0.3, 1.0), 4.0)) if pts]
+        """Radio links thin and blue; links touching a relay (the daisy chain) thick and magenta
+        (``radio_links.drawn_links``)."""
+        chain, plain = drawn_links(state, where)
+        kind = fm.LinePrimitiveLineType.LineList
+        lines = [_line([_point(*where[i]) for pair in pairs for i in pair], rgb, width, kind)
+                 for pairs, rgb, width in ((plain, (0.3, 0.6, 1.0), 1.5), (chain, (1.0, 0.3, 1.0), 4.0)) if pairs]
         return _entity("links", ns, lines=lines)
 
     def _trails(self, ns: int) -> fm.SceneEntity:

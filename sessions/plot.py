@@ -15,6 +15,7 @@ import numpy as np
 from schemas.messages import WorldState
 from schemas.scenario import Scenario
 from sessions.format import Sample
+from sessions.radio_links import drawn_links
 
 SIZE_PX = (1200, 900)
 DPI = 100
@@ -115,19 +116,17 @@ def _paths(ax, paths: dict[int, np.ndarray]) -> None:
 
 
 def _links(ax, scenario: Scenario, state: WorldState) -> None:
-    """Radio links of the last state; those touching a relay rover are the daisy chain."""
+    """Radio links of the last state (``radio_links.drawn_links``); those touching a relay rover are the daisy
+    chain. Each kind is one collection of segments, however many links."""
+    from matplotlib.collections import LineCollection
+
     where = {0: (scenario.lander.x, scenario.lander.z)} | {r.id: (r.x, r.z) for r in state.rovers}
-    relays = set(state.relays)
-    labelled: set[bool] = set()
-    for a, b in state.comm_links:
-        if a not in where or b not in where:
-            continue
-        chain = bool(relays & {a, b})
-        label = None if chain in labelled else ("daisy chain" if chain else "radio link")
-        labelled.add(chain)
-        (xa, za), (xb, zb) = where[a], where[b]
-        ax.plot([xa, xb], [za, zb], color="magenta" if chain else "deepskyblue", lw=2.5 if chain else 0.8,
-                ls="-" if chain else "--", label=label, zorder=4)
+    chain, plain = drawn_links(state, where)
+    for pairs, label, style in ((plain, "radio link", dict(colors="deepskyblue", linewidths=0.8, linestyles="--")),
+                                (chain, "daisy chain", dict(colors="magenta", linewidths=2.5, linestyles="-"))):
+        if pairs:
+            ax.add_collection(LineCollection([[where[a], where[b]] for a, b in pairs], label=label, zorder=4,
+                                             **style))
 
 
 def _landmarks(ax, scenario: Scenario) -> None:
