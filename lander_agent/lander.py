@@ -53,7 +53,7 @@ class Lander:
         self._keep_due = False  # a running clock was handled: the state file may be due (``catch_up``)
         self.run: str | None = None  # the world's run, once heard
         self.map_lost = False  # joined this run under way without a saved state: the map began again
-        self.reports_heard: set[tuple[int, int, str]] = set()  # (rover, goal, outcome), for the log
+        self.reports_heard: dict[int, tuple[int, str]] = {}  # rover -> (goal, outcome) it last reported, for the log
         self.handlers: dict[str, tuple[type[m.Message], Callable[[Any], list[Out]]]] = {
             keys.clock: (m.Clock, self.on_clock), keys.lander(ks.COMM_IN): (m.InboundComm, self.on_comm_in),
             keys.lander(ks.COMM_PARTNERS): (m.CommPartners, self.on_comm_partners),
@@ -141,8 +141,8 @@ class Lander:
             return [self._transmit([msg.sender], self.plan.direction_for(msg.sender), "mission_direction")]
         if isinstance(report, radio.GoalReport):
             moving = self.plan.on_report(msg.sender, report)
-            if (heard := (msg.sender, report.goal_index, report.outcome)) not in self.reports_heard:
-                self.reports_heard.add(heard)  # a rover repeats its report until its photos are in: logged once
+            if self.reports_heard.get(msg.sender) != (heard := (report.goal_index, report.outcome)):
+                self.reports_heard[msg.sender] = heard  # repeated until its photos are in: logged once
                 log.info("t = %.1f s: rover %d reports goal %d %s; directions sent to %s", self.now, msg.sender,
                          report.goal_index + 1, report.outcome, moving or "none")
             return [self._transmit([rid], self.plan.direction_for(rid), "mission_direction") for rid in moving]
