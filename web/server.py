@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import threading
 from collections.abc import Callable
 from pathlib import Path
 
@@ -46,6 +47,7 @@ class Viewer:
         self.scene = scenario_scene(scenario) if scenario is not None else empty_scene()
         self.clients: set[web.WebSocketResponse] = set()
         self.undecodable = 0
+        self._counting = threading.Lock()  # ``messages_since`` runs on worker threads, for the stream and new pages
         self.worker = uploads.Worker()
 
     async def set_scenario(self, scenario: Scenario, scene: dict) -> None:
@@ -63,11 +65,14 @@ class Viewer:
                 self.clients.discard(ws)
 
     def messages_since(self, seen: dict, seen_photos: dict) -> list[str]:
+        """The page's messages of what changed since ``seen``. Decoding them may take a while (a large lander map is
+        coarsened, a photo base64-encoded): the server runs this on a worker thread, off its loop."""
         out = []
         for stream, payload in self.latest.newer(seen).items():
             message = live.stream_message(stream, payload)
             if message is None:
-                self.undecodable += 1
+                with self._counting:
+                    self.undecodable += 1
                 continue
             out.append(json.dumps(message))
         for rover, payload in self.latest.newer_photos(seen_photos).items():
@@ -88,7 +93,7 @@ class Viewer:
                 await self.broadcast(json.dumps({"type": "source", **source}))
             if not self.clients:
                 continue
-            for text in self.messages_since(seen, seen_photos):
+            for text in await asyncio.to_thread(self.messages_since, seen, seen_photos):
                 await self.broadcast(text)
 
 
@@ -171,7 +176,7 @@ async def websocket(request: web.Request) -> web.WebSocketResponse:
     await ws.send_str(json.dumps({"type": "hello", "world": viewer.world, "stream_hz": live.STREAM_HZ,
                                   "state_age_s": viewer.latest.age("state"), "source": viewer.source.status()}))
     await ws.send_str(json.dumps({"type": "scene", "scene": viewer.scene}))
-    for text in viewer.messages_since({}, {}):
+    for text in await asyncio.to_thread(viewer.messages_since, {}, {}):
         await ws.send_str(text)
     viewer.clients.add(ws)
     # Said again now that broadcasts reach this page: a change between the hello and here would be missed.
