@@ -430,9 +430,9 @@ def test_lunarsim_run_survives_malformed_and_forged_samples_on_the_keys_it_follo
             stale = codec.encode(m.RoverStatus(stamp=0.0, state="migration"))
             for forged in (0, 99):
                 watch.session.put(keys.rover(forged, ks.STATUS), stale)
-        finally:
+            stdout, stderr = run.communicate(timeout=120)
+        finally:  # open until the run ends: a session closed at once may drop the puts it has not sent
             watch.close()
-        stdout, stderr = run.communicate(timeout=120)
         assert run.returncode == 0, stdout + stderr
         assert (out / "report.json").is_file()
         # the state is decoded only when shown: a malformed one overwritten by the next before that goes unseen
