@@ -23,6 +23,9 @@ from schemas import messages as m
 
 VIEW_CELLS = 1 << 22
 """Cells of a map a viewer is sent (2,048 x 2,048): a 4 km square traverse at the default 1 m cells."""
+PAGE_SIDE = 4096
+"""Cells a side of the map the web page draws: it is one WebGL texture, and 4,096 texels a side is what every
+browser's WebGL gives (a long traverse's map can be far longer than that and still within ``VIEW_CELLS``)."""
 STRENGTH = ("unknown", "free", "crater", "obstacle", "rover")
 """Weakest first: the class a coarse cell takes is the strongest of its block's. A code the map does not name, or
 names with a class this version does not know, counts as unknown."""
@@ -30,12 +33,12 @@ SLICE_BYTES = 1 << 22
 """Cells inflated at once while coarsening."""
 
 
-def for_viewers(msg: m.LanderMap, max_cells: int = VIEW_CELLS) -> m.LanderMap:
-    """``msg`` itself if it fits ``max_cells``, else the map coarsened to fit; a payload that does not fit its shape
-    is a ValueError (as ``mapping.from_message`` raises)."""
-    if msg.width * msg.height <= max_cells:
+def for_viewers(msg: m.LanderMap, max_cells: int = VIEW_CELLS, max_side: int | None = None) -> m.LanderMap:
+    """``msg`` itself if it fits ``max_cells`` (and ``max_side`` cells a side), else the map coarsened to fit; a
+    payload that does not fit its shape is a ValueError (as ``mapping.from_message`` raises)."""
+    k = block_side(msg.width, msg.height, max_cells, max_side)
+    if k == 1:
         return msg
-    k = block_side(msg.width, msg.height, max_cells)
     strength = _strength_of_codes(msg.classes)
     coarse = _strongest_per_block(_inflated(msg.cells, msg.width * msg.height), msg.width, msg.height, k, strength)
     codes = np.array([CLASSES.index(name) for name in STRENGTH], np.uint8)[coarse]
@@ -43,9 +46,11 @@ def for_viewers(msg: m.LanderMap, max_cells: int = VIEW_CELLS) -> m.LanderMap:
                                    classes=list(CLASSES), cells=zlib.compress(codes.tobytes(), 6))
 
 
-def block_side(width: int, height: int, max_cells: int) -> int:
-    """The least k whose k x k blocks cover the grid in at most ``max_cells`` cells."""
+def block_side(width: int, height: int, max_cells: int, max_side: int | None = None) -> int:
+    """The least k whose k x k blocks cover the grid in at most ``max_cells`` cells, ``max_side`` a side."""
     k = max(1, math.isqrt(width * height // max_cells))
+    if max_side is not None:
+        k = max(k, -(-width // max_side), -(-height // max_side))
     while -(-width // k) * -(-height // k) > max_cells:
         k += 1
     return k

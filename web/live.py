@@ -156,10 +156,10 @@ def lander_json(status: m.LanderStatus) -> dict:
 
 def map_json(msg: m.LanderMap) -> dict:
     """The lander's traverse map, still zlib-compressed (the page inflates it): a few kB every 5 s, not the
-    grid's full size, and coarsened past ``map_view.VIEW_CELLS`` cells. Decoded here once all the same, so a map
-    that does not fit its shape never reaches a page, and so the page gets each class's cell count and colour
-    (those of the map's PNG)."""
-    msg = map_view.for_viewers(msg)
+    grid's full size, and coarsened past ``map_view.VIEW_CELLS`` cells or ``map_view.PAGE_SIDE`` a side. Decoded
+    here once all the same, so a map that does not fit its shape never reaches a page, and so the page gets each
+    class's cell count and colour (those of the map's PNG)."""
+    msg = map_view.for_viewers(msg, max_side=map_view.PAGE_SIDE)
     _, cells = mapping.from_message(msg)
     counts = mapping.class_counts(cells, len(msg.classes))
     return {"type": "map", "stamp": msg.stamp, "cell_m": msg.cell_m, "origin_x": msg.origin_x,

@@ -71,10 +71,23 @@ def test_coarsening_a_slice_at_a_time_matches_the_whole_grid_at_once(monkeypatch
 
 
 def test_the_block_is_the_least_that_fits():
-    for width, height, bound in [(10, 10, 25), (1, 2**30, 2**22), (2**15, 2**15, 2**22), (7, 3, 1), (99, 1, 10)]:
-        k = map_view.block_side(width, height, bound)
-        assert -(-width // k) * -(-height // k) <= bound
-        assert k == 1 or -(-width // (k - 1)) * -(-height // (k - 1)) > bound
+    def fits(width: int, height: int, k: int, bound: int, side: int | None) -> bool:
+        columns, rows = -(-width // k), -(-height // k)
+        return columns * rows <= bound and (side is None or max(columns, rows) <= side)
+
+    for width, height, bound, side in [(10, 10, 25, None), (1, 2**30, 2**22, None), (2**15, 2**15, 2**22, None),
+                                       (7, 3, 1, None), (99, 1, 10, None), (40_000, 60, 2**22, 4096),
+                                       (60, 40_000, 2**22, 4096), (5000, 5000, 2**22, 4096), (10, 10, 100, 3)]:
+        k = map_view.block_side(width, height, bound, side)
+        assert fits(width, height, k, bound, side) and (k == 1 or not fits(width, height, k - 1, bound, side))
+
+
+def test_the_page_gets_a_long_traverse_within_a_texture_side():
+    """40 km by 60 m at 1 m cells: within the viewers' cells, but no browser draws a texture 40,000 texels wide."""
+    codes = np.full((60, 40_000), CODE_OF["free"], np.uint8)
+    assert map_view.for_viewers(_map(codes)).width == 40_000  # Foxglove and ROS 2 get it whole
+    page = map_view.for_viewers(_map(codes), max_side=map_view.PAGE_SIDE)
+    assert (page.width, page.height, page.cell_m) == (4000, 6, 5.0)
 
 
 @pytest.mark.parametrize(("cells", "message"), [
