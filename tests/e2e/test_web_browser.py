@@ -97,6 +97,39 @@ def test_live_view_shows_rovers_moving_and_commands_reach_the_lander(router, tmp
         stop(view, run)
 
 
+def test_a_map_too_long_for_one_texture_reaches_the_page_coarsened_and_drawn(router, tmp_path, browser):
+    """A lander map of 40,000 x 60 cells (a long traverse): within the viewers' cells, but wider than any browser's
+    texture. The page gets it in blocks of 10 cells and drapes it."""
+    import zenoh
+    from hostile import huge_lander_map
+
+    from bus.zenoh_config import build_config
+    from schemas.keyspace import MAP, Keyspace
+
+    world = "webbigmap"
+    view, url = start_view(router, world, tmp_path)
+    session = zenoh.open(build_config(connect=[router]))
+    try:
+        page = browser.new_page()
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(url)
+        payload = huge_lander_map(40_000, 60)
+
+        def shown() -> bool:
+            session.put(Keyspace(world).lander(MAP), payload)  # again until the page has it: no history on the key
+            return page_value(page, "lunarsim.map.width") == 4000
+
+        wait_for(shown, 30, "the coarsened map on the page")
+        drawn = page_value(page, "lunarsim.map")
+        assert (drawn["height"], drawn["cell_m"], drawn["bytes"]) == (6, 10.0, 4000 * 6)
+        assert page_value(page, "lunarsim.view.mapOverlay.mesh.visible") is True
+        assert not errors, errors
+    finally:
+        session.close()
+        stop(view)
+
+
 def test_polar_run_shows_battery_columns_power_statistics_and_the_lander_map(router, tmp_path, browser):
     """polar_night_edge has a sun: battery, temperature and light per rover, and the lander maps the traverse."""
     world, scenario = "webpolar", str(SCENARIOS / "polar_night_edge.yaml")
