@@ -24,8 +24,8 @@ from schemas import messages as m
 VIEW_CELLS = 1 << 22
 """Cells of a map a viewer is sent (2,048 x 2,048): a 4 km square traverse at the default 1 m cells."""
 PAGE_SIDE = 4096
-"""Cells a side of the map the web page draws: it is one WebGL texture, and 4,096 texels a side is what every
-browser's WebGL gives (a long traverse's map can be far longer than that and still within ``VIEW_CELLS``)."""
+"""Cells a side of the map the web page draws: it is one WebGL texture, and browsers' WebGL gives 4,096 texels a
+side on nearly every device (a long traverse's map can be far longer than that and still within ``VIEW_CELLS``)."""
 STRENGTH = ("unknown", "free", "crater", "obstacle", "rover")
 """Weakest first: the class a coarse cell takes is the strongest of its block's. A code the map does not name, or
 names with a class this version does not know, counts as unknown."""
