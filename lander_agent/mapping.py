@@ -50,8 +50,6 @@ FOLDED_KEPT = 4096
 """Sequence numbers of one rover's folded reports the map remembers, to skip resends: a bound, so a sender of
 endless new numbers costs the lander no memory."""
 NPZ_FILE, PNG_FILE = "map.npz", "map.png"
-COUNT_SLICE = 1 << 22
-"""Cells counted at once by ``class_counts``: 32 MB of int64."""
 
 
 @dataclass(frozen=True)
@@ -155,19 +153,6 @@ def from_message(msg: m.LanderMap) -> tuple[GridSpec, np.ndarray]:
         raise ValueError(f"lander map: {len(raw)} cells for a {msg.width} x {msg.height} grid")
     spec = GridSpec(msg.origin_x, msg.origin_z, msg.cell_m, msg.width, msg.height)
     return spec, np.frombuffer(raw, np.uint8).reshape(spec.shape)
-
-
-def class_counts(codes: np.ndarray, classes: int) -> np.ndarray:
-    """Cells of each uint8 code, ``np.bincount``'s answer (at least ``classes`` long), counted a slice at a time:
-    bincount widens its input to int64, eight times the grid, and a map may hold a billion cells (the web view
-    peaked at 2.3 GB for 268 million)."""
-    flat = codes.ravel()
-    counts = np.zeros(max(classes, 256), np.int64)
-    for start in range(0, flat.size, COUNT_SLICE):
-        part = np.bincount(flat[start:start + COUNT_SLICE], minlength=256)
-        counts[:part.size] += part
-    top = int(np.flatnonzero(counts)[-1]) + 1 if counts.any() else 0
-    return counts[:max(classes, top)]
 
 
 def save(folder: Path, spec: GridSpec, classes: np.ndarray) -> None:

@@ -249,13 +249,3 @@ def test_a_behaviour_that_explores_more_maps_more_of_the_maze(tmp_path):
     assert default.corridor_mapped > straight.corridor_mapped + 0.2, (default, straight)
     assert default.obstacles_found > straight.obstacles_found, (default, straight)
     assert default.obstacle_precision > 0.9, default
-
-
-def test_class_counts_are_bincounts_taken_a_slice_at_a_time(monkeypatch):
-    """The web view counts a map's classes in slices (bincount widens a billion cells to 8 GB of int64): the same
-    counts, codes beyond the named classes included."""
-    monkeypatch.setattr(mapping, "COUNT_SLICE", 1000)
-    codes = np.random.default_rng(5).integers(0, 7, (70, 45), dtype=np.uint8)
-    for classes in (0, 5, 9):
-        assert mapping.class_counts(codes, classes).tolist() == np.bincount(codes.ravel(), minlength=classes).tolist()
-    assert mapping.class_counts(np.zeros((0, 3), np.uint8), 5).tolist() == [0] * 5
