@@ -4,6 +4,7 @@ environment."""
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -12,12 +13,24 @@ from procs import free_port, module, stop
 from deploy.children import wait_for_port
 
 
+def _share_bytecode() -> None:
+    """The suite starts about a thousand Python processes from the checkout (``python -m deploy.cli`` with the
+    repository as working folder); where ``PYTHONDONTWRITEBYTECODE`` is set, as on CI's machines, each compiled
+    every module it imported, a tenth of a second of CPU for a world service. They share one bytecode cache in the
+    temporary folder instead, which leaves the checkout untouched as that setting asks."""
+    if os.environ.pop("PYTHONDONTWRITEBYTECODE", None) is not None:
+        cache = Path(tempfile.gettempdir()) / f"lunarsim-tests-pycache-{os.getuid()}"
+        os.environ.setdefault("PYTHONPYCACHEPREFIX", str(cache))
+
+
+_share_bytecode()
+
+
 @pytest.fixture
 def default_zenoh_port():
     """Held while a test uses the default Zenoh port: an exclusive lock on a file beside the temporary folders, so
     such tests take the port in turn across pytest-xdist's workers, and across two runs of the suite."""
     import fcntl
-    import tempfile
 
     with open(Path(tempfile.gettempdir()) / "lunarsim-tests-default-zenoh-port.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
@@ -82,8 +95,6 @@ def flight_env(tmp_path_factory) -> Path:
 @pytest.fixture
 def browser():
     """A headless Chromium context of its own (``test_web_browser.browser_context``), closed after the test."""
-    import tempfile
-
     from playwright.sync_api import sync_playwright
     from test_web_browser import browser_context
 
