@@ -65,6 +65,16 @@ def _python(*args: str, log: Path, **kwargs) -> subprocess.Popen:
                             **kwargs)
 
 
+def _wait_for_log(log: Path, line: str, timeout: float, proc: subprocess.Popen) -> None:
+    """Until ``line`` shows in a process's log (the bridge serves the last rover once its first sample came)."""
+    deadline = time.monotonic() + timeout
+    while line not in log.read_text(errors="replace"):
+        if proc.poll() is not None or time.monotonic() > deadline:
+            raise RuntimeError(f"no {line.strip()!r} in {log.name} within {timeout:g} s: "
+                               f"{log.read_text(errors='replace')[-500:]}")
+        time.sleep(0.1)
+
+
 def _stop(*procs: subprocess.Popen) -> None:
     for p in procs:
         if p.poll() is None:
@@ -241,7 +251,8 @@ def twenty_rovers_cpu(folder: Path, seconds: float, rovers: int = 20) -> dict:
                         str(rovers), "--no-lander", "--start-timeout", "1", "--max-sim-time", str(seconds + 30),
                         log=folder / "world20.log")
         procs.append(world)
-        time.sleep(8.0)  # the world's start and the bridge's first declarations
+        _wait_for_log(folder / "bridge20.log", f"serving rover {rovers} ", timeout=120.0, proc=bridge)
+        time.sleep(1.0)  # the bridge's first declarations settle; its CPU from here on is its steady state
         cpu0, t0 = cpu_seconds(bridge.pid), time.monotonic()
         time.sleep(seconds)
         cpu1, t1 = cpu_seconds(bridge.pid), time.monotonic()
