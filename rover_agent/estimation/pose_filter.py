@@ -22,10 +22,22 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from rover_agent.estimation.matrices import (
+    Matrix,
+    add,
+    inverse2,
+    mul,
+    positive_definite,
+    quadratic,
+    sandwich,
+    scaled,
+    symmetric,
+    transpose,
+    zeros,
+)
 from schemas.params import NavigationParams
 from shared.pose import Pose
 
-Matrix = list[list[float]]
 CI_WEIGHTS = tuple(i / 20 for i in range(1, 20))
 """The weights covariance intersection may give this rover's own estimate (the rest goes to the sighting): never
 all or nothing, so neither side is ever ignored outright."""
@@ -36,38 +48,6 @@ MAX_ITERATIONS = 10
 SETTLED = 1e-9
 """A sighting's iterated update (``Localisation._observe_known``) stops once a step moves the estimate less than
 this (metres, radians) or after this many steps: it settles in three or four."""
-
-
-def zeros(n: int, m: int | None = None) -> Matrix:
-    return [[0.0] * (n if m is None else m) for _ in range(n)]
-
-
-def mul(a: Matrix, b: Matrix) -> Matrix:
-    return [[sum(a[i][k] * b[k][j] for k in range(len(b))) for j in range(len(b[0]))] for i in range(len(a))]
-
-
-def transpose(a: Matrix) -> Matrix:
-    return [list(row) for row in zip(*a, strict=True)]
-
-
-def add(a: Matrix, b: Matrix, scale: float = 1.0) -> Matrix:
-    return [[x + scale * y for x, y in zip(ra, rb, strict=True)] for ra, rb in zip(a, b, strict=True)]
-
-
-def scaled(a: Matrix, s: float) -> Matrix:
-    return [[s * x for x in row] for row in a]
-
-
-def inverse2(a: Matrix) -> Matrix | None:
-    det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
-    if not det > 1e-18:
-        return None
-    return [[a[1][1] / det, -a[0][1] / det], [-a[1][0] / det, a[0][0] / det]]
-
-
-def symmetric(a: Matrix) -> Matrix:
-    n = len(a)
-    return [[(a[i][j] + a[j][i]) / 2 for j in range(n)] for i in range(n)]
 
 
 @dataclass(frozen=True)
@@ -195,7 +175,7 @@ class Localisation:
         """F P F^T + Q: a heading error at the start swings the displacement (end - start) about the start."""
         dx, dz = end.x - start.x, end.z - start.z
         f = [[1.0, 0.0, dz], [0.0, 1.0, -dx], [0.0, 0.0, 1.0]]
-        carried = mul(mul(f, self.cov), transpose(f))
+        carried = sandwich(f, self.cov)
         q = [[slip ** 2, 0.0, 0.0], [0.0, slip ** 2, 0.0], [0.0, 0.0, turn ** 2]]
         return symmetric(add(carried, q))
 
@@ -220,7 +200,7 @@ class Localisation:
         unlike the predicted one: linearised there once, the update takes the position from the sighting as if the
         heading turned a shorter offset, and states a pose far from the truth as sure."""
         prior = self.pose
-        if not _positive_definite(symmetric(_predicted(prior, landmark)[2])):  # at any heading, or none
+        if not positive_definite(symmetric(_predicted(prior, landmark)[2])):  # at any heading, or none
             return False
         if gate is not None and not self.mahalanobis(landmark) <= gate:
             return False
@@ -276,7 +256,7 @@ class Localisation:
         y, r = self._implied_position(landmark)
         pxx = [row[:2] for row in self.cov[:2]]
         s_inv = inverse2(add(pxx, r))
-        if s_inv is None or not _positive_definite(r) or (gate is not None and not _quadratic(y, s_inv) <= gate):
+        if s_inv is None or not positive_definite(r) or (gate is not None and not quadratic(y, s_inv) <= gate):
             return False
         w = _intersection_weight(pxx, r)
         pht = [row[:2] for row in self.cov]  # P H^T with H = [I 0]: the sighting sees the position
@@ -306,8 +286,7 @@ class Localisation:
         from the rover, could pass ``gate``: its innovation is at least the predicted range less that, and its
         Mahalanobis distance at least the innovation's square over the largest eigenvalue of its covariance. So a
         caller need not make a sighting (fit a rim, say) that observe would turn away."""
-        h, jac, r = _predicted(self.pose, landmark)
-        s = add(mul(mul(jac, self.cov), transpose(jac)), r)
+        h, s = self._predicted_sighting(landmark)
         half_trace = (s[0][0] + s[1][1]) / 2
         largest = half_trace + math.sqrt(max(half_trace ** 2 - (s[0][0] * s[1][1] - s[0][1] * s[1][0]), 0.0))
         least = math.hypot(h[0], h[1]) - seen_within
@@ -319,10 +298,16 @@ class Localisation:
             y, r = self._implied_position(landmark)
             s_inv = inverse2(add([row[:2] for row in self.cov[:2]], r))
         else:
-            h, jac, r = _predicted(self.pose, landmark)
+            h, s = self._predicted_sighting(landmark)
             y = [landmark.seen[0] - h[0], landmark.seen[1] - h[1]]
-            s_inv = inverse2(add(mul(mul(jac, self.cov), transpose(jac)), r))
-        return math.inf if s_inv is None else _quadratic(y, s_inv)
+            s_inv = inverse2(s)
+        return math.inf if s_inv is None else quadratic(y, s_inv)
+
+    def _predicted_sighting(self, landmark: Landmark) -> tuple[list[float], Matrix]:
+        """Where a landmark of known place should appear from the estimate, and the covariance of a sighting's
+        difference from that (the estimate's uncertainty carried into the sighting, and the sighting's own)."""
+        h, jac, r = _predicted(self.pose, landmark)
+        return h, add(sandwich(jac, self.cov), r)
 
 
 def _predicted(pose: Pose, landmark: Landmark) -> tuple[list[float], Matrix, Matrix]:
@@ -335,7 +320,7 @@ def _predicted(pose: Pose, landmark: Landmark) -> tuple[list[float], Matrix, Mat
     jac = [[-c, s, -v], [-s, -c, u]]
     rot = [[c, -s], [s, c]]
     sensor = landmark.sensor_std ** 2
-    r = add(mul(mul(rot, landmark.cov), transpose(rot)), [[sensor, 0.0], [0.0, sensor]])
+    r = add(sandwich(rot, landmark.cov), [[sensor, 0.0], [0.0, sensor]])
     return [u, v], jac, r
 
 
@@ -377,16 +362,6 @@ def _intersection_weight_on_grid(p: Matrix, r: Matrix) -> float:
             if (volume := c[0][0] * c[1][1] - c[0][1] * c[1][0]) < best:
                 best, best_w = volume, w
     return best_w
-
-
-def _positive_definite(a: Matrix) -> bool:
-    """Whether a symmetric 2 x 2 matrix is finite and positive definite: what a sighting's noise must be, or an
-    update with it can make variances negative (a teammate's covariance that is none, say)."""
-    return all(math.isfinite(v) for row in a for v in row) and a[0][0] > 0.0 and a[0][0] * a[1][1] > a[0][1] * a[0][1]
-
-
-def _quadratic(y: list[float], m: Matrix) -> float:
-    return y[0] * (m[0][0] * y[0] + m[0][1] * y[1]) + y[1] * (m[1][0] * y[0] + m[1][1] * y[1])
 
 
 def _kalman(p: Matrix, pht: Matrix, hph: Matrix, r: Matrix, y: list[float]) -> tuple[Matrix, list[float]] | None:

@@ -366,7 +366,8 @@ def test_a_walking_teammate_counts_as_less_sure():
 def test_the_intersection_weight_in_closed_form_is_the_best_on_the_grid_or_better():
     """det(w P^-1 + (1 - w) R^-1) is a quadratic in w: its maximum needs no search (the grid is the fallback for a
     position covariance that is still singular)."""
-    from rover_agent.estimation.pose_filter import _intersection_weight, _intersection_weight_on_grid, _kalman, scaled
+    from rover_agent.estimation.matrices import scaled
+    from rover_agent.estimation.pose_filter import _intersection_weight, _intersection_weight_on_grid, _kalman
 
     def volume(p, r, w):
         c = _kalman(scaled(p, 1 / w), scaled(p, 1 / w), scaled(p, 1 / w), scaled(r, 1 / (1 - w)), [0.0, 0.0])[0]
