@@ -52,7 +52,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--agents-per-process", type=_positive, default=1, metavar="K",
                         help="rover agents sharing one process, K to a process as 'lunarsim rover --ids' runs them "
                              "(default 1: a process per rover). Fewer processes wake fewer times a tick: a 5-rover "
-                             "lockstep run goes about a quarter faster in one process")
+                             "lockstep mission takes about a seventh less time in one process")
     parser.add_argument("--agent-priority", choices=priority.CHOICES, default="auto", help=priority.HELP)
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port on 127.0.0.1 where the world "
