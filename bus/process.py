@@ -107,7 +107,8 @@ command starts, so a negative ``--max-sim-time`` cannot start a mission that end
 
 
 def check_common_arguments(args: argparse.Namespace) -> None:
-    """No command takes nan or inf; shared options keep their bounds; a ``--world`` is a valid keyspace name."""
+    """No command takes nan or inf; shared options keep their bounds; a ``--port`` is a TCP port; a ``--world`` is a
+    valid keyspace name."""
     from schemas.keyspace import check_world_name
 
     for name, value in vars(args).items():
@@ -118,6 +119,8 @@ def check_common_arguments(args: argparse.Namespace) -> None:
             if value < bound or (value == bound and not inclusive):
                 raise UsageError(f"--{name.replace('_', '-')} must be {'at least' if inclusive else 'more than'} "
                                  f"{bound:g}, got {value:g}")
+    if (port := getattr(args, "port", None)) is not None and not 0 < port < 65536:
+        raise UsageError(f"--port must be between 1 and 65535, got {port}")
     if getattr(args, "world", None) is not None:
         try:
             check_world_name(args.world)

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bus import process
+from schemas.scenario_limits import SEED_LIMIT
 
 BATCH_FILE = "batch.json"
 TABLE_WIDTH = 140
@@ -55,6 +56,9 @@ def run_batch(spec: BatchSpec) -> int:
 
     if spec.runs < 1 or spec.jobs < 1:
         raise process.UsageError("--runs and --jobs must be at least 1")
+    if not 0 <= spec.seed <= SEED_LIMIT - spec.runs:
+        raise process.UsageError(f"--seed must be at least 0 and leave every run's seed (BASE + i, {spec.runs} runs) "
+                                 f"below 2**63, got {spec.seed}")
     params = load_rover_params(spec.params) if spec.params else None
     scenario = load_scenario(spec.scenario).with_overrides(rovers=spec.rovers, rover_params=params)
     console = table_console()
