@@ -44,5 +44,7 @@ def load(path: Path, log: logging.Logger) -> object | None:
 
 
 def discard(path: Path) -> None:
+    """The snapshot and its temporary file gone; only regular files are removed (``save`` writes no other)."""
     for p in (path, path.with_name(path.name + ".tmp")):
-        p.unlink(missing_ok=True)
+        if p.is_file():
+            p.unlink(missing_ok=True)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bus import process
+from bus import paths, process
 
 DEFAULT_LISTEN = "tls/0.0.0.0:7447"
 DEFAULT_CONNECT = "tls/localhost:7447"
@@ -29,7 +29,7 @@ DEFAULT_CONNECT = "tls/localhost:7447"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, help="scenario file: its rovers get a role each (rover-1 ...)")
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FILE",
+    parser.add_argument("-o", "--output", type=paths.output_file, required=True, metavar="FILE",
                         help="the router's json5 config to write (access control included)")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--rovers", type=int, metavar="N", help="N rovers instead of the scenario's (as run --rovers)")

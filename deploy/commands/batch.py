@@ -21,6 +21,8 @@ import argparse
 import os
 from pathlib import Path
 
+from bus import paths
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, help="scenario YAML (see scenarios/)")
@@ -37,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-sim-time", type=float, default=900.0, metavar="S",
                         help="stop each run after S simulated seconds (default 900)")
     parser.add_argument("--time-scale", type=float, default=4.0, metavar="K", help="without --lockstep (default 4)")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
+    parser.add_argument("--out", type=paths.output_folder, required=True, metavar="DIR",
                         help="folder for the runs (one subfolder each) and batch.json")
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bus import process
+from bus import paths, process
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -29,7 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the folder of the runs: a Job's /results/<job name>, or a lunarsim batch --out")
     parser.add_argument("--runs", type=int, metavar="N", help="runs expected (the Job's completions), so that a "
                         "missing last run is named too (default: up to the highest run number found)")
-    parser.add_argument("--out", type=Path, metavar="FILE", help="where to write batch.json (default DIR/batch.json)")
+    parser.add_argument("--out", type=paths.output_file,
+                        metavar="FILE", help="where to write batch.json (default DIR/batch.json)")
 
 
 def run(args: argparse.Namespace) -> int:

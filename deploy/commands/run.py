@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bus import priority, process
+from bus import paths, priority, process
 from bus.zenoh_config import DEFAULT_PORT
 
 
@@ -39,7 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--from", dest="from_recording", type=Path, metavar="FILE.mcap",
                         help="re-run the scenario and seed a recording was made with (use --lockstep to get the "
                         "same message sequence again)")
-    parser.add_argument("--out", type=Path, metavar="DIR", help="run folder (default runs/<scenario>-<timestamp>)")
+    parser.add_argument("--out", type=paths.output_folder,
+                        metavar="DIR", help="run folder (default runs/<scenario>-<timestamp>)")
     parser.add_argument("--max-sim-time", type=float, metavar="S", help="stop after S simulated seconds")
     parser.add_argument("--seed", type=int, help="override the scenario's seed")
     parser.add_argument("--rovers", type=int, metavar="N", help="spawn N rovers in the scenario's formation")

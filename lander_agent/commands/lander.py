@@ -5,17 +5,19 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bus import process
+from bus import paths, process
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, help="scenario YAML: the lander takes its mission plan from it")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
-    parser.add_argument("--archive", type=Path, metavar="DIR", help="archive received photos here (PNG + index)")
-    parser.add_argument("--map-out", type=Path, metavar="DIR", help="write the traverse map here (map.npz, map.png)")
+    parser.add_argument("--archive", type=paths.output_folder,
+                        metavar="DIR", help="archive received photos here (PNG + index)")
+    parser.add_argument("--map-out", type=paths.output_folder,
+                        metavar="DIR", help="write the traverse map here (map.npz, map.png)")
     state = parser.add_mutually_exclusive_group()
-    state.add_argument("--state", type=Path, metavar="DIR",
+    state.add_argument("--state", type=paths.output_folder, metavar="DIR",
                        help="keep the lander's plan and map here every simulated second, and resume them when started "
                             "again in the same run (default: $XDG_STATE_HOME/lunarsim/<world>/, ~/.local/state "
                             "without it)")

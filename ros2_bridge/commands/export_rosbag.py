@@ -13,12 +13,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bus import process
+from bus import paths, process
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", type=Path, metavar="IN.mcap", help="a LunarSim recording")
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="DIR",
+    parser.add_argument("-o", "--output", type=paths.output_folder, required=True, metavar="DIR",
                         help="the rosbag2 folder to write (must not exist)")
     parser.add_argument("--scenario", type=Path, metavar="FILE", help="scenario of the recording (default: the "
                         "one it embeds): the perception rays' layout for scan")

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bus import process
+from bus import paths, process
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
 
 if TYPE_CHECKING:
@@ -37,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--behaviour", default="default", metavar="NAME",
                         help="behaviour by name: default, straight, an installed plugin, or package.module:Class")
     state = parser.add_mutually_exclusive_group()
-    state.add_argument("--state", type=Path, metavar="FILE",
+    state.add_argument("--state", type=paths.output_file, metavar="FILE",
                        help="keep the dead-reckoned pose and the action in flight here, so a restarted agent takes "
                             "its rover again where it is (with --ids: a folder, one rover<N>.json per agent; "
                             "default: $XDG_STATE_HOME/lunarsim/<world>/rover<N>.json, ~/.local/state without it)")

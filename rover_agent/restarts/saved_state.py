@@ -14,6 +14,7 @@ import logging
 import math
 import os
 import resource
+import stat
 import threading
 from dataclasses import dataclass
 from pathlib import Path
@@ -144,11 +145,24 @@ def save_state(path: Path, state: SavedState) -> None:
 
 
 def load_state(path: Path) -> SavedState | None:
-    """The saved state, or None when there is none; one that cannot be read is reported and not used."""
+    """The saved state, or None when there is none; one that cannot be read is reported and not used. Only a
+    regular file is opened (a FIFO would block the agent's start), and only its first ``RECORD_BYTES`` are
+    read: a state is at most that, and a path to something endless (``/dev/zero``) filled the memory."""
     try:
-        return SavedState.from_json(path.read_text())
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except FileNotFoundError:
         return None
+    except OSError as exc:
+        log.warning("ignoring the saved rover state in %s: %s", path, exc)
+        return None
+    try:
+        with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                raise ValueError("not a regular file")
+            text = f.read(RECORD_BYTES + 1)
+        if len(text) > RECORD_BYTES:
+            raise ValueError(f"more than {RECORD_BYTES} bytes")
+        return SavedState.from_json(text.decode())
     except (OSError, ValueError, KeyError, TypeError) as exc:
         log.warning("ignoring the saved rover state in %s: %s", path, exc)
         return None

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from bus import process
+from bus import paths, process
 
 if TYPE_CHECKING:
     from sessions.recording import Recording
@@ -20,9 +20,11 @@ if TYPE_CHECKING:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", type=Path, metavar="FILE.mcap", help="a session recorded by lunarsim run or record")
-    parser.add_argument("--json", type=Path, metavar="OUT", help="write the statistics as JSON (report.json's "
+    parser.add_argument("--json", type=paths.output_file,
+                        metavar="OUT", help="write the statistics as JSON (report.json's "
                         "fields)")
-    parser.add_argument("--plot", type=Path, metavar="PNG", help="trajectory plot (default: FILE.png beside "
+    parser.add_argument("--plot", type=paths.output_file,
+                        metavar="PNG", help="trajectory plot (default: FILE.png beside "
                         "the recording)")
     parser.add_argument("--no-plot", action="store_true", help="do not draw the trajectory plot")
     parser.add_argument("--scenario", type=Path, metavar="FILE", help="scenario (default: the one the "

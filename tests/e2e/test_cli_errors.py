@@ -140,6 +140,14 @@ def _cases(d: Path) -> list[Case]:
         Case("--port 0", ("run", "--port", "0", "--out", str(d / "runs" / "r25"), SCENARIO),
              "--port must be between 1 and 65535, got 0"),
         Case("--port 65536 for the web view", ("view", "--port", "65536"), "--port must be between 1 and 65535"),
+        Case("an empty run folder", ("run", "--out", "", SCENARIO), "argument --out: an empty path names no file"),
+        Case("a device as the world's state", ("world", SCENARIO, "--state", "/dev/zero"),
+             "argument --state: /dev/zero is not a regular file (a character device)"),
+        Case("a FIFO as a rover's state", ("rover", "--id", "1", "--state", str(d / "fifo.yaml")),
+             "is not a regular file (a FIFO)"),
+        Case("a FIFO as the report's JSON", ("report", str(d / "garbage.mcap"), "--json", str(d / "fifo.yaml")),
+             "argument --json:"),
+        Case("a folder as a recording", ("record", "-o", str(d / "a_folder")), "a_folder is a folder; give a file"),
         Case("world name with '/' and '*'", (*run("r13"), SCENARIO, "--world", "a/b*"), "invalid world name 'a/b*'"),
         Case("world name with '@'", ("world", SCENARIO, "--world", "@w"), "invalid world name '@w'"),
         Case("world name for a command", ("command", "stop", "--world", "w?"), "invalid world name 'w?'"),
@@ -209,8 +217,8 @@ def test_bad_input_is_named_without_a_traceback(outcomes, name):
     assert out.code == case.code, f"exit {out.code}, expected {case.code}:\n{out.output}"
     assert case.message in out.stderr, out.output
     assert "Traceback" not in out.output, out.output
-    if "--out" in case.args:
-        assert not Path(case.args[case.args.index("--out") + 1]).exists(), f"a run folder was left:\n{out.output}"
+    if "--out" in case.args and (folder := case.args[case.args.index("--out") + 1]):
+        assert not Path(folder).exists(), f"a run folder was left:\n{out.output}"
 
 
 def test_the_error_is_one_line(outcomes):

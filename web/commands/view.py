@@ -19,7 +19,7 @@ import os
 import socket
 from pathlib import Path
 
-from bus import process
+from bus import paths, process
 from bus.zenoh_config import add_zenoh_arguments
 from web import guard
 
@@ -47,9 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _add_web_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("web view")
-    group.add_argument("--workspace", type=Path, default=Path("web-scenarios"), metavar="DIR",
+    group.add_argument("--workspace", type=paths.output_folder, default=Path("web-scenarios"), metavar="DIR",
                        help="folder the editor saves scenarios to and loads them from (default web-scenarios/)")
-    group.add_argument("--runs", type=Path, default=Path("runs"), metavar="DIR",
+    group.add_argument("--runs", type=paths.output_folder, default=Path("runs"), metavar="DIR",
                        help="where missions launched from the editor put their run folders (default runs/)")
     group.add_argument("--allow-host", action="append", default=[], metavar="NAME",
                        help="a host name the page may be opened by besides the loopback names and --host (a proxy's "

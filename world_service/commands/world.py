@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import zenoh
 
-from bus import process
+from bus import paths, process
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_router, open_session
 
 if TYPE_CHECKING:
@@ -36,8 +36,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-lander", action="store_true", help="do not wait for a lander agent")
     parser.add_argument("--exit-when-done", action="store_true",
                         help="exit after the mission instead of serving the final statistics")
-    parser.add_argument("--report", type=Path, metavar="FILE", help="also write the final report.json here")
-    parser.add_argument("--photos", type=Path, metavar="DIR", help="also save every rover photo (PNG) here")
+    parser.add_argument("--report", type=paths.output_file,
+                        metavar="FILE", help="also write the final report.json here")
+    parser.add_argument("--photos", type=paths.output_folder,
+                        metavar="DIR", help="also save every rover photo (PNG) here")
     parser.add_argument("--twin", action="store_true",
                         help="follow real rovers (poses from their drivers' telemetry) instead of simulating "
                              "them; real time only")
@@ -45,7 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="fault injection: drop this share (0-1) of the samples the world publishes, seeded by "
                              "the scenario's seed, as a bad link would")
     state = parser.add_mutually_exclusive_group()
-    state.add_argument("--state", type=Path, metavar="FILE",
+    state.add_argument("--state", type=paths.output_file, metavar="FILE",
                        help="keep the world's state here every simulated second, and resume this run from it when "
                             "started again (default: $XDG_STATE_HOME/lunarsim/<world>/world.state, ~/.local/state "
                             "without it)")

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import threading
 import time
+from pathlib import Path
 
 from procs import wait_for
 
@@ -115,3 +117,15 @@ def test_a_state_saved_while_the_writer_is_held_is_written_once_the_hold_ends(tm
             threading.Event().wait(0.01)
     assert not writer.holding
     wait_for(lambda: load_pose(path) == Pose(1.0, 2.0, 3.0), 10, "the state on disk once the hold ended")
+
+
+def test_a_state_path_to_something_endless_or_blocking_is_ignored_not_read(tmp_path, caplog):
+    """A FIFO would block the agent's start and ``/dev/zero`` fill its memory: only a regular file is read, and
+    only as far as a state can reach."""
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    big = tmp_path / "big.json"
+    big.write_text(" " * (RECORD_BYTES + 1))
+    for path in (fifo, Path("/dev/zero"), big):
+        assert load_state(path) is None
+    assert caplog.text.count("ignoring the saved rover state") == 3
