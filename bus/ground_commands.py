@@ -9,6 +9,7 @@ import uuid
 from typing import TYPE_CHECKING
 
 from bus.errors import UsageError
+from schemas.scenario_limits import MAX_ROVERS, clip
 
 if TYPE_CHECKING:
     from bus.bus import Bus
@@ -33,6 +34,8 @@ def build_command(command: str, rover: int | None = None, x: float | None = None
         raise UsageError(f"{command} needs --rover N")
     if command == "seek" and seconds is None:
         raise UsageError("seek needs --seconds S")
+    if rover is not None and not 1 <= rover <= MAX_ROVERS:
+        raise UsageError(f"--rover must be a rover id from 1 to {MAX_ROVERS}, got {clip(str(rover), 40)}")
     try:
         return codec.checked(m.GroundCommand(request_id=uuid.uuid4().hex, command=command.replace("-", "_"),
                                              rover_id=rover, x=x, z=z, kind=kind, seconds=seconds))

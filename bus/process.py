@@ -26,10 +26,11 @@ from pathlib import Path
 from bus import heap
 from bus.errors import RouterUnreachable, UsageError
 from schemas.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_NO_ROUTER, EXIT_USAGE, LunarSimError
+from schemas.scenario_limits import clip
 
 __all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_NO_ROUTER", "EXIT_USAGE", "SHUTDOWN_DEADLINE_S",
-           "RouterUnreachable", "UsageError", "check_common_arguments", "freeze_start_up_heap", "main_for",
-           "one_blas_thread", "run_guarded", "setup_logging", "state_folder", "stop_on_signals"]
+           "RouterUnreachable", "UsageError", "check_common_arguments", "check_range", "freeze_start_up_heap",
+           "main_for", "one_blas_thread", "run_guarded", "setup_logging", "state_folder", "stop_on_signals"]
 
 
 SHUTDOWN_DEADLINE_S = 10.0
@@ -104,6 +105,20 @@ AT_LEAST = {"max_sim_time": (0.0, False), "time_scale": (0.0, True), "router_tim
             "start_timeout": (0.0, True), "duration": (0.0, False), "timeout": (0.0, True)}
 """Options several commands share, by destination: (bound, whether the bound itself is allowed). Checked before a
 command starts, so a negative ``--max-sim-time`` cannot start a mission that ends at once with a report."""
+AT_MOST = {"max_sim_time": 1e9, "time_scale": 1e6, "router_timeout": 1e6, "start_timeout": 1e6, "duration": 1e9,
+           "timeout": 1e6}
+"""Their upper bounds: no run lasts longer, and far larger counts of seconds overflow the conversions of clocks and
+timers (the platform's time_t)."""
+SMALLEST_SCALE = 1e-3
+"""``--time-scale`` is 0 (as fast as possible, where a command has that) or at least this, a thousandth of real
+time: 1e-20 failed the world on an overflow, and 1e-9 would not end a second in a lifetime."""
+
+
+def check_range(option: str, value: float, low: float, high: float) -> None:
+    """A command's own numeric option, within [low, high] or refused naming both."""
+    if not low <= value <= high:
+        shown = str(value) if isinstance(value, int) else f"{value:g}"
+        raise UsageError(f"{option} must be between {low:g} and {high:g}, got {clip(shown, 40)}")
 
 
 def check_common_arguments(args: argparse.Namespace) -> None:
@@ -119,6 +134,10 @@ def check_common_arguments(args: argparse.Namespace) -> None:
             if value < bound or (value == bound and not inclusive):
                 raise UsageError(f"--{name.replace('_', '-')} must be {'at least' if inclusive else 'more than'} "
                                  f"{bound:g}, got {value:g}")
+            if value > AT_MOST[name]:
+                raise UsageError(f"--{name.replace('_', '-')} must be at most {AT_MOST[name]:g}, got {value:g}")
+    if (scale := getattr(args, "time_scale", None)) is not None and 0 < scale < SMALLEST_SCALE:
+        raise UsageError(f"--time-scale must be 0 or at least {SMALLEST_SCALE:g}, got {scale:g}")
     if (port := getattr(args, "port", None)) is not None and not 0 < port < 65536:
         raise UsageError(f"--port must be between 1 and 65535, got {port}")
     if getattr(args, "world", None) is not None:

@@ -49,6 +49,10 @@ class BatchSpec:
     max_sim_time: float = 900.0
     time_scale: float = 4.0
 
+MAX_RUNS = 100_000
+"""Runs in a batch at most, here or collected from a Kubernetes Job: a table of more says nothing more, and a
+hundred million expected runs took collect-batch minutes of listing the missing ones."""
+
 
 def run_batch(spec: BatchSpec) -> int:
     """Every run, ``spec.jobs`` at a time; batch.json written and Table 2 printed. 1 if no run gave a report."""
@@ -56,6 +60,9 @@ def run_batch(spec: BatchSpec) -> int:
 
     if spec.runs < 1 or spec.jobs < 1:
         raise process.UsageError("--runs and --jobs must be at least 1")
+    process.check_range("--runs", spec.runs, 1, MAX_RUNS)
+    if spec.time_scale <= 0 and not (spec.lockstep or spec.in_process):
+        raise process.UsageError(f"--time-scale must be positive without --lockstep, got {spec.time_scale:g}")
     if not 0 <= spec.seed <= SEED_LIMIT - spec.runs:
         raise process.UsageError(f"--seed must be at least 0 and leave every run's seed (BASE + i, {spec.runs} runs) "
                                  f"below 2**63, got {spec.seed}")

@@ -16,6 +16,7 @@ from bus.process import UsageError
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace
+from schemas.scenario_limits import MAX_ROVERS, clip
 
 log = logging.getLogger("lunarsim.rover")
 ID_MODES = ("auto", "ordinal")
@@ -28,9 +29,9 @@ def parse_id(text: str) -> int | str:
     text = text.strip()
     if text in ID_MODES:
         return text
-    if text.isascii() and text.isdigit() and int(text) >= 1:
+    if text.isascii() and text.isdigit() and 1 <= int(text) <= MAX_ROVERS:
         return int(text)
-    raise ValueError(f"rover id must be a number from 1 (rover ids start at 1), 'auto' or 'ordinal'; got {text!r}")
+    raise ValueError(f"rover id must be a number from 1 to {MAX_ROVERS}, 'auto' or 'ordinal'; got {clip(text, 40)!r}")
 
 
 MAX_AGENTS_PER_PROCESS = 1000
@@ -46,8 +47,9 @@ def parse_ids(text: str) -> list[int]:
             high = int(last) if dash else low
         except ValueError:
             raise ValueError(f"--ids {text!r}: {part.strip()!r} is not an id or a range like 1-250") from None
-        if low < 1 or high < low:
-            raise ValueError(f"--ids {text!r}: {part.strip()!r} must be ids from 1, low-high with low <= high")
+        if low < 1 or high < low or high > MAX_ROVERS:
+            raise ValueError(f"--ids {clip(text, 40)!r}: {clip(part.strip(), 40)!r} must be ids from 1 to "
+                             f"{MAX_ROVERS}, low-high with low <= high")
         ids.extend(range(low, high + 1))
     if len(set(ids)) != len(ids):
         raise ValueError(f"--ids {text!r} names some rover twice")

@@ -43,6 +43,11 @@ class FoxgloveFile:
         return self.schemas[schema.name]
 
 
+MAX_TERRAIN_CELLS = 2048
+"""Terrain mesh nodes along the longer side at most: 2,048 squared is four million vertices, more than a viewer
+draws smoothly; 100,000 asked for 70 GB."""
+
+
 def export_foxglove(source: Recording, target: Path, scenario: Scenario | None, keep_raw: bool = False,
                     trail_points: int = 300, terrain_cells: int = 128, progress: bool = False) -> dict[str, int]:
     """Convert a checked recording (its LunarSim keys only); written to a temporary file first, so a failure leaves

@@ -34,10 +34,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from deploy.batch import MAX_RUNS
     from deploy.batch_collect import collect_batch
 
-    if args.runs is not None and args.runs < 1:
-        raise process.UsageError(f"--runs must be at least 1, got {args.runs}")
+    if args.runs is not None:
+        process.check_range("--runs", args.runs, 1, MAX_RUNS)
     if not args.folder.is_dir():
         raise process.UsageError(f"{args.folder}: no such folder")
     return collect_batch(args.folder, args.runs, args.out)

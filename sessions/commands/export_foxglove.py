@@ -30,8 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from sessions.export_input import recording_to_export
-    from sessions.foxglove_export import export_foxglove
+    from sessions.foxglove_export import MAX_TERRAIN_CELLS, export_foxglove
 
+    process.check_range("--terrain-cells", args.terrain_cells, 2, MAX_TERRAIN_CELLS)
     check_paths(args.input, args.output)
     recording, scenario = recording_to_export(args.input, args.scenario, "exporting without terrain and obstacles")
     counts = export_foxglove(recording, args.output, scenario, keep_raw=args.keep_raw,

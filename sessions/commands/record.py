@@ -56,6 +56,9 @@ def run(args: argparse.Namespace) -> int:
         raise process.UsageError(f"--world: {exc}") from None
     if args.output.suffix != ".mcap":
         raise process.UsageError(f"{args.output}: the output file must end in .mcap")
+    for option, seconds in (("--snapshot", args.snapshot), ("--split-duration", args.split_duration)):
+        if seconds is not None:
+            process.check_range(option, seconds, 0.1, 1e9)
     if args.snapshot is not None and (args.split_size or args.split_duration):
         raise process.UsageError("--snapshot writes one file per trigger: it cannot be combined with --split-*")
     args.output.parent.mkdir(parents=True, exist_ok=True)

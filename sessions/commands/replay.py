@@ -44,10 +44,8 @@ def run(args: argparse.Namespace) -> int:
     from schemas.keyspace import check_world_name
     from sessions.playback import ReplaySpec, open_recording, replay
 
-    if args.rate <= 0:
-        raise process.UsageError(f"--rate must be positive, got {args.rate:g}")
-    if args.start_offset < 0:
-        raise process.UsageError(f"--start-offset must not be negative, got {args.start_offset:g}")
+    process.check_range("--rate", args.rate, 1e-3, 1e6)
+    process.check_range("--start-offset", args.start_offset, 0.0, 1e9)
     try:
         target = check_world_name(args.remap_world) if args.remap_world else None
     except ValueError as exc:

@@ -20,7 +20,8 @@ def test_parse_ids_reads_ids_and_ranges(text, ids):
 
 @pytest.mark.parametrize(("text", "problem"), [("0-3", "from 1"), ("5-2", "low <= high"), ("a-b", "not an id"),
                                                ("1-3,2", "twice"), ("", "not an id"),
-                                               (f"1-{MAX_AGENTS_PER_PROCESS + 1}", "at most")])
+                                               (f"1-{MAX_AGENTS_PER_PROCESS + 1}", "from 1 to 1000"),
+                                               ("1-99999999999999", "from 1 to 1000"), ("1001", "from 1 to 1000")])
 def test_parse_ids_names_what_is_wrong(text, problem):
     with pytest.raises(ValueError, match=problem):
         parse_ids(text)

@@ -92,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
         raise process.UsageError(str(exc)) from None
     if args.port is None:
         args.port = 8765 if args.foxglove else 8080
+    process.check_range("--timeline", args.timeline, 1.0, 1e9)
     if not args.foxglove:
         from web.view import WebSpec, serve_web
 
