@@ -6,6 +6,9 @@ from __future__ import annotations
 import hashlib
 from collections import OrderedDict
 
+MAX_SHARE = 0.5
+"""The most a run may lose (``--fault-loss``): past half, a link is down rather than lossy, and a mission's final
+report, sent again each second, waited minutes for a send that went through (at 0.99)."""
 HISTORY = 16
 """Payloads remembered per key. A sample sent again (a clock, an action's end, a final report) draws anew each
 time only while it is remembered; one resent after this many other payloads on its key would draw as it did

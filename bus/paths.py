@@ -26,6 +26,15 @@ def output_file(text: str) -> Path:
     return path
 
 
+def new_file(text: str) -> Path:
+    """A file the command creates, where none is: a recording or a scenario replaced by the command's output is
+    lost (``record -o`` over a recording left an empty one)."""
+    path = output_file(text)
+    if path.exists():
+        raise argparse.ArgumentTypeError(f"{clip(text)} already exists; remove it or give another path")
+    return path
+
+
 def output_folder(text: str) -> Path:
     """A folder the command creates or writes into: absent, or a folder."""
     path = _named(text)

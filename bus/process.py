@@ -25,6 +25,7 @@ from pathlib import Path
 
 from bus import heap
 from bus.errors import RouterUnreachable, UsageError
+from bus.loss import MAX_SHARE
 from schemas.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_NO_ROUTER, EXIT_USAGE, LunarSimError
 from schemas.scenario_limits import clip
 
@@ -136,6 +137,8 @@ def check_common_arguments(args: argparse.Namespace) -> None:
                                  f"{bound:g}, got {value:g}")
             if value > AT_MOST[name]:
                 raise UsageError(f"--{name.replace('_', '-')} must be at most {AT_MOST[name]:g}, got {value:g}")
+    if (loss := getattr(args, "fault_loss", None)) is not None:
+        check_range("--fault-loss", loss, 0.0, MAX_SHARE)
     if (scale := getattr(args, "time_scale", None)) is not None and 0 < scale < SMALLEST_SCALE:
         raise UsageError(f"--time-scale must be 0 or at least {SMALLEST_SCALE:g}, got {scale:g}")
     if (port := getattr(args, "port", None)) is not None and not 0 < port < 65536:

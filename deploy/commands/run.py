@@ -14,14 +14,8 @@ import argparse
 from pathlib import Path
 
 from bus import paths, priority, process
+from bus.loss import MAX_SHARE
 from bus.zenoh_config import DEFAULT_PORT
-
-
-def _share(text: str) -> float:
-    value = float(text)
-    if not 0.0 <= value < 1.0:
-        raise argparse.ArgumentTypeError(f"must be at least 0 and below 1, got {text}")
-    return value
 
 
 def _positive(text: str) -> int:
@@ -67,9 +61,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "$ROS_DOMAIN_ID (default 0): the rovers' topics for ROS 2 nodes on rmw_zenoh")
     parser.add_argument("--external", metavar="IDS", help="rovers an outside ROS 2 node drives, e.g. 1 or 1,3: no "
                         "agent is started for them and the ROS 2 bridge runs with --drive IDS (real time only)")
-    parser.add_argument("--fault-loss", type=_share, default=0.0, metavar="P",
-                        help="fault injection: the world drops this share (0-1) of the samples it publishes, as a "
-                             "bad link would (seeded by the scenario's seed); to test what the agents survive")
+    parser.add_argument("--fault-loss", type=float, default=0.0, metavar="P",
+                        help=f"fault injection: the world drops this share (0-{MAX_SHARE:g}) of the samples it "
+                             "publishes, as a bad link would (seeded by the scenario's seed); to test what the agents "
+                             "survive")
 
 
 def run(args: argparse.Namespace) -> int:

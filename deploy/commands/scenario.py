@@ -20,13 +20,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> dict[str, argparse.Argumen
     listing = sub.add_parser("list", help="the scenarios that come with LunarSim, by the name any command takes")
     imp = sub.add_parser("import", help="scenario YAML from a LunarSim scenario-editor profile (JSON)")
     imp.add_argument("profile", type=Path, help="the editor profile (JSON)")
-    imp.add_argument("-o", "--output", type=paths.output_file, required=True,
+    imp.add_argument("-o", "--output", type=paths.new_file, required=True,
                      metavar="FILE.yaml", help="the scenario to write")
     imp.add_argument("--name", help="scenario name (default: the profile's file name)")
     imp.add_argument("--seed", type=int, default=0, help="the scenario's seed (default 0)")
     exp = sub.add_parser("export", help="scenario-editor profile (JSON) from a scenario YAML")
     exp.add_argument("scenario", type=Path, help="scenario YAML")
-    exp.add_argument("-o", "--output", type=paths.output_file, required=True,
+    exp.add_argument("-o", "--output", type=paths.new_file, required=True,
                      metavar="FILE.json", help="the profile to write")
     chk = sub.add_parser("check", help="validate a scenario file, and the terrain mesh and behaviour it names; "
                          "summarise it")
@@ -35,7 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> dict[str, argparse.Argumen
     gen.add_argument("--seed", type=int, required=True, metavar="N", help="the same seed gives the same scenario")
     gen.add_argument("--kind", help="the family: crater, traverse, maze or daisy (default: drawn from the seed "
                      "too); checked by the generator, which lists them")
-    gen.add_argument("-o", "--output", type=paths.output_file, required=True,
+    gen.add_argument("-o", "--output", type=paths.new_file, required=True,
                      metavar="FILE.yaml", help="the scenario to write")
     return {"list": listing, "import": imp, "export": exp, "check": chk, "generate": gen}
 

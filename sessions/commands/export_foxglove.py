@@ -18,7 +18,7 @@ from bus import paths, process
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", type=Path, metavar="IN.mcap", help="a LunarSim recording")
-    parser.add_argument("-o", "--output", type=paths.output_file, required=True, metavar="OUT.mcap",
+    parser.add_argument("-o", "--output", type=paths.new_file, required=True, metavar="OUT.mcap",
                         help="the Foxglove recording to write")
     parser.add_argument("--scenario", type=Path, metavar="FILE", help="scenario to draw (default: the one "
                         "embedded in the recording)")

@@ -15,7 +15,7 @@ from bus.zenoh_config import add_zenoh_arguments
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("-o", "--output", type=paths.output_file, required=True, metavar="FILE.mcap",
+    parser.add_argument("-o", "--output", type=paths.new_file, required=True, metavar="FILE.mcap",
                         help="the session file to write")
     parser.add_argument("--world", default="default", help="world name in the keyspace (default: default)")
     parser.add_argument("--topics", nargs="+", metavar="GLOB", help="record only keys matching these globs")

@@ -11,7 +11,7 @@ from bus import paths, process
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("broken", type=Path, metavar="BROKEN.mcap",
                         help="a recording cut short (its recorder was killed, or the disk filled)")
-    parser.add_argument("-o", "--output", type=paths.output_file, required=True, metavar="FIXED.mcap",
+    parser.add_argument("-o", "--output", type=paths.new_file, required=True, metavar="FIXED.mcap",
                         help="where to write what could be read of it")
 
 
