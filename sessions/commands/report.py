@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from bus import paths, process
+from schemas.scenario_limits import clip
 
 if TYPE_CHECKING:
     from sessions.recording import Recording
@@ -40,6 +41,9 @@ def run(args: argparse.Namespace) -> int:
     from sessions.recording import check_recording
     from sessions.report import NothingToReport, report_from_samples
     from sessions.summary import summary_table
+
+    if args.plot is not None and args.plot.suffix.lower() != ".png":
+        raise process.UsageError(f"--plot {clip(str(args.plot))}: the plot is a PNG; give a path ending in .png")
 
     recording = check_recording(args.input)
     scenario = load_scenario(args.scenario) if args.scenario else embedded_scenario(recording.metadata,

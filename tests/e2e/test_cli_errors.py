@@ -161,6 +161,8 @@ def _cases(d: Path) -> list[Case]:
              "garbage.mcap already exists; remove it or give another path"),
         Case("a scenario over a scenario", ("scenario", "generate", "--seed", "1", "-o", str(d / "broken.yaml")),
              "broken.yaml already exists"),
+        Case("a plot that is no PNG", ("report", str(d / "garbage.mcap"), "--plot", str(d / "plot.txt")),
+             "the plot is a PNG; give a path ending in .png"),
         Case("a link that loses nearly all", (*run("r27"), SCENARIO, "--fault-loss", "0.99"),
              "--fault-loss must be between 0 and 0.5, got 0.99"),
         Case("world name with '/' and '*'", (*run("r13"), SCENARIO, "--world", "a/b*"), "invalid world name 'a/b*'"),
