@@ -49,6 +49,7 @@ class BatchSpec:
     max_sim_time: float = 900.0
     time_scale: float = 4.0
 
+
 MAX_RUNS = 100_000
 """Runs in a batch at most, here or collected from a Kubernetes Job: a table of more says nothing more, and a
 hundred million expected runs took collect-batch minutes of listing the missing ones."""
