@@ -35,6 +35,15 @@ def new_file(text: str) -> Path:
     return path
 
 
+def output_path(text: str) -> Path:
+    """A file or a folder, as the command's other arguments decide: absent, a regular file or a folder."""
+    path = _named(text)
+    mode = _mode(path)
+    if mode is not None and not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        raise argparse.ArgumentTypeError(f"{clip(text)} is neither a regular file nor a folder ({_kind(mode)})")
+    return path
+
+
 def output_folder(text: str) -> Path:
     """A folder the command creates or writes into: absent, or a folder."""
     path = _named(text)

@@ -26,6 +26,7 @@ from bus import priority, process
 from bus.zenoh_config import DEFAULT_PORT
 from deploy.agent_lag import AgentLag
 from deploy.rover_groups import groups
+from schemas.scenario_limits import clip
 
 if TYPE_CHECKING:
     from schemas.scenario import Scenario
@@ -67,6 +68,9 @@ def launch(scenario: Scenario, options: LaunchOptions, out: Path | None = None) 
     if not options.connect:
         check_port_free(options.port)  # before the run folder is made: a run that cannot start leaves nothing
     out = out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
+    if held := [name for name in ("report.json", SESSION_FILE) if (out / name).exists()]:
+        raise process.UsageError(f"{clip(str(out))} already holds a run ({', '.join(held)}): choose another --out, so "
+                                 "no run replaces another's recording and report")
     out.mkdir(parents=True, exist_ok=True)
     scenario_file = out / "scenario.yaml"
     scenario_file.write_text(dump_scenario(scenario))
@@ -105,7 +109,7 @@ def base_scenario(scenario: Path | None, recording: Path | None) -> Scenario:
     from sessions.format import scenario_for
 
     if not recording.is_file():
-        raise process.UsageError(f"{recording}: no such file")
+        raise process.UsageError(f"{recording}: " + ("not a regular file" if recording.exists() else "no such file"))
     found = scenario_for(recording, None)
     if found is None:
         raise process.UsageError(f"{recording} embeds no scenario: it cannot be re-run")

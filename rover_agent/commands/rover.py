@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 from bus import paths, process
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+from schemas.scenario_limits import clip
 
 if TYPE_CHECKING:
     from schemas import messages as m
@@ -37,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--behaviour", default="default", metavar="NAME",
                         help="behaviour by name: default, straight, an installed plugin, or package.module:Class")
     state = parser.add_mutually_exclusive_group()
-    state.add_argument("--state", type=paths.output_file, metavar="FILE",
+    state.add_argument("--state", type=paths.output_path, metavar="FILE",
                        help="keep the dead-reckoned pose and the action in flight here, so a restarted agent takes "
                             "its rover again where it is (with --ids: a folder, one rover<N>.json per agent; "
                             "default: $XDG_STATE_HOME/lunarsim/<world>/rover<N>.json, ~/.local/state without it)")
@@ -55,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.id is None and args.ids is None:
         raise process.UsageError("give the rover's --id (or set LUNARSIM_ROVER_ID), or --ids for several agents")
+    if args.state is not None and (args.state.is_dir() if args.ids is None else args.state.is_file()):
+        raise process.UsageError(f"--state {clip(str(args.state))}: with --ids a folder, with --id a file")
     try:
         if args.ids is not None:
             rover_ids: list[int | str] = list(identity.parse_ids(args.ids))

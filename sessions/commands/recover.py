@@ -19,7 +19,8 @@ def run(args: argparse.Namespace) -> int:
     from sessions.recover import NotARecording, recover
 
     if not args.broken.is_file():
-        raise process.UsageError(f"{args.broken}: no such file")
+        problem = "not a regular file" if args.broken.exists() else "no such file"
+        raise process.UsageError(f"{args.broken}: {problem}")
     if args.output.resolve() == args.broken.resolve():
         raise process.UsageError("write the recovered file somewhere else than the broken one")
     try:

@@ -144,7 +144,7 @@ def _cases(d: Path) -> list[Case]:
         Case("a device as the world's state", ("world", SCENARIO, "--state", "/dev/zero"),
              "argument --state: /dev/zero is not a regular file (a character device)"),
         Case("a FIFO as a rover's state", ("rover", "--id", "1", "--state", str(d / "fifo.yaml")),
-             "is not a regular file (a FIFO)"),
+             "is neither a regular file nor a folder (a FIFO)"),
         Case("a FIFO as the report's JSON", ("report", str(d / "garbage.mcap"), "--json", str(d / "fifo.yaml")),
              "argument --json:"),
         Case("a folder as a recording", ("record", "-o", str(d / "a_folder")), "a_folder is a folder; give a file"),
@@ -236,6 +236,18 @@ def test_bad_input_is_named_without_a_traceback(outcomes, name):
     assert "Traceback" not in out.output, out.output
     if "--out" in case.args and (folder := case.args[case.args.index("--out") + 1]):
         assert not Path(folder).exists(), f"a run folder was left:\n{out.output}"
+
+
+def test_a_run_folder_that_holds_a_run_is_refused_and_left_as_it_was(tmp_path):
+    """A second ``lunarsim run --out`` into a finished run's folder would replace its recording and report."""
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "report.json").write_text('{"kept": true}\n')
+    proc = lunarsim("run", "--out", str(out), "--port", str(free_port()), SCENARIO, env=ENV)
+    _, stderr = proc.communicate(timeout=HUNG_S)
+    assert proc.returncode == EXIT_USAGE and "already holds a run (report.json): choose another --out" in stderr
+    assert sorted(p.name for p in out.iterdir()) == ["report.json"]
+    assert (out / "report.json").read_text() == '{"kept": true}\n'
 
 
 def test_the_error_is_one_line(outcomes):

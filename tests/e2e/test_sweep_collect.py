@@ -214,7 +214,7 @@ def test_a_seed_twice_counts_once(sweep, tmp_path):
 def test_bad_input_exits_2_with_one_line(sweep, tmp_path):
     folder = _copy(sweep, tmp_path)
     cases = [((str(tmp_path / "nowhere"),), "no such folder"), ((str(tmp_path),), "holds no run folders"),
-             ((str(folder), "--runs", "0"), "--runs must be at least 1"),
+             ((str(folder), "--runs", "0"), "--runs must be between 1 and"),
              ((str(folder), "--out", str(tmp_path / "no" / "batch.json")), "no/batch.json: No such file")]
     for args, message in cases:
         _exits_2(args, message)

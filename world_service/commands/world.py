@@ -12,6 +12,7 @@ import zenoh
 from bus import paths, process
 from bus.loss import MAX_SHARE
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_router, open_session
+from schemas.scenario_limits import clip
 
 if TYPE_CHECKING:
     from schemas.keyspace import Keyspace
@@ -90,6 +91,9 @@ def run(args: argparse.Namespace) -> int:
 def _check(args: argparse.Namespace) -> None:
     if args.time_scale < 0:
         raise process.UsageError(f"--time-scale must be 0 or more, got {args.time_scale}")
+    if args.report is not None and not args.report.parent.is_dir():  # else found only once the mission is over
+        raise process.UsageError(f"--report {clip(str(args.report))}: there is no folder "
+                                 f"{clip(str(args.report.parent))}")
 
 
 def _check_twin(args: argparse.Namespace) -> None:

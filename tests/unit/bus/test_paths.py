@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from bus.paths import output_file, output_folder
+from bus.paths import output_file, output_folder, output_path
 
 
 @pytest.fixture
@@ -22,7 +22,8 @@ def things(tmp_path) -> dict[str, Path]:
 
 
 @pytest.mark.parametrize(("check", "accepted"), [(output_file, {"file", "missing"}),
-                                                 (output_folder, {"folder", "missing"})])
+                                                 (output_folder, {"folder", "missing"}),
+                                                 (output_path, {"file", "folder", "missing"})])
 def test_only_a_plain_file_or_folder_or_a_new_path_is_taken(things, check, accepted):
     for name, path in things.items():
         if name in accepted:
@@ -32,7 +33,7 @@ def test_only_a_plain_file_or_folder_or_a_new_path_is_taken(things, check, accep
                 check(str(path))
 
 
-@pytest.mark.parametrize("check", [output_file, output_folder])
+@pytest.mark.parametrize("check", [output_file, output_folder, output_path])
 @pytest.mark.parametrize("text", ["", "   "])
 def test_an_empty_path_is_refused_rather_than_read_as_the_working_folder(check, text):
     with pytest.raises(argparse.ArgumentTypeError, match="empty path"):
