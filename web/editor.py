@@ -83,6 +83,14 @@ class Workspace:
         return sorted(p.stem for p in self.folder.glob("*.yaml")) if self.folder.is_dir() else []
 
 
+def run_folder(runs: Path, name: str, now: dt.datetime) -> Path:
+    """A new folder for a launch, named by the scenario and the second; a second launch within that second gets a
+    number (``lunarsim run`` refuses a folder that holds a run)."""
+    stamp = f"{name}-web-{now:%Y%m%d-%H%M%S}"
+    return next(runs / f"{stamp}{suffix}" for suffix in ("", *(f"-{n}" for n in range(2, 10**6)))
+                if not (runs / f"{stamp}{suffix}").exists())
+
+
 class Launcher:
     """``lunarsim run`` for a scenario built in the editor, on the viewer's router and world; one at a time."""
 
@@ -101,7 +109,7 @@ class Launcher:
             raise ScenarioError("a launched mission is still running: stop it first")
         if not 0 < time_scale <= 1000:
             raise ScenarioError(f"time scale must be in (0, 1000], got {time_scale}")
-        self.out = self.runs / f"{name}-web-{dt.datetime.now():%Y%m%d-%H%M%S}"
+        self.out = run_folder(self.runs, name, dt.datetime.now())
         self.out.mkdir(parents=True, exist_ok=True)
         log = (self.out / "launch.log").open("w")
         self.proc = subprocess.Popen(

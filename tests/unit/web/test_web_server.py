@@ -374,3 +374,16 @@ def test_uploads_beyond_the_scenario_limits_are_refused_with_a_short_error(tmp_p
     assert len(bomb_err["error"]) < 200 and len(big_err["error"]) < 200
     assert many == 400 and f"at most {MAX_ROCKS:,}" in many_err["error"] and "scene" not in many_err
     assert broken == 400 and broken_err["error"] == "request body is not JSON"
+
+
+def test_two_launches_within_a_second_get_two_run_folders(tmp_path):
+    """``lunarsim run`` refuses a folder that holds a run: a relaunch within the same second needs its own."""
+    import datetime as dt
+
+    now = dt.datetime(2026, 11, 29, 20, 4, 12)
+    folders = []
+    for _ in range(3):
+        folders.append(editor.run_folder(tmp_path, "crater", now))
+        folders[-1].mkdir()
+    assert [f.name for f in folders] == ["crater-web-20261129-200412", "crater-web-20261129-200412-2",
+                                         "crater-web-20261129-200412-3"]
