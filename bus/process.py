@@ -141,8 +141,8 @@ def check_common_arguments(args: argparse.Namespace) -> None:
         check_range("--fault-loss", loss, 0.0, MAX_SHARE)
     if (scale := getattr(args, "time_scale", None)) is not None and 0 < scale < SMALLEST_SCALE:
         raise UsageError(f"--time-scale must be 0 or at least {SMALLEST_SCALE:g}, got {scale:g}")
-    if (port := getattr(args, "port", None)) is not None and not 0 < port < 65536:
-        raise UsageError(f"--port must be between 1 and 65535, got {port}")
+    if (port := getattr(args, "port", None)) is not None:
+        check_range("--port", port, 1, 65535)
     if getattr(args, "world", None) is not None:
         try:
             check_world_name(args.world)

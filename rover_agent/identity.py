@@ -40,21 +40,22 @@ MAX_AGENTS_PER_PROCESS = 1000
 def parse_ids(text: str) -> list[int]:
     """``--ids``: rover ids and ranges, ``1-250`` or ``1,3,7-9``; each id once, from 1."""
     ids: list[int] = []
+    shown = repr(clip(text, 40))
     for part in text.split(","):
         first, dash, last = part.strip().partition("-")
         try:
             low = int(first)
             high = int(last) if dash else low
         except ValueError:
-            raise ValueError(f"--ids {text!r}: {part.strip()!r} is not an id or a range like 1-250") from None
+            raise ValueError(f"--ids {shown}: {clip(part.strip(), 40)!r} is not an id or a range like 1-250") from None
         if low < 1 or high < low or high > MAX_ROVERS:
-            raise ValueError(f"--ids {clip(text, 40)!r}: {clip(part.strip(), 40)!r} must be ids from 1 to "
+            raise ValueError(f"--ids {shown}: {clip(part.strip(), 40)!r} must be ids from 1 to "
                              f"{MAX_ROVERS}, low-high with low <= high")
         ids.extend(range(low, high + 1))
     if len(set(ids)) != len(ids):
-        raise ValueError(f"--ids {text!r} names some rover twice")
+        raise ValueError(f"--ids {shown} names some rover twice")
     if len(ids) > MAX_AGENTS_PER_PROCESS:
-        raise ValueError(f"--ids {text!r} names {len(ids)} rovers; one process runs at most {MAX_AGENTS_PER_PROCESS}")
+        raise ValueError(f"--ids {shown} names {len(ids)} rovers; one process runs at most {MAX_AGENTS_PER_PROCESS}")
     return ids
 
 

@@ -149,20 +149,15 @@ def load_state(path: Path) -> SavedState | None:
     regular file is opened (a FIFO would block the agent's start), and only its first ``RECORD_BYTES`` are
     read: a state is at most that, and a path to something endless (``/dev/zero``) filled the memory."""
     try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    except FileNotFoundError:
-        return None
-    except OSError as exc:
-        log.warning("ignoring the saved rover state in %s: %s", path, exc)
-        return None
-    try:
-        with os.fdopen(fd, "rb") as f:
+        with open(path, "rb", opener=lambda name, flags: os.open(name, flags | os.O_NONBLOCK)) as f:
             if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
                 raise ValueError("not a regular file")
             text = f.read(RECORD_BYTES + 1)
         if len(text) > RECORD_BYTES:
             raise ValueError(f"more than {RECORD_BYTES} bytes")
         return SavedState.from_json(text.decode())
+    except FileNotFoundError:
+        return None
     except (OSError, ValueError, KeyError, TypeError) as exc:
         log.warning("ignoring the saved rover state in %s: %s", path, exc)
         return None
