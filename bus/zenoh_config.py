@@ -83,6 +83,7 @@ def build_config(mode: str = "client", config_file: str | None = None, connect: 
     elif not path and mode == "client":
         conf.insert_json5("connect/endpoints", json.dumps([DEFAULT_ENDPOINT]))
     if listen:
+        _refuse_any_port(listen)
         _insert_endpoints(conf, "listen", listen)
     if scouting:
         conf.insert_json5("scouting/multicast/enabled", "true")
@@ -98,7 +99,18 @@ def _insert_endpoints(conf: zenoh.Config, which: str, endpoints: Sequence[str]) 
                          f"<protocol>/<address>, e.g. {DEFAULT_ENDPOINT})") from None
 
 
+def _refuse_any_port(listen: Sequence[str]) -> None:
+    """Port 0 lets the system choose one that Zenoh does not report back, so no client could be told where to
+    connect."""
+    for endpoint in listen:
+        if re.search(r":0+(?:[#?]|$)", endpoint):
+            raise UsageError(f"--listen {endpoint}: port 0 would listen on a port no client is told of; name a free "
+                             f"port (e.g. {DEFAULT_PORT})")
+
+
 def _load(path: str, origin: str) -> zenoh.Config:
+    if os.path.isdir(path):
+        raise UsageError(f"Zenoh config file {path!r} (from {origin}) is a folder, not a json5 file")
     if not os.path.isfile(path):
         raise UsageError(f"Zenoh config file {path!r} (from {origin}) does not exist")
     try:

@@ -17,13 +17,17 @@ from pathlib import Path
 from bus import process
 from deploy.behaviour_check import DEFAULT_SCENARIO
 
+SHORTEST_CHECK_S = 10.0
+"""A shorter mission ends before the rovers have driven, and a check of what they did would pass on nothing."""
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("behaviour", help="default, straight, an installed plugin, or package.module:Class")
     parser.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="for the short mission")
     parser.add_argument("--rovers", type=int, default=2, metavar="N", help="rovers in the short mission")
     parser.add_argument("--max-sim-time", type=float, default=300.0, metavar="S",
-                        help="simulated seconds each checking mission may last (default 300)")
+                        help=f"simulated seconds each checking mission may last (default 300, at least "
+                             f"{SHORTEST_CHECK_S:g})")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,6 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from rover_agent.registry import UnknownBehaviour, load_behaviour
     from schemas.scenario import load_scenario
 
+    process.check_range("--max-sim-time", args.max_sim_time, SHORTEST_CHECK_S, process.AT_MOST["max_sim_time"])
     problem = behaviour_problem(args.behaviour)
     if problem is not None:
         raise process.UsageError(problem)

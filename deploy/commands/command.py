@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
             return 0
         result = send_and_wait(bus, keys, command, args.timeout)
     if result is None:
-        print(f"no lander answered within {args.timeout:g} s (is one running in world {args.world!r}?)",
+        print(f"error: no lander answered within {args.timeout:g} s (is one running in world {args.world!r}?)",
               file=sys.stderr)
         return EXIT_NO_ANSWER
     print(("accepted: " if result.accepted else "refused: ") + result.detail)

@@ -14,13 +14,17 @@ import argparse
 
 from bus import process
 
+MAX_SLOPE_DEG = 89.0
+"""Ground at 90 degrees or beyond is a wall or an overhang, which the pitch the device reports cannot describe."""
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rocks", default=None, metavar="X,Z,R;...",
                         help="rocks around the start (x ahead-right frame, metres); 'none' for none; "
                              "default: three rocks off the line ahead")
     parser.add_argument("--slope", type=float, default=0.0, metavar="DEG",
-                        help="the ground rises towards the start heading at this angle (pitch follows heading)")
+                        help="the ground rises towards the start heading at this angle (pitch follows heading); "
+                             f"-{MAX_SLOPE_DEG:g} to {MAX_SLOPE_DEG:g}")
     parser.add_argument("--partners", default="0", metavar="IDS",
                         help="radio ids in range, comma separated (default 0, the lander); '-' for none")
     parser.add_argument("--no-radio", action="store_true", help="a device without a radio")
@@ -41,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
         partners = None if args.no_radio else p.parse_ids(args.partners)
     except p.GarbledLine as exc:
         raise process.UsageError(f"--partners: {exc}") from None
+    process.check_range("--slope", args.slope, -MAX_SLOPE_DEG, MAX_SLOPE_DEG)
     if args.garble_every < 0:
         raise process.UsageError(f"--garble-every must be 0 or more, got {args.garble_every}")
     emulator = build(rocks, args.slope, partners, camera=not args.no_camera, garble_every=args.garble_every)

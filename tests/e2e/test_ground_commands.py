@@ -105,7 +105,7 @@ def test_the_command_line_reaches_the_lander_and_reports_refusals(router, tmp_pa
         missing = lunarsim("command", "stop", "--rover", "1", "--world", "nobody", "--connect", router,
                            "--timeout", "1")
         out, err = missing.communicate(timeout=60)
-        assert missing.returncode == 4 and "no lander answered" in err
+        assert missing.returncode == 4 and "error: no lander answered" in err, err
     finally:
         stop(lander)
 
