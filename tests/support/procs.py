@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from bus.process import SHUTDOWN_DEADLINE_S
+
 REPO = Path(__file__).resolve().parents[2]
 SCENARIOS = REPO / "scenarios"
 USES_DEFAULT_PORT = pytest.mark.usefixtures("default_zenoh_port")
@@ -55,7 +57,7 @@ def stop(*procs: subprocess.Popen) -> None:
             p.send_signal(signal.SIGTERM)
     for p in procs:
         try:
-            p.wait(timeout=10)
+            p.wait(timeout=SHUTDOWN_DEADLINE_S + 5)  # past its own deadline: a hang prints its stacks
         except subprocess.TimeoutExpired:
             p.kill()
             p.wait()
