@@ -62,3 +62,7 @@ def code_version() -> dict:
 
     changed = [line[3:] for line in git("status", "--porcelain", "--untracked-files=no").splitlines()]
     return {"commit": git("rev-parse", "--short", "HEAD"), "uncommitted_changes": changed}
+
+
+if __name__ == "__main__":  # the machine's line alone, beside a figure measured without a benchmark (the suite's)
+    print(line(describe()))
