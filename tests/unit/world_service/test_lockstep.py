@@ -327,8 +327,8 @@ def test_the_camera_gives_way_in_a_real_time_crowd_only(crater_world):
 
 
 def _die_while_starting(*_args: object) -> None:
-    """A camera process that ends before it can answer anything, as one killed while it starts. Killing the real
-    one from the test raced its start: forked, it could answer before the signal came."""
+    """The camera's initializer, ending its process before it can answer any job: a signal from the test would race
+    the start of a forked camera, which can answer first."""
     os._exit(1)
 
 
