@@ -12,7 +12,7 @@ import argparse
 import stat
 from pathlib import Path
 
-from schemas.scenario_limits import clip
+from schemas.scenario_limits import clip, file_kind
 
 
 def output_file(text: str) -> Path:
@@ -22,7 +22,7 @@ def output_file(text: str) -> Path:
     if mode is not None and stat.S_ISDIR(mode):
         raise argparse.ArgumentTypeError(f"{clip(text)} is a folder; give a file's path")
     if mode is not None and not stat.S_ISREG(mode):
-        raise argparse.ArgumentTypeError(f"{clip(text)} is not a regular file ({_kind(mode)})")
+        raise argparse.ArgumentTypeError(f"{clip(text)} is not a regular file ({file_kind(mode)})")
     return path
 
 
@@ -40,7 +40,7 @@ def output_path(text: str) -> Path:
     path = _named(text)
     mode = _mode(path)
     if mode is not None and not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
-        raise argparse.ArgumentTypeError(f"{clip(text)} is neither a regular file nor a folder ({_kind(mode)})")
+        raise argparse.ArgumentTypeError(f"{clip(text)} is neither a regular file nor a folder ({file_kind(mode)})")
     return path
 
 
@@ -49,7 +49,7 @@ def output_folder(text: str) -> Path:
     path = _named(text)
     mode = _mode(path)
     if mode is not None and not stat.S_ISDIR(mode):
-        raise argparse.ArgumentTypeError(f"{clip(text)} is not a folder ({_kind(mode)})")
+        raise argparse.ArgumentTypeError(f"{clip(text)} is not a folder ({file_kind(mode)})")
     return path
 
 
@@ -66,9 +66,3 @@ def _mode(path: Path) -> int | None:
         return None
     except OSError as exc:  # a path through a file, too long a name, no permission
         raise argparse.ArgumentTypeError(f"{clip(str(path))}: {exc.strerror}") from None
-
-
-def _kind(mode: int) -> str:
-    kinds = ((stat.S_ISREG, "a file"), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"),
-             (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
-    return next((name for test, name in kinds if test(mode)), "not a file")

@@ -16,10 +16,7 @@ from pathlib import Path
 import yaml
 
 from schemas.scenario_errors import ScenarioError
-from schemas.scenario_limits import MAX_MESH_BYTES, MAX_SCENARIO_BYTES, MAX_YAML_NODES, clip, mesh_suffix
-
-_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-          (stat.S_ISSOCK, "a socket"))
+from schemas.scenario_limits import MAX_MESH_BYTES, MAX_SCENARIO_BYTES, MAX_YAML_NODES, clip, file_kind, mesh_suffix
 
 
 def file_problem(st: os.stat_result, limit: int) -> str | None:
@@ -27,8 +24,7 @@ def file_problem(st: os.stat_result, limit: int) -> str | None:
     if stat.S_ISDIR(st.st_mode):
         return "Is a directory"
     if not stat.S_ISREG(st.st_mode):
-        kind = next((name for test, name in _KINDS if test(st.st_mode)), "not a file")
-        return f"not a regular file ({kind})"
+        return f"not a regular file ({file_kind(st.st_mode)})"
     if st.st_size > limit:
         return f"{st.st_size:,} bytes, more than the {_size(limit)} allowed"
     return None

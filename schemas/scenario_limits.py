@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import re
+import stat
 
 MAX_ROVERS = 1000
 """Rovers in one scenario (``rovers``, ``--rovers``, ``spawn.rover_count``): each is an OS process's worth of
@@ -92,6 +93,15 @@ def clip(text: str, limit: int = MAX_ECHO_CHARS) -> str:
     """``text`` cut to ``limit`` characters and '...' when longer: how every error line about a scenario or a
     user's file repeats a value it was given."""
     return text if len(text) <= limit else text[:limit] + "..."
+
+
+_FILE_KINDS = ((stat.S_ISREG, "a file"), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"),
+               (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def file_kind(mode: int) -> str:
+    """What a path with this ``st_mode`` is, for the line that refuses it (a FIFO, a character device...)."""
+    return next((name for test, name in _FILE_KINDS if test(mode)), "not a file")
 
 
 def safe_name(name: str) -> str:
