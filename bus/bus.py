@@ -15,13 +15,16 @@ import queue
 import threading
 from collections import Counter
 from collections.abc import Callable, Iterable
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import zenoh
 
 from bus.loss import SeededLoss
 from schemas import codec
 from schemas import keyspace as ks
+
+if TYPE_CHECKING:
+    from bus.process import Stop
 
 _ATTACHED: set[int] = set()
 log = logging.getLogger("lunarsim.bus")
@@ -61,6 +64,10 @@ class Received(NamedTuple):
     alive: bool | None = None  # set for liveliness changes, None for data samples
 
 
+_WAKE = Received("", b"")
+"""Put by ``Inbox.wake``: ``get`` takes it as a timeout come early."""
+
+
 class Inbox:
     """What a process has received and not yet handled: in arrival order, bounded per key and in all.
 
@@ -97,9 +104,16 @@ class Inbox:
             log.warning("inbox full for %s: dropped %d sample(s) of %s so far (a publisher floods it)", key,
                         self.dropped[topic], topic)
 
+    def wake(self) -> None:
+        """End a ``get`` waiting now, or the next one, at once (as if its timeout had passed). Safe in a signal
+        handler, as ``SimpleQueue.put`` is."""
+        self._queue.put(_WAKE)
+
     def get(self, timeout: float | None) -> Received:
-        """Raises ``queue.Empty`` as ``SimpleQueue.get`` does."""
+        """Raises ``queue.Empty`` as ``SimpleQueue.get`` does, and when woken."""
         item = self._queue.get(timeout=timeout) if timeout is None or timeout > 0 else self._queue.get_nowait()
+        if item is _WAKE:
+            raise queue.Empty
         with self._lock:
             n = self._pending[item.key] - 1
             if n:
@@ -147,6 +161,10 @@ class Bus:
         most of what a lockstep tick costs it. Samples of one session still arrive in order, on one thread; the
         handler publishes from it, and never waits for anything but a congested link."""
         self._direct = handler
+
+    def wake_on(self, stop: Stop) -> None:
+        """``receive`` returns None as soon as ``stop`` is set, rather than at the end of its timeout."""
+        stop.also_wake(self.inbox.wake)
 
     def subscribe(self, key_expr: str) -> None:
         self._declared.append(self.session.declare_subscriber(key_expr, zenoh_callback(self._on_sample)))

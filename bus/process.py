@@ -20,7 +20,7 @@ import signal
 import sys
 import threading
 import traceback
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from bus import heap
@@ -30,7 +30,7 @@ from schemas.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_NO_ROUTER, EXIT_U
 from schemas.scenario_limits import clip
 
 __all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_NO_ROUTER", "EXIT_USAGE", "SHUTDOWN_DEADLINE_S",
-           "RouterUnreachable", "UsageError", "check_common_arguments", "check_range", "freeze_start_up_heap",
+           "RouterUnreachable", "Stop", "UsageError", "check_common_arguments", "check_range", "freeze_start_up_heap",
            "main_for", "one_blas_thread", "run_guarded", "setup_logging", "state_folder", "stop_on_signals"]
 
 
@@ -41,8 +41,30 @@ STDERR_FD = 2
 without a descriptor."""
 
 
+class Stop(threading.Event):
+    """A request to stop (a signal, or a thread of the process giving up) that also wakes what waits on something
+    other than the event: a loop blocked on its inbox (``Bus.wake_on``) would notice only at its timeout, and a
+    mission's way out waits for its slowest process (the lander's fifth of a second was a tenth of a lockstep run).
+
+    A waker must be safe to call from a signal handler on any thread, as ``queue.SimpleQueue.put`` is."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._wakers: list[Callable[[], None]] = []
+
+    def also_wake(self, waker: Callable[[], None]) -> None:
+        self._wakers.append(waker)
+        if self.is_set():  # set before it was registered: it must not sleep out its timeout either
+            waker()
+
+    def set(self) -> None:
+        super().set()
+        for waker in self._wakers:
+            waker()
+
+
 @contextlib.contextmanager
-def stop_on_signals(deadline_s: float | None = None) -> Iterator[threading.Event]:
+def stop_on_signals(deadline_s: float | None = None) -> Iterator[Stop]:
     """An event set by SIGINT or SIGTERM, so loops finish their iteration and clean up.
 
     With ``deadline_s``, the process ends that long after the first signal even if its clean-up never returns
@@ -51,7 +73,7 @@ def stop_on_signals(deadline_s: float | None = None) -> Iterator[threading.Event
     own watchdog thread (``faulthandler``), which needs no lock a hung thread could hold; it writes every
     thread's stack to stderr (the process's log) and exits with status 1, so the hang is reported, with where
     it was, rather than hidden."""
-    stop = threading.Event()
+    stop = Stop()
 
     def _handler(signum: int, frame: object) -> None:
         if deadline_s is not None and not stop.is_set():  # nothing printed here: a handler can interrupt a print

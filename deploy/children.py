@@ -35,7 +35,7 @@ class Children:
     preload: tuple[str, ...] = ()
     """What the warm server imports before it forks (``start(..., warm=True)``, see ``deploy.warm_start``)."""
 
-    def start(self, name: str, module: str, *args: str, warm: bool = False,
+    def start(self, name: str, module: str, *args: str, warm: bool = False, forked: bool = False,
               priority: Priority = "equal", prefix: tuple[str, ...] = ()) -> subprocess.Popen | WarmProcess:
         """``python -m module args``, logging into ``<log_dir>/<name>.log``; ``warm``: forked from the warm
         server, for the many agents of one run, which would otherwise each spend their start importing;
@@ -43,6 +43,12 @@ class Children:
         command that runs it, such as ``ip netns exec NS`` for another network namespace (never warm: the warm
         server's children share its namespaces)."""
         self.log_dir.mkdir(parents=True, exist_ok=True)
+        if forked and not prefix:
+            from deploy import warm_start
+
+            if (proc := warm_start.fork_here(module, args, self.log_dir / f"{name}.log", priority)) is not None:
+                self.procs[name] = proc
+                return proc
         if warm and not prefix:
             from deploy import warm_start
 

@@ -118,6 +118,16 @@ MAP_FIGURE_MODULES = ("lander_agent.mapping", "world_service.outcome.map_truth")
 """What ``with_map_figures`` imports (NumPy among them): a fifth of a second here."""
 
 
+def warm_up() -> None:
+    """Start the rover agents' warm server (``deploy.warm_start``) before the launcher loads its scenario: the
+    server's imports then take the other core while the launcher's own do, instead of while the world starts."""
+    from deploy import warm_start
+    from rover_agent.commands.rover import PRELOAD
+
+    if warm_start.available():
+        warm_start.prestart(PRELOAD)
+
+
 def import_map_figures_meanwhile() -> None:
     """Import what ``with_map_figures`` needs on a thread of its own while the mission runs, on a core the
     lockstep mission leaves mostly idle, instead of after the mission, where the command waits for it."""
@@ -235,7 +245,8 @@ class Mission:
         from deploy.children import wait_for_port
 
         check_port_free(self.options.port)
-        world = self.children.start("world", "world_service", *self._world_args(), "--listen", self.endpoint)
+        world = self.children.start("world", "world_service", *self._world_args(), "--listen", self.endpoint,
+                                    forked=True)
         if not wait_for_port("127.0.0.1", self.options.port, START_TIMEOUT_S, world):
             raise RuntimeError(f"the world did not open {self.endpoint}: {self.children.log_tail('world')}")
 
@@ -291,6 +302,7 @@ class Mission:
         session = self._open_session(open_session, build_config)
         start_up = StartUp(len(self.scenario.rovers), keys.alive_lander)
         with Bus(session) as bus, ProgressView(self.console, self.scenario.name, self.options.quiet) as view:
+            bus.wake_on(stop)  # Ctrl-C answered at once, not at the view's next refresh
             bus.watch_liveliness(keys.alive_rovers)
             bus.watch_liveliness(keys.alive_lander)
             bus.subscribe(keys.stats)

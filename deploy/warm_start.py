@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib.machinery
+import logging
 import multiprocessing
 import os
 import runpy
@@ -61,6 +62,10 @@ def _child(module: str, args: list[str], log_path: str, priority: Priority) -> N
     _let_go_of_server()
     die_with_parent()
     signal.signal(signal.SIGINT, signal.default_int_handler)  # the server ignores Ctrl-C; an agent must not
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # forked from the launcher: not the launcher's handler
+    logging.root.handlers.clear()  # forked from the launcher: the program sets up its own log
+    # "daemon" only tells the launcher not to wait for it at exit; the program may start processes of its own
+    multiprocessing.current_process().daemon = False
     if not lowered:
         print(f"note: could not lower this process to CPU priority {priority!r}; it runs at the default",
               file=sys.stderr, flush=True)
@@ -135,6 +140,25 @@ def start(module: str, args: Sequence[str], log_path: Path, preload: Sequence[st
     with _main_left_behind():
         process.start()
     return WarmProcess(process)
+
+
+def fork_here(module: str, args: Sequence[str], log_path: Path, priority: Priority = "equal") -> WarmProcess | None:
+    """``python -m module args`` forked from this process itself, which has imported much of what ``module``
+    needs (the world: the scenario's models, NumPy), or None where that is not safe: only a process with a single
+    thread, native ones counted (Zenoh's runtime, once a session has opened), can fork and go on in the child."""
+    if not available() or not _single_threaded():
+        return None
+    process = multiprocessing.get_context("fork").Process(target=_child, args=(module, list(args), str(log_path),
+                                                                               priority), name=module, daemon=True)
+    process.start()
+    return WarmProcess(process)
+
+
+def _single_threaded() -> bool:
+    try:
+        return len(os.listdir("/proc/self/task")) == 1
+    except OSError:  # no procfs: the native threads cannot be counted
+        return False
 
 
 _MAIN = importlib.machinery.ModuleSpec("__main__", None)

@@ -25,6 +25,7 @@ def serve(driver: Driver, keys: Keyspace, rover_id: int, own_clock: bool, sessio
     (a bench, no world)."""
     bridge = Bridge(driver, keys, rover_id, MissionClock(own_clock))
     with Bus(session) as bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
+        bus.wake_on(stop)
         log.info("bridge for rover %d connected (driver %s)", rover_id, type(driver).__name__)
         run(bridge, bus, stop)
 

@@ -29,6 +29,7 @@ def serve(session: zenoh.Session, keys: Keyspace, domain: int, params: RoverPara
     translator = Translator(keys, layout, pitch_std, truth, noise=noise)
     translator.driven = drive
     with Bus(session) as bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
+        bus.wake_on(stop)
         node = RosNode(session, domain)
         loop = BridgeLoop(bus, node, translator)
         try:

@@ -69,6 +69,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from deploy import launcher
+
+    launcher.warm_up()
     from deploy.behaviour_check import require_behaviour
     from deploy.rover_groups import external_ids
     from schemas.scenario import load_rover_params

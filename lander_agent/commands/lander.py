@@ -39,5 +39,6 @@ def run(args: argparse.Namespace) -> int:
     memory = LanderMemory(None if args.no_state else (args.state or process.state_folder(args.world)) / FILE_NAME)
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="lander")
     with Bus(session) as bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
+        bus.wake_on(stop)
         run(Lander(plan, Keyspace(args.world), PhotoArchive(args.archive), args.map_out, memory), bus, stop)
     return 0

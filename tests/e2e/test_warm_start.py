@@ -147,3 +147,53 @@ def test_an_agent_started_idle_runs_every_thread_in_the_idle_class(tmp_path: Pat
         assert set(_thread_policies(router.pid).values()) == {os.SCHED_OTHER}
     finally:
         children.stop()
+
+
+FORKING_LAUNCHER = """
+import logging, sys, threading
+from pathlib import Path
+from deploy.children import Children
+logging.basicConfig(level=logging.WARNING)  # the launcher's own log set-up, which the world must not keep
+if sys.argv[3] == "with a thread":
+    threading.Thread(target=threading.Event().wait, daemon=True).start()
+children = Children(Path(sys.argv[1]))
+proc = children.start("world", "world_service", sys.argv[4], "--no-state", "--start-timeout", "600", "--listen",
+                      sys.argv[2], forked=True)
+print(type(proc).__name__, proc.pid, flush=True)
+sys.stdin.readline()
+children.stop(grace_s=30.0)
+print("world exited", proc.returncode, flush=True)
+"""
+
+
+@pytest.mark.parametrize("threads", ["alone", "with a thread"])
+def test_the_world_forked_from_its_launcher_is_a_world_process_of_its_own(tmp_path: Path, threads: str) -> None:
+    """``lunarsim run`` forks its world from itself, which has imported the scenario's models, unless a thread
+    runs in it (Zenoh's, once it has opened a session): a forked child keeps only the thread that forked, so then
+    the world starts cold. Either way it is the world: its own pid and command line, its log at INFO, its camera
+    process (which a daemonic child could not start), and it stops on SIGTERM with status 0."""
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    launcher = subprocess.Popen([sys.executable, "-c", FORKING_LAUNCHER, str(tmp_path), endpoint, threads,
+                                 str(REPO / "scenarios" / "crater_observation.yaml")], cwd=REPO, text=True,
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    try:
+        kind, pid = launcher.stdout.readline().split()
+        assert kind == ("WarmProcess" if threads == "alone" else "Popen")
+        assert wait_for_port("127.0.0.1", port, 60.0)
+        log = Children(tmp_path)
+        wait_for(lambda: "waiting up to 600 s for 6 agent(s)" in log.log_tail("world", 20), 30.0, "the world's log")
+        assert processes_mentioning(f"-m world_service {REPO / 'scenarios'}") == [int(pid)]
+        wait_for(lambda: len(_children_of(int(pid))) >= 1, 30.0, "the world's camera process")
+        out, _ = launcher.communicate("\n", timeout=60)
+        assert out == "world exited 0\n", log.log_tail("world", 20)
+    finally:
+        launcher.kill()
+        launcher.wait()
+
+
+def _children_of(pid: int) -> list[int]:
+    try:
+        return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+    except OSError:
+        return []

@@ -83,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
     bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen,  # a router puts undeclared
               loss=args.fault_loss, loss_seed=scenario.seed)
     with bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
+        bus.wake_on(stop)
         world = _world(args, scenario, Keyspace(args.world), state_file)
         service.serve(world, bus, settings, stop, args.report, lingering=not args.exit_when_done, camera=camera)
     return 0
