@@ -96,6 +96,11 @@ class Children:
                 p.wait()
 
 
+PORT_POLL_S = 0.01
+"""Between two tries of ``wait_for_port``: a run's agents start once its world listens, so a coarser poll is that
+much longer a start (a refused connection on this machine costs microseconds)."""
+
+
 def wait_for_port(host: str, port: int, timeout_s: float, proc: subprocess.Popen | None = None) -> bool:
     """True once something accepts TCP connections on host:port; False on timeout or if ``proc`` exits."""
     deadline = time.monotonic() + timeout_s
@@ -106,7 +111,7 @@ def wait_for_port(host: str, port: int, timeout_s: float, proc: subprocess.Popen
             s.settimeout(0.2)
             if s.connect_ex((host, port)) == 0:
                 return True
-        time.sleep(0.05)
+        time.sleep(PORT_POLL_S)
     return False
 
 
