@@ -38,7 +38,9 @@ class Children:
     def start(self, name: str, module: str, *args: str, warm: bool = False, forked: bool = False,
               priority: Priority = "equal", prefix: tuple[str, ...] = ()) -> subprocess.Popen | WarmProcess:
         """``python -m module args``, logging into ``<log_dir>/<name>.log``; ``warm``: forked from the warm
-        server, for the many agents of one run, which would otherwise each spend their start importing;
+        server, for the many agents of one run, which would otherwise each spend their start importing; ``forked``:
+        forked from this process itself (``warm_start.fork_here``), for a child that needs much of what it has
+        imported (the world of ``lunarsim run``), started cold where this process cannot fork safely;
         ``priority``: its CPU priority against this machine's other processes (``bus.priority``); ``prefix``: a
         command that runs it, such as ``ip netns exec NS`` for another network namespace (never warm: the warm
         server's children share its namespaces)."""

@@ -7,7 +7,9 @@ Forked from a warm server, a rover starts with those modules in memory (shared c
 own Zenoh session. It is still its own OS process, with its own session, liveliness token, log, exit code and command
 line (``python -m rover_agent --id 3 ...`` in ps), killed and reaped like any other. The server holds no Zenoh
 session and no thread, so forking it is safe; it is the standard library's (``multiprocessing``'s
-``forkserver``), started once per launcher.
+``forkserver``), started once per launcher. A launcher that has imported much of what one child needs forks that
+child from itself instead (``fork_here``: ``lunarsim run``'s world, after the scenario's models), while it has no
+thread of its own.
 """
 
 from __future__ import annotations
@@ -50,8 +52,8 @@ def available() -> bool:
 
 
 def _child(module: str, args: list[str], log_path: str, priority: Priority) -> None:
-    """In the forked process: what ``python -m module args`` would do, writing into ``log_path``, at
-    ``priority`` (``bus.priority``)."""
+    """In the forked process (from the warm server, or from the launcher itself: ``fork_here``): what ``python -m
+    module args`` would do, writing into ``log_path``, at ``priority`` (``bus.priority``)."""
     lowered = lower(priority)
     log = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
     os.dup2(log, 1)
@@ -62,8 +64,8 @@ def _child(module: str, args: list[str], log_path: str, priority: Priority) -> N
     _let_go_of_server()
     die_with_parent()
     signal.signal(signal.SIGINT, signal.default_int_handler)  # the server ignores Ctrl-C; an agent must not
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # forked from the launcher: not the launcher's handler
-    logging.root.handlers.clear()  # forked from the launcher: the program sets up its own log
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not a launcher's handler, which ``fork_here`` would leave
+    logging.root.handlers.clear()  # nor its log set-up: the program makes its own
     # "daemon" only tells the launcher not to wait for it at exit; the program may start processes of its own
     multiprocessing.current_process().daemon = False
     if not lowered:
