@@ -24,6 +24,7 @@ import shlex
 import signal
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator, Sequence
 from multiprocessing import forkserver
 from multiprocessing.context import ForkServerContext
@@ -74,7 +75,18 @@ def _child(module: str, args: list[str], log_path: str, priority: Priority) -> N
     sys.argv = [module, *args]
     # ps, top and pkill -f show and find it as the command it stands for, not as the fork server
     setproctitle.setproctitle(shlex.join([sys.executable, "-m", module, *args]))
-    runpy.run_module(module, run_name="__main__", alter_sys=True)
+    try:
+        runpy.run_module(module, run_name="__main__", alter_sys=True)
+    finally:
+        _end_leftover_children()
+
+
+def _end_leftover_children() -> None:
+    """Stop what the program left running of the processes it started with ``multiprocessing`` (a pool it never
+    shut down). A forked child's end waits for them before ``concurrent.futures`` would stop its pools, the order
+    a plain interpreter's exit has the other way round, so a leftover would hold the child for ever."""
+    for child in multiprocessing.active_children():
+        child.terminate()
 
 
 def _let_go_of_server() -> None:
@@ -129,7 +141,7 @@ def prestart(preload: Sequence[str]) -> None:
     it starts the first agent (the world's start, the lander's) instead of holding up that first agent: on two
     cores that is most of a second of a lockstep run's start."""
     _server(preload)
-    with _main_left_behind():
+    with _main_left_behind(), _server_spared_ctrl_c():
         forkserver.ensure_running()
 
 
@@ -139,7 +151,7 @@ def start(module: str, args: Sequence[str], log_path: Path, preload: Sequence[st
     # daemon: ended with the launcher's interpreter, as Children's SIGTERM-on-parent-death ends the others
     process = _server(preload).Process(target=_child, args=(module, list(args), str(log_path), priority),
                                        name=module, daemon=True)
-    with _main_left_behind():
+    with _main_left_behind(), _server_spared_ctrl_c():
         process.start()
     return WarmProcess(process)
 
@@ -161,6 +173,25 @@ def _single_threaded() -> bool:
         return len(os.listdir("/proc/self/task")) == 1
     except OSError:  # no procfs: the native threads cannot be counted
         return False
+
+
+@contextlib.contextmanager
+def _server_spared_ctrl_c() -> Iterator[None]:
+    """Start the server, if this starts it, with Ctrl-C ignored, which it keeps from its first instruction.
+
+    The standard library's server ignores Ctrl-C only once its imports are done, a fifth of a second and more: a
+    Ctrl-C before that ended it with a traceback on the user's terminal, and the launcher's next agent with
+    "EOFError". Its agents take Ctrl-C back (``_child``). The launcher ignores Ctrl-C the few milliseconds the
+    server takes to spawn; only the main thread may change a handler, so elsewhere the server starts as it did."""
+    starting = getattr(forkserver._forkserver, "_forkserver_pid", None) is None
+    if not starting or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 _MAIN = importlib.machinery.ModuleSpec("__main__", None)

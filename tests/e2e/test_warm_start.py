@@ -197,3 +197,58 @@ def _children_of(pid: int) -> list[int]:
         return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
     except OSError:
         return []
+
+
+LEAVES_ITS_POOL = """
+import sys
+from concurrent.futures import ProcessPoolExecutor
+pool = ProcessPoolExecutor(max_workers=1)
+pool.submit(print, "pool up").result()
+sys.exit(3)  # without shutting its pool down
+"""
+
+FORKS_IT = """
+import sys
+from pathlib import Path
+from deploy import warm_start
+sys.path.insert(0, sys.argv[1])
+child = warm_start.fork_here("leaves_its_pool", [], Path(sys.argv[1]) / "child.log")
+print(child.wait(timeout=60), flush=True)
+"""
+
+
+def test_a_forked_child_that_leaves_its_pool_running_still_ends_with_its_own_code(tmp_path: Path) -> None:
+    """A forked child's end waits for its processes before ``concurrent.futures`` would stop its pools (a plain
+    interpreter stops them first): the world, stopped by Ctrl-C as its camera started, waited for the camera for
+    ever. Here a program ends without shutting its pool down, as that world did."""
+    (tmp_path / "leaves_its_pool.py").write_text(LEAVES_ITS_POOL)
+    done = subprocess.run([sys.executable, "-c", FORKS_IT, str(tmp_path)], capture_output=True, text=True, cwd=REPO,
+                          timeout=120)
+    assert done.stdout == "3\n", done.stdout + done.stderr + (tmp_path / "child.log").read_text()
+
+
+CTRL_C_AS_THE_SERVER_STARTS = """
+import os, signal, sys
+from pathlib import Path
+from multiprocessing import forkserver
+from deploy.children import Children
+from rover_agent.commands.rover import PRELOAD
+children = Children(Path(sys.argv[1]), preload=PRELOAD)
+children.warm_up()
+server = forkserver._forkserver._forkserver_pid
+ignored = int(Path(f"/proc/{server}/status").read_text().split("SigIgn:")[1].split()[0], 16)
+print("ignores Ctrl-C from its start:", bool(ignored & 1 << (signal.SIGINT - 1)), flush=True)
+os.kill(server, signal.SIGINT)  # a Ctrl-C while it imports
+children.start("help", "rover_agent", "--help", warm=True)
+print(children.procs["help"].wait(60), flush=True)
+"""
+
+
+def test_a_ctrl_c_while_the_warm_server_imports_leaves_it_serving_and_quiet(tmp_path: Path) -> None:
+    """The standard library's server ignores Ctrl-C only once its imports are done; before that one ended it with
+    a traceback on the user's terminal, and the launcher's next agent with "EOFError" when it came as the agent
+    started. Read as the server has just been spawned, before any import: it ignores Ctrl-C already."""
+    done = subprocess.run([sys.executable, "-c", CTRL_C_AS_THE_SERVER_STARTS, str(tmp_path)], capture_output=True,
+                          text=True, cwd=REPO, timeout=120)
+    assert (done.stdout, done.stderr) == ("ignores Ctrl-C from its start: True\n0\n", ""), done.stderr
+    assert "usage: python -m rover_agent" in (tmp_path / "help.log").read_text()

@@ -74,18 +74,17 @@ def run(args: argparse.Namespace) -> int:
     settings = service.ClockSettings(args.time_scale, args.max_sim_time, args.start_timeout, not args.no_lander,
                                      lockstep=args.lockstep, photo_dir=args.photos, state_file=state_file)
     camera = None if args.twin else service.start_camera(scenario, args.lockstep)  # it starts while all else does
-    try:
+    try:  # the camera is stopped whatever ends the world, a Ctrl-C as it starts included
         session = _open(args)  # before the terrain is built: agents may connect meanwhile
-    except BaseException:
+        bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen,  # a router puts undeclared
+                  loss=args.fault_loss, loss_seed=scenario.seed)
+        with bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
+            bus.wake_on(stop)
+            world = _world(args, scenario, Keyspace(args.world), state_file)
+            service.serve(world, bus, settings, stop, args.report, lingering=not args.exit_when_done, camera=camera)
+    finally:
         if camera is not None:
             camera.close()
-        raise
-    bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen,  # a router puts undeclared
-              loss=args.fault_loss, loss_seed=scenario.seed)
-    with bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
-        bus.wake_on(stop)
-        world = _world(args, scenario, Keyspace(args.world), state_file)
-        service.serve(world, bus, settings, stop, args.report, lingering=not args.exit_when_done, camera=camera)
     return 0
 
 
