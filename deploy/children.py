@@ -11,6 +11,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from functools import partial
@@ -98,22 +99,24 @@ class Children:
                 p.wait()
 
 
-PORT_POLL_S = 0.01
-"""Between two tries of ``wait_for_port``: a run's agents start once its world listens, so a coarser poll is that
-much longer a start (a refused connection on this machine costs microseconds)."""
+START_POLL_S = 0.01
+"""Between two looks at whether a child has started (``wait_for_port``, a log line): a run's agents start once its
+world listens, so a coarser poll is that much longer a start (a refused connection here costs microseconds)."""
 
 
-def wait_for_port(host: str, port: int, timeout_s: float, proc: subprocess.Popen | None = None) -> bool:
-    """True once something accepts TCP connections on host:port; False on timeout or if ``proc`` exits."""
+def wait_for_port(host: str, port: int, timeout_s: float, proc: subprocess.Popen | WarmProcess | None = None,
+                  stop: threading.Event | None = None) -> bool:
+    """True once something accepts TCP connections on host:port; False on timeout, if ``proc`` exits, or once
+    ``stop`` is set (a Ctrl-C while the world starts)."""
     deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
+    while time.monotonic() < deadline and not (stop is not None and stop.is_set()):
         if proc is not None and proc.poll() is not None:
             return False
         with socket.socket() as s:
             s.settimeout(0.2)
             if s.connect_ex((host, port)) == 0:
                 return True
-        time.sleep(PORT_POLL_S)
+        time.sleep(START_POLL_S)
     return False
 
 

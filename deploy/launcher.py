@@ -165,23 +165,30 @@ class Mission:
         self.rejected = 0  # malformed samples on the keys the launcher follows
 
     def run(self) -> int:
-        from sessions.summary import summary_table
-
         started = time.monotonic()
-        report, code = None, 0
-        with process.stop_on_signals() as stop:
+        report, interrupted = None, True
+        with process.stop_on_signals() as stop:  # to the end: a SIGTERM cannot cut the report short either
             try:
-                self._start_processes()
-                report, interrupted = self._monitor(stop)
-                code = process.EXIT_INTERRUPTED if interrupted else 0
+                self._start_processes(stop)
+                if not stop.is_set():  # else a Ctrl-C as the run started: there is nothing to follow
+                    report, interrupted = self._monitor(stop)
             finally:
                 self._shutdown()
-        if report is None:
-            self.console.print("[yellow]stopped before the world reported any statistics: no report.json[/]")
-            return code or 1
+            code = process.EXIT_INTERRUPTED if interrupted else 0
+            if report is None:
+                self.console.print("[yellow]stopped before the world reported any statistics: no report.json[/]")
+                return code or 1
+            self._report(report, started)
+        return code
+
+    def _report(self, report, started: float) -> None:
+        from sessions.summary import summary_table
+
         report = msgspec.structs.replace(report, wall_time_s=round(time.monotonic() - started, 3))
         report = with_map_figures(report, self.scenario, self.out)
-        (self.out / "report.json").write_text(json.dumps(msgspec.to_builtins(report), indent=2) + "\n")
+        tmp = self.out / "report.json.tmp"
+        tmp.write_text(json.dumps(msgspec.to_builtins(report), indent=2) + "\n")
+        tmp.replace(self.out / "report.json")
         self.console.print(summary_table(report))
         if behind := self.lag.summary():
             self.console.print(f"[yellow]{behind}[/]")
@@ -189,19 +196,21 @@ class Mission:
             self.console.print(f"[yellow]ignored {self.rejected} malformed sample(s) on the world's statistics, "
                                "state and status keys (not from this mission's processes)[/]")
         self.console.print(f"report written to {self.out / 'report.json'}")
-        return code
 
-    def _start_processes(self) -> None:
+    def _start_processes(self, stop: threading.Event) -> None:
+        """Each process in turn, the agents last; none more once ``stop`` is set (a Ctrl-C as the run starts)."""
         self.children.warm_up()  # the rover agents' server imports while the world starts
         common = ["--world", self.options.world, "--connect", self.endpoint]
         shutil.rmtree(self.out / "state", ignore_errors=True)  # a reused run folder must not resume old poses
         (self.out / "state").mkdir()
         if self.options.connect:  # a router is there: everyone joins it, the recorder first
-            self._start_recorder(common)
+            self._start_recorder(common, stop)
             self.children.start("world", "world_service", *self._world_args(), *common)
         else:
-            self._start_world_as_router()
-            self._start_recorder(common)
+            self._start_world_as_router(stop)
+            self._start_recorder(common, stop)
+        if stop.is_set():
+            return
         agents = priority.for_mode(self.options.agent_priority, self.options.lockstep, len(self.scenario.rovers))
         external = self.options.external
         if self.options.ros2 or external:
@@ -238,7 +247,7 @@ class Mission:
             args.append("--verbose")  # its progress (and lockstep's summary) into world.log
         return args
 
-    def _start_world_as_router(self) -> None:
+    def _start_world_as_router(self, stop: threading.Event) -> None:
         """The world is the run's Zenoh router: every agent's sample reaches it, and its samples every agent, in
         one hop instead of two through a router process (a lockstep tick waits about a quarter less for its acks).
         """
@@ -247,30 +256,35 @@ class Mission:
         check_port_free(self.options.port)
         world = self.children.start("world", "world_service", *self._world_args(), "--listen", self.endpoint,
                                     forked=True)
-        if not wait_for_port("127.0.0.1", self.options.port, START_TIMEOUT_S, world):
+        if not wait_for_port("127.0.0.1", self.options.port, START_TIMEOUT_S, world, stop) and not stop.is_set():
             raise RuntimeError(f"the world did not open {self.endpoint}: {self.children.log_tail('world')}")
 
-    def _start_recorder(self, common: list[str]) -> None:
+    def _start_recorder(self, common: list[str], stop: threading.Event) -> None:
         """The recorder subscribes before the world's clock starts (the world waits for the agents, started
         after it), so the session is complete from the first tick."""
-        if not self.options.record:
+        from deploy.children import START_POLL_S
+
+        if not self.options.record or stop.is_set():
             return
         recorder = self.children.start("recorder", "deploy.cli", "record", "-o", str(self.out / SESSION_FILE),
                                        "--scenario", str(self.scenario_file), *common)
         deadline = time.monotonic() + START_TIMEOUT_S
-        while "recording" not in self.children.log_tail("recorder", 1):
+        while "recording" not in self.children.log_tail("recorder", 1) and not stop.is_set():
             if recorder.poll() is not None or time.monotonic() > deadline:
                 raise RuntimeError(f"the recorder did not start: {self.children.log_tail('recorder')}")
-            time.sleep(0.05)
+            time.sleep(START_POLL_S)
 
-    def _open_session(self, open_session, build_config):
-        """The launcher's own session. When the run's router is its own world and that world has died, say so:
-        "no router reachable" would send the user to start one."""
+    def _open_session(self, open_session, build_config, stop):
+        """The launcher's own session; None when ``stop`` ends the wait for it. When the run's router is its own
+        world and that world has died, say so: "no router reachable" would send the user to start one."""
         from bus.errors import RouterUnreachable
 
         try:
-            return open_session(build_config(connect=[self.endpoint]), self.endpoint, 10.0, who="lunarsim run")
+            return open_session(build_config(connect=[self.endpoint]), self.endpoint, 10.0, who="lunarsim run",
+                                stop=stop)
         except RouterUnreachable:
+            if stop.is_set():
+                return None
             world = self.children.procs.get("world")
             if world is not None and world.poll() is not None:
                 raise RuntimeError(f"the world service exited (code {world.returncode}) before the run could "
@@ -299,7 +313,9 @@ class Mission:
                 state = None
             return last
 
-        session = self._open_session(open_session, build_config)
+        session = self._open_session(open_session, build_config, stop)
+        if session is None:
+            return None, True
         start_up = StartUp(len(self.scenario.rovers), keys.alive_lander)
         with Bus(session) as bus, ProgressView(self.console, self.scenario.name, self.options.quiet) as view:
             bus.wake_on(stop)  # Ctrl-C answered at once, not at the view's next refresh

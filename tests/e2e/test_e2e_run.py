@@ -79,6 +79,26 @@ def test_ctrl_c_stops_every_process_and_keeps_a_report(tmp_path):
     assert report["complete"] is False and report["rovers_total"] == 5
 
 
+@pytest.mark.parametrize("moment", ["world_service", "rover_agent"])
+def test_a_ctrl_c_as_the_run_starts_ends_it_quietly_with_nothing_left(tmp_path, moment):
+    """A Ctrl-C at the terminal reaches every process of the run at once: once the world is forked, then as the
+    agents start. The launcher starts nothing more and does not wait for a world that has stopped: status 130, no
+    error and no traceback, no process left (the camera's included), whichever ends first."""
+    port = free_port()
+    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--out", str(tmp_path / "run"), "--port",
+                    str(port), "--lockstep", "--no-record", "--quiet", start_new_session=True)
+    try:
+        world = wait_for(lambda: _run_processes(port, "world_service"), 60, "the world").pop()
+        wait_for(lambda: _run_processes(port, moment), 60, f"a {moment} process")
+        os.killpg(proc.pid, signal.SIGINT)
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130 and "error" not in stderr and "Traceback" not in stderr, stderr
+    wait_for(lambda: processes_mentioning(f"127.0.0.1:{port}") == [], 15, "no orphan processes")
+    wait_for(lambda: processes_mentioning(f"lunarsim camera of world {world}") == [], 15, "the camera to end")
+
+
 def test_an_agent_that_falls_behind_the_world_is_reported(tmp_path):
     """A rover agent stopped (SIGSTOP) for 3 simulated seconds resumes with its backlog: its status then runs
     behind the world's clock, and the launcher says so while running and in its summary."""

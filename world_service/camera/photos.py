@@ -132,6 +132,9 @@ def _start(scenario: Scenario, priority: Priority, world_pid: int) -> None:
     global _scenario
     # forked, it would show as a second world service (its command line) in ps, pkill -f and the launcher's count
     setproctitle.setproctitle(f"lunarsim camera of world {world_pid}")
+    # a Ctrl-C at the terminal reaches every process of the run: the world stops its camera (``close``), and one
+    # interrupted mid-photo only printed a traceback into the world's log and broke the pool the world still used
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     exit_when_orphaned(world_pid)  # a world killed with SIGKILL cannot shut its pool down
     lower(priority)
     heap.keep_freed_memory()  # a photo's rays are a few arrays of 0.5 MB, made and dropped each photo
