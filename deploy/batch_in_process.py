@@ -11,7 +11,6 @@ traverse map. No recording, logs or processes' state: use ``lunarsim run`` for a
 
 from __future__ import annotations
 
-import json
 import multiprocessing
 import time
 from collections.abc import Iterator
@@ -76,7 +75,7 @@ def run_seed(scenario: Scenario, seed: int, out: Path, max_sim_time: float) -> N
     writes it (``wall_time_s`` here is the mission's in this worker)."""
     import msgspec
 
-    from deploy.launcher import with_map_figures
+    from deploy.run_report import with_map_figures, write_report
     from harness.loopback import run_mission
     from lander_agent.archive import PhotoArchive
     from rover_agent.registry import load_behaviour
@@ -87,5 +86,4 @@ def run_seed(scenario: Scenario, seed: int, out: Path, max_sim_time: float) -> N
     started = time.monotonic()
     world = run_mission(scenario, max_sim_time, PhotoArchive(out / "lander_archive"), behaviour, map_folder=out)
     report = msgspec.structs.replace(world.report(), wall_time_s=round(time.monotonic() - started, 3))
-    report = with_map_figures(report, scenario, out)
-    (out / "report.json").write_text(json.dumps(msgspec.to_builtins(report), indent=2) + "\n")
+    write_report(with_map_figures(report, scenario, out), out)

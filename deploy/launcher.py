@@ -11,8 +11,6 @@ stops every process it started, also on Ctrl-C or SIGTERM.
 from __future__ import annotations
 
 import datetime as dt
-import importlib
-import json
 import shutil
 import threading
 import time
@@ -26,6 +24,7 @@ from bus import priority, process
 from bus.zenoh_config import DEFAULT_PORT
 from deploy.agent_lag import AgentLag
 from deploy.rover_groups import groups
+from deploy.run_report import REPORT_FILE, import_map_figures_meanwhile, with_map_figures, write_report
 from schemas.scenario_limits import clip
 
 if TYPE_CHECKING:
@@ -68,7 +67,7 @@ def launch(scenario: Scenario, options: LaunchOptions, out: Path | None = None) 
     if not options.connect:
         check_port_free(options.port)  # before the run folder is made: a run that cannot start leaves nothing
     out = out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
-    if held := [name for name in ("report.json", SESSION_FILE) if (out / name).exists()]:
+    if held := [name for name in (REPORT_FILE, SESSION_FILE) if (out / name).exists()]:
         raise process.UsageError(f"{clip(str(out))} already holds a run ({', '.join(held)}): choose another --out, so "
                                  "no run replaces another's recording and report")
     out.mkdir(parents=True, exist_ok=True)
@@ -114,10 +113,6 @@ def base_scenario(scenario: Path | None, recording: Path | None) -> Scenario:
     return found
 
 
-MAP_FIGURE_MODULES = ("lander_agent.mapping", "world_service.outcome.map_truth")
-"""What ``with_map_figures`` imports (NumPy among them): a fifth of a second here."""
-
-
 def warm_up() -> None:
     """Start the rover agents' warm server (``deploy.warm_start``) before the launcher loads its scenario: the
     server's imports then take the other core while the launcher's own do, instead of while the world starts."""
@@ -126,26 +121,6 @@ def warm_up() -> None:
 
     if warm_start.available():
         warm_start.prestart(PRELOAD)
-
-
-def import_map_figures_meanwhile() -> None:
-    """Import what ``with_map_figures`` needs on a thread of its own while the mission runs, on a core the
-    lockstep mission leaves mostly idle, instead of after the mission, where the command waits for it."""
-    threading.Thread(target=lambda: [importlib.import_module(name) for name in MAP_FIGURE_MODULES],
-                     name="map figure imports", daemon=True).start()
-
-
-def with_map_figures(report, scenario, folder: Path):
-    """The report scoring the lander's traverse map (``world_service.outcome.map_truth``), when the lander wrote one."""
-    from lander_agent import mapping
-    from schemas import codec
-    from world_service.outcome.map_truth import map_figures
-
-    path = folder / mapping.NPZ_FILE
-    if not path.is_file():
-        return report
-    spec, classes = mapping.load(path)
-    return codec.checked(msgspec.structs.replace(report, **map_figures(scenario, spec, classes).report_fields()))
 
 
 class Mission:
@@ -186,16 +161,14 @@ class Mission:
 
         report = msgspec.structs.replace(report, wall_time_s=round(time.monotonic() - started, 3))
         report = with_map_figures(report, self.scenario, self.out)
-        tmp = self.out / "report.json.tmp"
-        tmp.write_text(json.dumps(msgspec.to_builtins(report), indent=2) + "\n")
-        tmp.replace(self.out / "report.json")
+        path = write_report(report, self.out)
         self.console.print(summary_table(report))
         if behind := self.lag.summary():
             self.console.print(f"[yellow]{behind}[/]")
         if self.rejected:
             self.console.print(f"[yellow]ignored {self.rejected} malformed sample(s) on the world's statistics, "
                                "state and status keys (not from this mission's processes)[/]")
-        self.console.print(f"report written to {self.out / 'report.json'}")
+        self.console.print(f"report written to {path}")
 
     def _start_processes(self, stop: threading.Event) -> None:
         """Each process in turn, the agents last; none more once ``stop`` is set (a Ctrl-C as the run starts)."""
