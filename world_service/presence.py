@@ -44,6 +44,7 @@ def note_liveliness(world: ServedWorld, agents: Agents, key: str, alive: bool) -
     if key == world.keys.alive_lander:
         if alive:
             agents.arrive(key, ks.LANDER_ID)
+        world.set_lander_alive(alive)
         return
     try:
         rover_id = world.keys.parse_alive_key(key)

@@ -59,6 +59,11 @@ class ServedWorld(Protocol):
 
     def set_alive(self, rover_id: int, alive: bool) -> None: ...
 
+    def set_lander_alive(self, alive: bool) -> None:
+        """The lander agent came or went: a mission whose rovers have finished ends without it in the end
+        (``outcome.completion.LANDER_GONE_S``)."""
+        ...
+
     def step(self) -> list[Out]:
         """Advance one tick; what to publish for it, the clock last."""
         ...

@@ -108,6 +108,7 @@ def wait_for_agents(world: ServedWorld, bus: Bus, settings: ClockSettings, stop:
         item = bus.receive(timeout=0.1)
         if item is not None:
             handle(world, bus, item, agents)
+    world.set_lander_alive(keys.alive_lander in agents.present)  # one that never came is away from the start
     missing = sorted(wanted - agents.present)
     if missing:
         log.warning("starting without %d agent(s): %s", len(missing), ", ".join(missing))

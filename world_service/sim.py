@@ -135,6 +135,9 @@ class World:
         self.referee.command(command)
         self.clock.hold.command(command)
 
+    def set_lander_alive(self, alive: bool) -> None:
+        self.referee.lander_alive(alive, self.clock.sim_time)
+
     def set_alive(self, rover_id: int, alive: bool) -> None:
         """Watchdog: a rover whose agent is gone stops where it is. When it comes back (its router restarted,
         its link returned, the agent restarted), the ledger re-sends how its action ended until it has heard."""

@@ -99,6 +99,25 @@ def test_a_ctrl_c_as_the_run_starts_ends_it_quietly_with_nothing_left(tmp_path, 
     wait_for(lambda: processes_mentioning(f"lunarsim camera of world {world}") == [], 15, "the camera to end")
 
 
+def test_a_lockstep_mission_whose_lander_dies_still_ends(tmp_path):
+    """Without its lander the world steps on at full speed, and the rovers' photos can never be delivered: the
+    mission ends once the lander has been away ``LANDER_GONE_S`` with every rover finished, rather than never."""
+    port = free_port()
+    out = tmp_path / "run"
+    proc = lunarsim("run", str(SCENARIOS / "crater_observation.yaml"), "--out", str(out), "--port", str(port),
+                    "--lockstep", "--no-record", "--quiet", "--seed", "2")
+    try:
+        lander = wait_for(lambda: _run_processes(port, "lander_agent"), 60, "the lander").pop()
+        wait_for(lambda: "t = " in (out / "logs" / "lander.log").read_text(), 60, "the mission to be under way")
+        os.kill(lander, signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, stderr
+    assert "lander exited" in stdout
+    assert json.loads((out / "report.json").read_text())["complete"] is True
+
+
 def test_an_agent_that_falls_behind_the_world_is_reported(tmp_path):
     """A rover agent stopped (SIGSTOP) for 3 simulated seconds resumes with its backlog: its status then runs
     behind the world's clock, and the launcher says so while running and in its summary."""

@@ -45,6 +45,9 @@ class Referee:
     def note_lander(self, msg: m.LanderStatus) -> None:
         self.lander_status = msg
 
+    def lander_alive(self, alive: bool, now: float) -> None:
+        self.completion.note_lander(alive, now)
+
     def command(self, command: m.GroundCommand) -> None:
         """Follow the ground's changes to the mission, so statistics judge each rover's real final goal."""
         self.stats.command(command)

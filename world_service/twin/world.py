@@ -144,6 +144,9 @@ class TwinWorld:
         self.partners[node] = list(msg.ids)
         self.graph = radio_graph([ks.LANDER_ID, *self.bodies], radio_links(self.partners))
 
+    def set_lander_alive(self, alive: bool) -> None:
+        self.completion.note_lander(alive, self.clock.sim_time)
+
     def set_alive(self, rover_id: int, alive: bool) -> None:
         """Liveliness of the rover's agent; the twin cannot stop a real rover, it only records it."""
         if rover_id in self.bodies:

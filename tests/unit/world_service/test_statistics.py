@@ -8,7 +8,7 @@ import pytest
 from schemas import messages as m
 from schemas.scenario import Goal, parse_scenario
 from shared.mission import RoverMissions
-from world_service.outcome.completion import Completion, all_finished
+from world_service.outcome.completion import LANDER_GONE_S, Completion, all_finished
 from world_service.outcome.statistics import MissionStats, lander_component
 
 SCENARIO = parse_scenario({
@@ -107,6 +107,25 @@ def test_a_mission_with_relays_among_the_finished_ends_once_they_stayed_so_dated
     at_once = Completion(wait)
     at_once.check(30.0, {1: done, 2: done}, still, no_route)  # no relay: nothing more can come
     assert at_once.at == 30.0
+
+
+def test_a_photo_on_its_way_holds_the_end_only_while_a_lander_is_there_to_take_it():
+    """The rovers have finished, one with a photo for the lander it can reach by radio. The lander agent dies: the
+    photo will not arrive, and the world steps on (in lockstep, at full speed) with nothing left to end the
+    mission. A lander that restarts within ``LANDER_GONE_S`` still gets it."""
+    done = m.RoverStatus(stamp=0.0, state="done")
+    holding = m.RoverStatus(stamp=0.0, state="done", photos_pending=1)
+    still, in_reach = {1: False, 2: False}, lambda: {1: True, 2: True}
+    completion = Completion()
+    completion.check(50.0, {1: done, 2: holding}, still, in_reach)
+    completion.note_lander(False, 60.0)
+    completion.note_lander(True, 60.0 + LANDER_GONE_S / 2)  # a restart
+    completion.note_lander(False, 100.0)
+    completion.note_lander(False, 130.0)  # gone since 100, not since 130
+    completion.check(100.0 + LANDER_GONE_S - 1.0, {1: done, 2: holding}, still, in_reach)
+    assert completion.at is None
+    completion.check(100.0 + LANDER_GONE_S, {1: done, 2: holding}, still, in_reach)
+    assert completion.at == 100.0 + LANDER_GONE_S
 
 
 def test_a_rover_claiming_a_goal_beyond_its_plan_while_the_ground_turns_it_leaves_the_report_finite():
