@@ -84,6 +84,21 @@ class Children:
             return ""
         return "\n".join(text[-lines:])
 
+    def wait_for_line(self, name: str, text: str, timeout_s: float, stop: threading.Event) -> bool:
+        """True once ``name``'s log holds a line with ``text`` (what it says once it serves: its own word, where a
+        port that answers may be another run's); False if it exits, ``timeout_s`` passes or ``stop`` is set."""
+        proc, path, deadline = self.procs[name], self.log_dir / f"{name}.log", time.monotonic() + timeout_s
+        while not stop.is_set() and time.monotonic() < deadline:
+            try:
+                if text in path.read_text(errors="replace"):
+                    return True
+            except OSError:
+                pass
+            if proc.poll() is not None:
+                return False
+            time.sleep(START_POLL_S)
+        return False
+
     def stop(self, names: list[str] | None = None, grace_s: float = 5.0) -> None:
         """SIGTERM, wait up to ``grace_s``, then SIGKILL what is left."""
         targets = [self.procs[n] for n in (names or list(self.procs)) if n in self.procs]
@@ -100,8 +115,8 @@ class Children:
 
 
 START_POLL_S = 0.01
-"""Between two looks at whether a child has started (``wait_for_port``, a log line): a run's agents start once its
-world listens, so a coarser poll is that much longer a start (a refused connection here costs microseconds)."""
+"""Between two looks at whether a child has started (``wait_for_port``, ``Children.wait_for_line``): a run's agents
+start once its world listens, so a coarser poll is that much longer a start."""
 
 
 def wait_for_port(host: str, port: int, timeout_s: float, proc: subprocess.Popen | WarmProcess | None = None,

@@ -66,8 +66,9 @@ def launch(scenario: Scenario, options: LaunchOptions, out: Path | None = None) 
 
     if not options.connect:
         check_port_free(options.port)  # before the run folder is made: a run that cannot start leaves nothing
-    out = out or Path("runs") / f"{scenario.name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
-    if held := [name for name in (REPORT_FILE, SESSION_FILE) if (out / name).exists()]:
+    if out is None:
+        out = new_run_folder(Path("runs"), scenario.name)
+    elif held := [name for name in (REPORT_FILE, SESSION_FILE) if (out / name).exists()]:
         raise process.UsageError(f"{clip(str(out))} already holds a run ({', '.join(held)}): choose another --out, so "
                                  "no run replaces another's recording and report")
     out.mkdir(parents=True, exist_ok=True)
@@ -77,6 +78,21 @@ def launch(scenario: Scenario, options: LaunchOptions, out: Path | None = None) 
     console.print(f"[bold]{scenario.name}[/]: {len(scenario.rovers)} rovers, seed {scenario.seed}, "
                   f"run folder {out}")
     return Mission(options, scenario, scenario_file, out, console).run()
+
+
+def new_run_folder(parent: Path, name: str) -> Path:
+    """``parent/<name>-<timestamp>``, made now and by this run alone: two runs started in the same second get a
+    folder each (``-2``, ``-3``...), where they shared one and a run took the other's scenario."""
+    stem = f"{name}-{dt.datetime.now():%Y%m%d-%H%M%S}"
+    parent.mkdir(parents=True, exist_ok=True)
+    folder, n = parent / stem, 1
+    while True:
+        try:
+            folder.mkdir()
+            return folder
+        except FileExistsError:
+            n += 1
+            folder = parent / f"{stem}-{n}"
 
 
 def check_router(endpoint: str) -> None:
@@ -224,28 +240,27 @@ class Mission:
         """The world is the run's Zenoh router: every agent's sample reaches it, and its samples every agent, in
         one hop instead of two through a router process (a lockstep tick waits about a quarter less for its acks).
         """
-        from deploy.children import wait_for_port
+        from world_service.commands.world import listening_line
 
         check_port_free(self.options.port)
         world = self.children.start("world", "world_service", *self._world_args(), "--listen", self.endpoint,
                                     forked=True)
-        if not wait_for_port("127.0.0.1", self.options.port, START_TIMEOUT_S, world, stop) and not stop.is_set():
+        if self.children.wait_for_line("world", listening_line([self.endpoint]), START_TIMEOUT_S, stop):
+            return
+        if world.poll() == process.EXIT_USAGE:  # another run took the port between the check and the world's bind
+            raise process.UsageError(f"the world could not listen: {self.children.log_tail('world', 1)}")
+        if not stop.is_set():
             raise RuntimeError(f"the world did not open {self.endpoint}: {self.children.log_tail('world')}")
 
     def _start_recorder(self, common: list[str], stop: threading.Event) -> None:
         """The recorder subscribes before the world's clock starts (the world waits for the agents, started
         after it), so the session is complete from the first tick."""
-        from deploy.children import START_POLL_S
-
         if not self.options.record or stop.is_set():
             return
-        recorder = self.children.start("recorder", "deploy.cli", "record", "-o", str(self.out / SESSION_FILE),
+        self.children.start("recorder", "deploy.cli", "record", "-o", str(self.out / SESSION_FILE),
                                        "--scenario", str(self.scenario_file), *common)
-        deadline = time.monotonic() + START_TIMEOUT_S
-        while "recording" not in self.children.log_tail("recorder", 1) and not stop.is_set():
-            if recorder.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError(f"the recorder did not start: {self.children.log_tail('recorder')}")
-            time.sleep(START_POLL_S)
+        if not self.children.wait_for_line("recorder", "recording", START_TIMEOUT_S, stop) and not stop.is_set():
+            raise RuntimeError(f"the recorder did not start: {self.children.log_tail('recorder')}")
 
     def _open_session(self, open_session, build_config, stop):
         """The launcher's own session; None when ``stop`` ends the wait for it. When the run's router is its own

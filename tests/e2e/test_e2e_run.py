@@ -11,9 +11,9 @@ import sys
 import pytest
 import yaml
 import zenoh
-from procs import SCENARIOS, free_port, lunarsim, processes_mentioning, run_cli_mission, wait_for
+from procs import REPO, SCENARIOS, free_port, lunarsim, processes_mentioning, run_cli_mission, wait_for
 
-from bus.zenoh_config import build_config
+from bus.zenoh_config import build_config, port_in_use
 from schemas import codec
 from schemas import messages as m
 from schemas.keyspace import Keyspace
@@ -97,6 +97,35 @@ def test_a_ctrl_c_as_the_run_starts_ends_it_quietly_with_nothing_left(tmp_path, 
     assert proc.returncode == 130 and "error" not in stderr and "Traceback" not in stderr, stderr
     wait_for(lambda: processes_mentioning(f"127.0.0.1:{port}") == [], 15, "no orphan processes")
     wait_for(lambda: processes_mentioning(f"lunarsim camera of world {world}") == [], 15, "the camera to end")
+
+
+RUN_PAST_THE_PORT_CHECK = """
+import sys
+from deploy import launcher
+from deploy.cli import main
+launcher.check_port_free = lambda port: None  # as if another run took the port just after the check
+sys.exit(main())
+"""
+
+
+def test_a_run_whose_port_another_router_took_exits_2_and_starts_no_agent(tmp_path):
+    """The port was free at the check and taken before the world listened: the port answers, but not as this run's
+    world. The launcher waits for its own world's word that it listens, so its agents never join another run."""
+    port = free_port()
+    router = subprocess.Popen([sys.executable, "-m", "deploy.router", "--listen", f"tcp/127.0.0.1:{port}"],
+                              cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: port_in_use("127.0.0.1", port), 60, "the other router")
+        done = subprocess.run([sys.executable, "-c", RUN_PAST_THE_PORT_CHECK, "run",
+                               str(SCENARIOS / "crater_observation.yaml"), "--port", str(port), "--out",
+                               str(tmp_path / "run"), "--lockstep", "--no-record", "--quiet"], cwd=REPO,
+                              capture_output=True, text=True, timeout=120)
+    finally:
+        router.terminate()
+        router.wait(30)
+    assert done.returncode == 2, done.stderr
+    assert "the world could not listen" in done.stderr and "Traceback" not in done.stderr
+    assert not (tmp_path / "run" / "logs" / "rover1.log").exists()
 
 
 def test_a_lockstep_mission_whose_lander_dies_still_ends(tmp_path):

@@ -124,8 +124,16 @@ def _world(args: argparse.Namespace, scenario: Scenario, keys: Keyspace, state_f
     return World(scenario, keys)
 
 
+def listening_line(listen: list[str]) -> str:
+    """What the world logs once it listens as the run's router: ``lunarsim run`` waits for it in the world's log
+    (a port that answers may be another run's world)."""
+    return f"the world is the router, listening on {', '.join(listen)}"
+
+
 def _open(args: argparse.Namespace) -> zenoh.Session:
     """The world's session: with ``--listen``, the run's router itself; else a client of the router named."""
     if args.listen:
-        return open_router(config_from_args(args, "router"), args.listen, args.config)
+        session = open_router(config_from_args(args, "router"), args.listen, args.config)
+        log.info("%s", listening_line(args.listen))
+        return session
     return open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who="world")
