@@ -38,11 +38,12 @@ import tick_costs
 
 from harness.loopback import run_mission_agents
 from schemas.scenario import Scenario, load_scenario
+from world_service.commands.world import LISTENING
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIO = REPO / "scenarios" / "crater_observation.yaml"
 QUICK = {"seeds": [1], "max_sim_time": 10.0}
-PHASES = (("world listening", r"waiting up to"), ("every agent there", r"every agent is there"),
+PHASES = (("world listening", re.escape(LISTENING)), ("every agent there", r"every agent is there"),
           ("clock started", r"clock started"), ("mission over", r"^lockstep: "))
 """Milestones of the world's log, each timed from the command's start."""
 TALLY = re.compile(r"lockstep: ([\d.]+) s simulated in ([\d.]+) s .*?; (\d+) ticks, (\d+) waited for acks "

@@ -124,10 +124,13 @@ def _world(args: argparse.Namespace, scenario: Scenario, keys: Keyspace, state_f
     return World(scenario, keys)
 
 
+LISTENING = "the world is the router, listening on"
+
+
 def listening_line(listen: list[str]) -> str:
     """What the world logs once it listens as the run's router: ``lunarsim run`` waits for it in the world's log
     (a port that answers may be another run's world)."""
-    return f"the world is the router, listening on {', '.join(listen)}"
+    return f"{LISTENING} {', '.join(listen)}"
 
 
 def _open(args: argparse.Namespace) -> zenoh.Session:
