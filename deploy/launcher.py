@@ -11,6 +11,7 @@ stops every process it started, also on Ctrl-C or SIGTERM.
 from __future__ import annotations
 
 import datetime as dt
+import importlib
 import shutil
 import threading
 import time
@@ -205,10 +206,10 @@ class Mission:
         if self.options.ros2 or external:
             drive = ["--drive", ",".join(map(str, sorted(external)))] if external else []
             self.children.start("ros2", "ros2_bridge", "--params", str(self.scenario_file), *drive, *common)
-        # forked warm too: the lander needs what the rovers' server has imported, and it came last of the agents
+        # forked from here (else warm): it needs what the rovers' server has imported and more, and came last
         self.children.start("lander", "lander_agent", str(self.scenario_file), "--archive",
                             str(self.out / "lander_archive"), "--map-out", str(self.out), "--state",
-                            str(self.out / "state"), *common, warm=True, priority=agents)
+                            str(self.out / "state"), *common, forked=True, warm=True, priority=agents)
         count, per = len(self.scenario.rovers), self.options.agents_per_process
         for first, last in groups([i for i in range(1, count + 1) if i not in external], per):
             name, which = self._rover_group(first, last)
@@ -240,11 +241,14 @@ class Mission:
         """The world is the run's Zenoh router: every agent's sample reaches it, and its samples every agent, in
         one hop instead of two through a router process (a lockstep tick waits about a quarter less for its acks).
         """
+        from lander_agent.commands.lander import PRELOAD as LANDER_PRELOAD
         from world_service.commands.world import listening_line
 
         check_port_free(self.options.port)
         world = self.children.start("world", "world_service", *self._world_args(), "--listen", self.endpoint,
                                     forked=True)
+        for name in LANDER_PRELOAD:  # while the world starts: the lander, forked from here, starts with them
+            importlib.import_module(name)
         if self.children.wait_for_line("world", listening_line([self.endpoint]), START_TIMEOUT_S, stop):
             return
         if world.poll() == process.EXIT_USAGE:  # another run took the port between the check and the world's bind

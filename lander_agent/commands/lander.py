@@ -8,6 +8,11 @@ from pathlib import Path
 from bus import paths, process
 from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
 
+PRELOAD = ("lander_agent.archive", "lander_agent.lander", "lander_agent.mission", "lander_agent.resume",
+           "lander_agent.runtime")
+"""What ``run`` imports of the lander's own (NumPy among it): ``lunarsim run`` imports it while its world starts,
+then forks the lander from itself."""
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, help="scenario YAML: the lander takes its mission plan from it")
