@@ -8,8 +8,8 @@ own Zenoh session. It is still its own OS process, with its own session, livelin
 line (``python -m rover_agent --id 3 ...`` in ps), killed and reaped like any other. The server holds no Zenoh
 session and no thread, so forking it is safe; it is the standard library's (``multiprocessing``'s
 ``forkserver``), started once per launcher. A launcher that has imported much of what one child needs forks that
-child from itself instead (``fork_here``: ``lunarsim run``'s world, after the scenario's models), while it has no
-thread of its own.
+child from itself instead (``fork_here``: ``lunarsim run``'s world and lander, after the scenario's models and the
+lander's code), while it has no thread of its own.
 """
 
 from __future__ import annotations
