@@ -44,7 +44,7 @@ without a descriptor."""
 class Stop(threading.Event):
     """A request to stop (a signal, or a thread of the process giving up) that also wakes what waits on something
     other than the event: a loop blocked on its inbox (``Bus.wake_on``) would notice only at its timeout, and a
-    mission's way out waits for its slowest process (the lander's fifth of a second was a tenth of a lockstep run).
+    mission's way out waits for its slowest process.
 
     A waker must be safe to call from a signal handler on any thread, as ``queue.SimpleQueue.put`` is."""
 

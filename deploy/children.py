@@ -41,7 +41,7 @@ class Children:
         """``python -m module args``, logging into ``<log_dir>/<name>.log``; ``warm``: forked from the warm
         server, for the many agents of one run, which would otherwise each spend their start importing; ``forked``:
         forked from this process itself (``warm_start.fork_here``), for a child that needs much of what it has
-        imported (the world of ``lunarsim run``), started cold where this process cannot fork safely;
+        imported (the world and the lander of ``lunarsim run``), else as ``warm`` says where it cannot fork safely;
         ``priority``: its CPU priority against this machine's other processes (``bus.priority``); ``prefix``: a
         command that runs it, such as ``ip netns exec NS`` for another network namespace (never warm: the warm
         server's children share its namespaces)."""
@@ -119,12 +119,10 @@ START_POLL_S = 0.01
 start once its world listens, so a coarser poll is that much longer a start."""
 
 
-def wait_for_port(host: str, port: int, timeout_s: float, proc: subprocess.Popen | WarmProcess | None = None,
-                  stop: threading.Event | None = None) -> bool:
-    """True once something accepts TCP connections on host:port; False on timeout, if ``proc`` exits, or once
-    ``stop`` is set (a Ctrl-C while the world starts)."""
+def wait_for_port(host: str, port: int, timeout_s: float, proc: subprocess.Popen | None = None) -> bool:
+    """True once something accepts TCP connections on host:port; False on timeout or if ``proc`` exits."""
     deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline and not (stop is not None and stop.is_set()):
+    while time.monotonic() < deadline:
         if proc is not None and proc.poll() is not None:
             return False
         with socket.socket() as s:

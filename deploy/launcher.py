@@ -252,7 +252,7 @@ class Mission:
         if self.children.wait_for_line("world", listening_line([self.endpoint]), START_TIMEOUT_S, stop):
             return
         if world.poll() == process.EXIT_USAGE:  # another run took the port between the check and the world's bind
-            raise process.UsageError(f"the world could not listen: {self.children.log_tail('world', 1)}")
+            raise process.UsageError(f"the world could not start: {self.children.log_tail('world', 1)}")
         if not stop.is_set():
             raise RuntimeError(f"the world did not open {self.endpoint}: {self.children.log_tail('world')}")
 
@@ -261,8 +261,8 @@ class Mission:
         after it), so the session is complete from the first tick."""
         if not self.options.record or stop.is_set():
             return
-        self.children.start("recorder", "deploy.cli", "record", "-o", str(self.out / SESSION_FILE),
-                                       "--scenario", str(self.scenario_file), *common)
+        self.children.start("recorder", "deploy.cli", "record", "-o", str(self.out / SESSION_FILE), "--scenario",
+                            str(self.scenario_file), *common)
         if not self.children.wait_for_line("recorder", "recording", START_TIMEOUT_S, stop) and not stop.is_set():
             raise RuntimeError(f"the recorder did not start: {self.children.log_tail('recorder')}")
 

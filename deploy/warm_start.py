@@ -158,8 +158,9 @@ def start(module: str, args: Sequence[str], log_path: Path, preload: Sequence[st
 
 def fork_here(module: str, args: Sequence[str], log_path: Path, priority: Priority = "equal") -> WarmProcess | None:
     """``python -m module args`` forked from this process itself, which has imported much of what ``module``
-    needs (the world: the scenario's models, NumPy), or None where that is not safe: only a process with a single
-    thread, native ones counted (Zenoh's runtime, once a session has opened), can fork and go on in the child."""
+    needs (the world: the scenario's models; the lander: its own code), or None where that is not safe: only a
+    process with a single thread, native ones counted (Zenoh's runtime, once a session has opened), can fork and go
+    on in the child."""
     if not available() or not _single_threaded():
         return None
     process = multiprocessing.get_context("fork").Process(target=_child, args=(module, list(args), str(log_path),
