@@ -68,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from deploy import launcher
+    from deploy import launcher, run_setup
 
     if args.time_scale <= 0:
         raise process.UsageError(f"--time-scale must be positive for a live run, got {args.time_scale}")
@@ -76,14 +76,14 @@ def run(args: argparse.Namespace) -> int:
         raise process.UsageError("--external with --lockstep: a lockstep tick waits for every agent's ack, and a "
                                  "ROS 2 node does not acknowledge ticks; run the outside rovers in real time")
     if args.connect:
-        launcher.check_router(args.connect)
-    launcher.warm_up()  # before the imports and the scenario below, which its own imports then overlap
+        run_setup.check_router(args.connect)
+    run_setup.warm_up()  # before the imports and the scenario below, which its own imports then overlap
     from deploy.behaviour_check import require_behaviour
     from deploy.rover_groups import external_ids
     from schemas.scenario import load_rover_params
 
     params = load_rover_params(args.params) if args.params else None
-    scenario = launcher.base_scenario(args.scenario, args.from_recording).with_overrides(
+    scenario = run_setup.base_scenario(args.scenario, args.from_recording).with_overrides(
         seed=args.seed, rovers=args.rovers, rover_params=params)
     require_behaviour(scenario.behaviour, str(args.scenario or args.from_recording))  # before any process starts
     options = launcher.LaunchOptions(

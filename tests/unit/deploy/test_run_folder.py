@@ -5,7 +5,7 @@ from __future__ import annotations
 import datetime
 import types
 
-from deploy import launcher
+from deploy import run_setup
 
 
 class _Noon(datetime.datetime):
@@ -16,8 +16,8 @@ class _Noon(datetime.datetime):
 
 def test_runs_started_in_the_same_second_get_a_folder_each(tmp_path, monkeypatch):
     """They shared one: one run failed on the other's state file, and the other ran the first's scenario."""
-    monkeypatch.setattr(launcher, "dt", types.SimpleNamespace(datetime=_Noon))
-    folders = [launcher.new_run_folder(tmp_path / "runs", "crater") for _ in range(3)]
+    monkeypatch.setattr(run_setup, "dt", types.SimpleNamespace(datetime=_Noon))
+    folders = [run_setup.new_run_folder(tmp_path / "runs", "crater") for _ in range(3)]
     assert [f.name for f in folders] == ["crater-20261130-120000", "crater-20261130-120000-2",
                                         "crater-20261130-120000-3"]
     assert all(f.is_dir() for f in folders)
