@@ -35,6 +35,7 @@ from rover_agent.estimation.matrices import (
     transpose,
     zeros,
 )
+from rover_agent.estimation.shared_gauge import SharedGauge
 from schemas.params import NavigationParams
 from shared.pose import Pose
 
@@ -273,13 +274,11 @@ class Localisation:
     def _implied_position(self, landmark: Landmark) -> tuple[list[float], Matrix]:
         """Where a shared landmark seen puts this rover, less where it thinks it is, and that sighting's covariance
         (the landmark's, the sensor's and this rover's heading's, which turns what was seen)."""
-        hr = math.radians(self.pose.heading)
-        sx, sz = landmark.seen
-        ox, oz = sz * math.sin(hr) + sx * math.cos(hr), sz * math.cos(hr) - sx * math.sin(hr)
-        y = [landmark.at[0] - ox - self.pose.x, landmark.at[1] - oz - self.pose.z]
-        sensor, turn = landmark.sensor_std ** 2, self.cov[2][2]
-        r = add(landmark.cov, [[sensor + turn * oz * oz, -turn * oz * ox], [-turn * oz * ox, sensor + turn * ox * ox]])
-        return y, r
+        return self.shared_gauge(landmark.sensor_std).implied(landmark.seen, landmark.at, landmark.cov)
+
+    def shared_gauge(self, sensor_std: float) -> SharedGauge:
+        """``mahalanobis`` of shared landmarks seen with ``sensor_std``, for many at once (``SharedGauge``)."""
+        return SharedGauge(self.pose, self.cov, sensor_std)
 
     def may_pass(self, landmark: Landmark, seen_within: float, gate: float = GATE_999) -> bool:
         """Whether a sighting of a landmark of known place (not ``shared``), seen no farther than ``seen_within``
@@ -295,13 +294,10 @@ class Localisation:
     def mahalanobis(self, landmark: Landmark) -> float:
         """How far a sighting lies from what the estimate predicts, in their uncertainty (squared)."""
         if landmark.shared:
-            y, r = self._implied_position(landmark)
-            s_inv = inverse2(add([row[:2] for row in self.cov[:2]], r))
-        else:
-            h, s = self._predicted_sighting(landmark)
-            y = [landmark.seen[0] - h[0], landmark.seen[1] - h[1]]
-            s_inv = inverse2(s)
-        return math.inf if s_inv is None else quadratic(y, s_inv)
+            return self.shared_gauge(landmark.sensor_std)(landmark.seen, landmark.at, landmark.cov)
+        h, s = self._predicted_sighting(landmark)
+        s_inv = inverse2(s)
+        return math.inf if s_inv is None else quadratic([landmark.seen[0] - h[0], landmark.seen[1] - h[1]], s_inv)
 
     def _predicted_sighting(self, landmark: Landmark) -> tuple[list[float], Matrix]:
         """Where a landmark of known place should appear from the estimate, and the covariance of a sighting's

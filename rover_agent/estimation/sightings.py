@@ -14,12 +14,12 @@ Pure functions of the hits: tested with scripted perception, no router.
 
 from __future__ import annotations
 
-import heapq
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from rover_agent.decisions import Hit
+from rover_agent.estimation.matrices import Matrix
 from rover_agent.estimation.pose_filter import Landmark
 from schemas import radio
 
@@ -142,8 +142,17 @@ class _Least:
 
     def __init__(self, values: list[float]) -> None:
         self.values = values
-        self.nans = sum(v != v for v in values)
-        self.least = heapq.nsmallest(2, ((v, i) for i, v in enumerate(values) if v == v))
+        self.nans = 0
+        first: tuple[float, int] | None = None
+        second: tuple[float, int] | None = None
+        for i, v in enumerate(values):  # of equal values the first is the lesser, as in a sort of (value, index)
+            if v != v:
+                self.nans += 1
+            elif first is None or v < first[0]:
+                first, second = (v, i), first
+            elif second is None or v < second[0]:
+                second = (v, i)
+        self.least = [pair for pair in (first, second) if pair is not None]
 
     def all_but(self, skip: int, floor: float) -> bool:
         """``all(v >= floor for i, v in enumerate(values) if i != skip)``: a NaN is never at least anything."""
@@ -157,9 +166,15 @@ def teammate_landmark(centre: tuple[float, float], mate: Teammate, now: float, t
     """A teammate seen, as a landmark: its estimate, less sure by how far it may have walked since (when it said it
     was walking)."""
     e = mate.estimate
+    return Landmark(centre, (e.x, e.z), teammate_spread(mate, now, top_speed), ROVER_SIGHTING_STD_M, shared=True)
+
+
+def teammate_spread(mate: Teammate, now: float, top_speed: float) -> Matrix:
+    """How unsure a teammate's place is (2 x 2): its estimate's covariance, grown by how far it may have walked
+    since it sent it (when it said it was walking)."""
+    e = mate.estimate
     walked = top_speed * max(0.0, now - e.stamp) if e.moving else 0.0
-    cov = [[e.cov_xx + walked ** 2, e.cov_xz], [e.cov_xz, e.cov_zz + walked ** 2]]
-    return Landmark(centre, (e.x, e.z), cov, ROVER_SIGHTING_STD_M, shared=True)
+    return [[e.cov_xx + walked ** 2, e.cov_xz], [e.cov_xz, e.cov_zz + walked ** 2]]
 
 
 def rim_centre(hits: tuple[Hit, ...], edge_radius: float) -> tuple[float, float] | None:
@@ -266,17 +281,18 @@ def _circle_step(pts: list[tuple[float, float]], cx: float, cz: float,
                  radius: float) -> tuple[float, float] | None:
     """One Gauss-Newton step of a known-radius circle's centre (to subtract); None when the points leave it
     unknown (the normal equations are singular). A point at the centre has no direction and is left out."""
-    jtj, jtr = [[0.0, 0.0], [0.0, 0.0]], [0.0, 0.0]
+    xx = xz = zz = rx = rz = 0.0  # J^T J (symmetric: g0 g1 is g1 g0 to the bit) and J^T r, summed point by point
     for x, z in pts:
         dist = math.hypot(x - cx, z - cz)
         if dist < 1e-9:
             continue
-        g, res = ((cx - x) / dist, (cz - z) / dist), dist - radius
-        for i in range(2):
-            jtr[i] += g[i] * res
-            for j in range(2):
-                jtj[i][j] += g[i] * g[j]
-    det = jtj[0][0] * jtj[1][1] - jtj[0][1] * jtj[1][0]
+        g0, g1, res = (cx - x) / dist, (cz - z) / dist, dist - radius
+        rx += g0 * res
+        rz += g1 * res
+        xx += g0 * g0
+        xz += g0 * g1
+        zz += g1 * g1
+    det = xx * zz - xz * xz
     if abs(det) < 1e-12:
         return None
-    return (jtj[1][1] * jtr[0] - jtj[0][1] * jtr[1]) / det, (jtj[0][0] * jtr[1] - jtj[1][0] * jtr[0]) / det
+    return (zz * rx - xz * rz) / det, (xx * rz - xz * rx) / det
