@@ -367,9 +367,9 @@ def step_down(args: argparse.Namespace, s: Setting, rows: list[dict], tried: lis
     while counts:
         n = counts.pop(0)
         if held(n):
-            return refine(n, failed, held)
+            return refine(n, failed, held) if args.step_down else n
         failed = n
-        if not counts and n // 2 >= MIN_SHARED:
+        if not counts and n // 2 >= MIN_SHARED and args.step_down:
             counts.append(n // 2)
     return None
 

@@ -28,6 +28,8 @@ def parse_args(argv: list[str] | None = None, description: str = "") -> argparse
                         f"(default {FULL['warmup']:g})")
     parser.add_argument("--shared-counts", type=int, nargs="+", metavar="N", help="real time, rovers sharing "
                         f"processes, largest first until one holds (default {FULL['shared_counts']})")
+    parser.add_argument("--no-step-down", dest="step_down", action="store_false",
+                        help="measure the shared counts given and no others (to compare two builds at one count)")
     parser.add_argument("--per-process", type=int, metavar="K", help="agents per process in the shared series "
                         f"(default {FULL['per_process']})")
     parser.add_argument("--lockstep-counts", type=int, nargs="+", metavar="N",
