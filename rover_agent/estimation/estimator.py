@@ -151,13 +151,13 @@ class Estimator:
         top_speed = max(p.navigation.speed(level) for level in (1, 2, 3))
         mates = list(self.teammates.values())
         gauge = loc.shared_gauge(ROVER_SIGHTING_STD_M)
-        spreads = {id(mate): teammate_spread(mate, stamp, top_speed) for mate in mates}
 
-        def distance(seen: tuple[float, float], mate: Teammate) -> float:
-            """``loc.mahalanobis(teammate_landmark(seen, mate, ...))``, at a fraction of its cost a pair."""
-            return gauge(seen, (mate.estimate.x, mate.estimate.z), spreads[id(mate)])
+        def distances(seen: list[tuple[float, float]], known: list[Teammate]) -> list[list[float]]:
+            """``loc.mahalanobis(teammate_landmark(centre, mate, ...))`` for every pair, at a fraction of its cost."""
+            return gauge.table(seen, [((t.estimate.x, t.estimate.z), teammate_spread(t, stamp, top_speed))
+                                      for t in known])
 
-        for seen, mate in match_teammates(centres, mates, partners, stamp, p.communication.comm_range, distance):
+        for seen, mate in match_teammates(centres, mates, partners, stamp, p.communication.comm_range, distances):
             loc.observe(teammate_landmark(seen, mate, stamp, top_speed))
 
     def sun(self, heading_deg: float) -> None:

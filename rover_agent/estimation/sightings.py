@@ -104,11 +104,14 @@ def rover_centres(hits: tuple[Hit, ...], rover_radius: float, ray_step_deg: floa
     return [_known_circle([point(h) for h in run], rover_radius) for run in runs]
 
 
+Distances = Callable[[list[tuple[float, float]], list[Teammate]], list[list[float]]]
+"""Rovers seen and teammates -> the table of how far each one seen lies from each teammate, a row a rover seen."""
+
+
 def match_teammates(centres: list[tuple[float, float]], teammates: list[Teammate], partners: list[int], now: float,
-                    comm_range: float, distance: Callable[[tuple[float, float], Teammate], float],
-                    ) -> list[tuple[tuple[float, float], Teammate]]:
-    """Pairs (rover seen, its estimate) that cannot well be another pairing; ``distance``: how far (Mahalanobis,
-    squared) a rover seen lies from where a teammate's estimate and this rover's put it.
+                    comm_range: float, distances: Distances) -> list[tuple[tuple[float, float], Teammate]]:
+    """Pairs (rover seen, its estimate) that cannot well be another pairing; ``distances``: how far (Mahalanobis,
+    squared) each rover seen lies from where each teammate's estimate and this rover's put it.
 
     The radio's partners are the rovers in range: so a single rover seen well within range, with a single rover
     partner that sent a fresh estimate, is that partner, wherever the estimates put the two (the filter's gate
@@ -121,7 +124,7 @@ def match_teammates(centres: list[tuple[float, float]], teammates: list[Teammate
     if len(centres) == 1 and len(rovers_in_range) == 1 and math.hypot(*centres[0]) <= comm_range - IN_RANGE_MARGIN_M:
         return [(centres[0], t) for t in fresh if t.rover_id == rovers_in_range[0]]
     known = fresh + [t for t in teammates if ESTIMATE_MAX_AGE_S < now - t.estimate.stamp <= FORGET_AFTER_S]
-    d = [[distance(centre, mate) for mate in known] for centre in centres]
+    d = distances(centres, known)
     rows = [_Least(row) for row in d]
     columns = [_Least([row[j] for row in d]) for j in range(len(fresh))]
     pairs = []

@@ -38,6 +38,11 @@ RAY_STEP = FOV / (RAYS - 1)
 NOISY = NoiseModel(slip_std=0.05, heading_std_rad=math.radians(1.0))  # the generator's 'high' noise
 
 
+def by_pair(distance):
+    """The table ``match_teammates`` weighs, from a distance of one pair."""
+    return lambda centres, mates: [[distance(centre, mate) for mate in mates] for centre in centres]
+
+
 # ---- the world's noise, and what a scan shows ----
 
 
@@ -325,12 +330,12 @@ def test_a_teammate_is_matched_only_where_the_match_cannot_well_be_another():
         return loc.mahalanobis(teammate_landmark(seen, mate, 10.0, 3.5))
 
     seen_a, seen_b = (3.2, 5.9), (-2.9, 6.2)
-    pairs = match_teammates([seen_a, seen_b], [a, b], [0, 2, 3], 10.0, 10.0, distance)
+    pairs = match_teammates([seen_a, seen_b], [a, b], [0, 2, 3], 10.0, 10.0, by_pair(distance))
     assert {(seen, mate.rover_id) for seen, mate in pairs} == {(seen_a, 2), (seen_b, 3)}
     close = Teammate(3, estimate(3.5, 6.0, 0.25))  # two estimates where one rover is seen: neither is taken
-    assert match_teammates([seen_a], [a, close], [0, 2, 3], 10.0, 10.0, distance) == []
+    assert match_teammates([seen_a], [a, close], [0, 2, 3], 10.0, 10.0, by_pair(distance)) == []
     stale = Teammate(2, estimate(3.0, 6.0, 0.25, stamp=5.0))
-    assert match_teammates([seen_a], [stale, b], [0, 2, 3], 10.0, 10.0, distance) == []
+    assert match_teammates([seen_a], [stale, b], [0, 2, 3], 10.0, 10.0, by_pair(distance)) == []
 
 
 def test_a_teammate_whose_estimate_has_just_gone_stale_still_counts_against_a_match():
@@ -345,16 +350,17 @@ def test_a_teammate_whose_estimate_has_just_gone_stale_still_counts_against_a_ma
     fresh, seen = Teammate(2, estimate(3.0, 6.0, 0.25)), (1.5, 6.0)
     assert distance(seen, fresh) < MATCH_GATE
     just_stale = Teammate(3, estimate(1.5, 6.0, 0.25, stamp=10.0 - 1.1))
-    assert match_teammates([seen], [fresh, just_stale], [0, 2, 3], 10.0, 40.0, distance) == []
+    assert match_teammates([seen], [fresh, just_stale], [0, 2, 3], 10.0, 40.0, by_pair(distance)) == []
     forgotten = Teammate(3, estimate(1.5, 6.0, 0.25, stamp=10.0 - FORGET_AFTER_S - 0.1))
-    assert match_teammates([seen], [fresh, forgotten], [0, 2, 3], 10.0, 40.0, distance) == [(seen, fresh)]
+    assert match_teammates([seen], [fresh, forgotten], [0, 2, 3], 10.0, 40.0, by_pair(distance)) == [(seen, fresh)]
 
 
 def test_one_rover_seen_and_one_in_radio_range_are_each_other_wherever_the_estimates_put_them():
     far_off = Teammate(4, estimate(40.0, -20.0, 100.0))
-    pairs = match_teammates([(1.0, 5.0)], [far_off], [0, 4], 10.0, 10.0, lambda seen, mate: math.inf)
+    pairs = match_teammates([(1.0, 5.0)], [far_off], [0, 4], 10.0, 10.0, by_pair(lambda seen, mate: math.inf))
     assert pairs == [((1.0, 5.0), far_off)]
-    assert match_teammates([(1.0, 9.5)], [far_off], [0, 4], 10.0, 10.0, lambda s, m: math.inf) == []  # range's edge
+    at_range_edge = match_teammates([(1.0, 9.5)], [far_off], [0, 4], 10.0, 10.0, by_pair(lambda s, m: math.inf))
+    assert at_range_edge == []
 
 
 def test_a_walking_teammate_counts_as_less_sure():
@@ -479,5 +485,5 @@ def test_matching_takes_the_pairs_no_other_pairing_comes_near_as_a_table_of_dist
                 others = [v for i, v in enumerate(table[k]) if i != j] + [table[i][j] for i in range(n_seen) if i != k]
                 if not best > MATCH_GATE and all(other >= best + AMBIGUITY for other in others):
                     expected.append((centres[k], fresh[j]))
-        got = match_teammates(centres, fresh + stale, [0, 2, 3, 4], 10.0, 1.0, distance)
+        got = match_teammates(centres, fresh + stale, [0, 2, 3, 4], 10.0, 1.0, by_pair(distance))
         assert got == expected, table
