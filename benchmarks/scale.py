@@ -68,7 +68,7 @@ from scale_observe import (
     schedule_lateness,
     sim_rate,
 )
-from scale_report import holds, median_run, print_report, refine, slopes, targets
+from scale_report import highest_holding, holds, median_run, print_report, slopes, targets
 
 from bus import priority
 from bus.zenoh_config import build_config, open_session
@@ -76,8 +76,6 @@ from schemas import keyspace as ks
 from schemas.scenario import Scenario, dump_scenario, load_scenario
 from world_service.clock import CLOCK_HZ, ticks_per_period
 
-MIN_SHARED = 50
-"""The shared series halves its last count until one holds real time, down to this."""
 STARTED_TIMEOUT_S = 60.0
 """After the last token: the world needs a clock period or two to see them all and start."""
 # ---- one measurement ----
@@ -352,9 +350,7 @@ def attempt(plan: Plan, s: Setting) -> dict:
 
 def step_down(args: argparse.Namespace, s: Setting, rows: list[dict], tried: list[int]) -> int | None:
     """Shared processes, largest count first, until one holds real time (``scale_report.holds``: its agents keep up
-    too); then the highest count holding, found by halving the gap to the lowest that did not, to ``REFINE_STEP``
-    (None if no count holds). After the counts asked for, the last one is halved until a count holds or it is below
-    ``MIN_SHARED``."""
+    too); the counts tried as ``highest_holding`` picks them."""
 
     def held(n: int) -> bool:
         tried.append(n)
@@ -362,16 +358,7 @@ def step_down(args: argparse.Namespace, s: Setting, rows: list[dict], tried: lis
         rows.append(row)
         return holds(row)
 
-    counts = sorted(args.shared_counts, reverse=True)
-    failed = None
-    while counts:
-        n = counts.pop(0)
-        if held(n):
-            return refine(n, failed, held) if args.step_down else n
-        failed = n
-        if not counts and n // 2 >= MIN_SHARED and args.step_down:
-            counts.append(n // 2)
-    return None
+    return highest_holding(args.shared_counts, held, args.step_down)
 
 
 def main(argv: list[str] | None = None) -> int:

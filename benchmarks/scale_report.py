@@ -26,6 +26,8 @@ SATURATED = 0.9
 
 REFINE_STEP = 50
 """Then it narrows the gap between the count that held and the lowest that did not, to this many rovers."""
+MIN_SHARED = 50
+"""The shared series halves its last count until one holds real time, down to this."""
 
 
 def print_report(doc: dict) -> None:
@@ -314,6 +316,23 @@ def median_run(rows: list[dict]) -> dict:
     if not ok:
         return rows[0]
     return {**ok[(len(ok) - 1) // 2], "repeats": [r.get("real_time_factor") for r in rows]}
+
+
+def highest_holding(counts: list[int], held, step_down: bool = True) -> int | None:
+    """The highest count that holds, trying ``counts`` largest first until one does (``held(n)`` measures n); then
+    between it and the lowest that did not, by halving the gap to ``REFINE_STEP``. After the counts asked for, the
+    last one is halved until a count holds or it is below ``MIN_SHARED``. None if no count holds. Without
+    ``step_down``: the counts asked for and no others, the first that holds being the answer."""
+    counts = sorted(counts, reverse=True)
+    failed = None
+    while counts:
+        n = counts.pop(0)
+        if held(n):
+            return refine(n, failed, held) if step_down else n
+        failed = n
+        if not counts and n // 2 >= MIN_SHARED and step_down:
+            counts.append(n // 2)
+    return None
 
 
 def refine(holding: int, failed: int | None, held) -> int:

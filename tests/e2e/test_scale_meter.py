@@ -1,6 +1,6 @@
 """The scale benchmark's process meter: a group's CPU and memory include the processes under it (the world's
-camera process), and a helper process that ends between two marks does not break the measurement; and the
-figures the benchmark derives from what it measured."""
+camera process), and a helper process that ends between two marks does not break the measurement; the
+figures the benchmark derives from what it measured; and the counts its shared series tries."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from procs import REPO
 sys.path.append(str(REPO / "benchmarks"))
 
 from proc_meter import ProcessMeter, with_descendants
+from scale_report import highest_holding
 
 PARENT = ("import subprocess, sys, time; child = subprocess.Popen([sys.executable, '-c', 'import time; "
           "time.sleep(60)']); print(child.pid, flush=True); time.sleep(60)")
@@ -122,3 +123,24 @@ def test_a_shared_count_holds_real_time_only_if_its_agents_keep_up() -> None:
     assert not holds({"real_time_factor": 0.98, "agent_lag_ms": lag})  # the world fell behind
     assert not holds({"real_time_factor": 1.0, "agent_lag_ms": {**lag, "p99_ms": AGENT_LAG_LIMIT_MS + 1}})
     assert not holds({"real_time_factor": 1.0, "error": "the world died"})
+
+
+def _search(counts: list[int], holding_up_to: int, step_down: bool = True) -> tuple[int | None, list[int]]:
+    tried: list[int] = []
+
+    def held(n: int) -> bool:
+        tried.append(n)
+        return n <= holding_up_to
+
+    return highest_holding(counts, held, step_down), tried
+
+
+def test_the_shared_series_halves_until_a_count_holds_then_narrows_the_gap() -> None:
+    assert _search([1000], 870) == (850, [1000, 500, 750, 900, 800, 850])
+    assert _search([1000, 750, 500], 900) == (900, [1000, 750, 900, 950])
+    assert _search([1000], 10) == (None, [1000, 500, 250, 125, 62])
+
+
+def test_without_step_down_only_the_counts_asked_for_are_measured() -> None:
+    assert _search([1000], 870, step_down=False) == (None, [1000])
+    assert _search([500, 1000], 870, step_down=False) == (500, [1000, 500])
