@@ -13,7 +13,7 @@ from bus import priority
 
 
 def test_auto_yields_to_a_real_time_world_only_in_a_crowd() -> None:
-    assert priority.for_mode("auto", lockstep=False, rovers=priority.CROWD) == "low"
+    assert priority.for_mode("auto", lockstep=False, rovers=priority.CROWD) == "idle"
     assert priority.for_mode("auto", lockstep=False, rovers=5) == "equal"
     assert priority.for_mode("auto", lockstep=True, rovers=1000) == "equal"
     assert priority.for_camera(lockstep=False, rovers=priority.CROWD) == "low"
