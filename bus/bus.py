@@ -138,9 +138,12 @@ class Bus:
         puts), for a replay, which must deliver the whole recording, and a lockstep world, whose agents must
         see every sample. In real time the fresh sample beats the one held back, so the default drops.
 
-        ``declare_publishers=False``: put through the session, for a session that is the router: there,
-        declaring a publisher costs in proportion to every subscription in the network (1 ms each with a
-        thousand rovers' 13,000), while a put without one costs microseconds.
+        ``declare_publishers=False``: put through the session, for the world, which publishes on thousands of
+        rovers' keys. As the router, declaring a publisher costs in proportion to every subscription in the network
+        (1 ms each with a thousand rovers' 13,000), while a put without one costs microseconds; as a client, each
+        publisher brings the subscriptions that match it into the session, and Zenoh matches every sample the
+        session receives against all of them (``Resource::get_matches``: 0.2 of a core at a thousand rovers, on
+        the threads that hand samples to Python).
 
         ``loss``: fault injection for tests and the chaos benchmark: this share of the samples this bus publishes
         is dropped as a bad link would (``loss.SeededLoss``, seeded by ``loss_seed``) and counted in ``lost``."""

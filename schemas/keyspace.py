@@ -67,9 +67,10 @@ ROVER_OUTPUTS: Final = (MOVE_ACTION, ROTATE_ACTION, CANCEL_ACTION, SPEED_ACTION,
 
 A process of rover agents declares its publishers before the clock starts: a Zenoh declaration's cost grows with
 the entities the session already holds (milliseconds each with 250 agents in one process), and made on first use,
-mid-mission, it holds up every sample behind it. The world does not declare its thousands of rover keys ahead: a
-router process would match every agent's subscription against them, and a thousand shared rovers would take
-minutes rather than seconds to connect (docs/benchmarks.md)."""
+mid-mission, it holds up every sample behind it. The world declares none of its thousands of rover keys: declared
+ahead, a router process would match every agent's subscription against them, and a thousand shared rovers would
+take minutes rather than seconds to connect; declared at all, each brings the agents' subscriptions matching it
+into the world's session, against which Zenoh then matches every sample the world receives (docs/benchmarks.md)."""
 RADIO_TOPICS: Final = frozenset({COMM_OUT, COMM_IN, MISSION_DIRECTION, CALIBRATION})
 """Topics that carry radio traffic: a transmission and its deliveries. The radio model counts what it loses
 (``radio_lost``, ``radio_dropped``), so Zenoh must not lose them unseen: they are published without dropping under

@@ -15,6 +15,7 @@ from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_end
 from schemas.scenario_limits import clip
 
 if TYPE_CHECKING:
+    from bus.bus import Bus
     from schemas.keyspace import Keyspace
     from schemas.scenario import Scenario
     from world_service.served import ServedWorld
@@ -61,7 +62,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from bus.bus import Bus
     from schemas.keyspace import Keyspace
     from schemas.scenario import load_scenario
     from world_service import service
@@ -76,8 +76,7 @@ def run(args: argparse.Namespace) -> int:
     camera = None if args.twin else service.start_camera(scenario, args.lockstep)  # it starts while all else does
     try:  # the camera is stopped whatever ends the world, a Ctrl-C as it starts included
         session = _open(args)  # before the terrain is built: agents may connect meanwhile
-        bus = Bus(session, lossless=args.lockstep, declare_publishers=not args.listen,  # a router puts undeclared
-                  loss=args.fault_loss, loss_seed=scenario.seed)
+        bus = world_bus(session, args.lockstep, args.fault_loss, scenario.seed)
         with bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
             bus.wake_on(stop)
             world = _world(args, scenario, Keyspace(args.world), state_file)
@@ -86,6 +85,13 @@ def run(args: argparse.Namespace) -> int:
         if camera is not None:
             camera.close()
     return 0
+
+
+def world_bus(session: zenoh.Session, lockstep: bool, fault_loss: float, seed: int) -> Bus:
+    """The world's bus, router or client: it puts on its rovers' keys undeclared (``Bus`` says why)."""
+    from bus.bus import Bus
+
+    return Bus(session, lossless=lockstep, declare_publishers=False, loss=fault_loss, loss_seed=seed)
 
 
 def _check(args: argparse.Namespace) -> None:
