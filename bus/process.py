@@ -30,8 +30,9 @@ from schemas.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_NO_ROUTER, EXIT_U
 from schemas.scenario_limits import clip
 
 __all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_NO_ROUTER", "EXIT_USAGE", "SHUTDOWN_DEADLINE_S",
-           "RouterUnreachable", "Stop", "UsageError", "check_common_arguments", "check_range", "freeze_start_up_heap",
-           "main_for", "one_blas_thread", "run_guarded", "setup_logging", "state_folder", "stop_on_signals"]
+           "RouterUnreachable", "Stop", "UsageError", "check_common_arguments", "check_range", "freeze_before_fork",
+           "freeze_start_up_heap", "main_for", "one_blas_thread", "run_guarded", "setup_logging", "state_folder",
+           "stop_on_signals"]
 
 
 SHUTDOWN_DEADLINE_S = 10.0
@@ -114,6 +115,14 @@ def freeze_start_up_heap() -> None:
     gc.collect()
     gc.freeze()
     heap.keep_freed_memory()
+
+
+def freeze_before_fork() -> None:
+    """Take this process's heap out of the garbage collector's scans before it forks a child that carries on from
+    it (the world and the lander of ``lunarsim run``, the world's camera): the child's collections, its start-up
+    freeze's full one included (``freeze_start_up_heap``), then scan what it made itself, not everything it was
+    forked with, and leave those pages shared (what Python's ``gc.freeze`` documentation advises before a fork)."""
+    gc.freeze()
 
 
 def setup_logging(verbose: bool = False, events: bool = False) -> None:

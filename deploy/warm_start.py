@@ -34,6 +34,7 @@ import setproctitle
 
 from bus.lifeline import die_with_parent
 from bus.priority import Priority, lower
+from bus.process import freeze_before_fork
 
 _context: ForkServerContext | None = None
 
@@ -163,6 +164,7 @@ def fork_here(module: str, args: Sequence[str], log_path: Path, priority: Priori
     on in the child."""
     if not available() or not _single_threaded():
         return None
+    freeze_before_fork()
     process = multiprocessing.get_context("fork").Process(target=_child, args=(module, list(args), str(log_path),
                                                                                priority), name=module, daemon=True)
     process.start()

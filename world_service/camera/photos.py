@@ -27,6 +27,7 @@ import setproctitle
 from bus import heap
 from bus.lifeline import exit_when_orphaned
 from bus.priority import Priority, lower
+from bus.process import freeze_before_fork
 from schemas import messages as m
 from schemas.params import RoverParams
 from schemas.scenario import Scenario
@@ -120,6 +121,7 @@ def _context() -> multiprocessing.context.BaseContext:
     if "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1:
         sys.stdout.flush()  # else the child would write out the world's buffered output again
         sys.stderr.flush()
+        freeze_before_fork()
         return multiprocessing.get_context("fork")
     return multiprocessing.get_context("spawn")
 
