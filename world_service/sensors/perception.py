@@ -51,6 +51,23 @@ class Scan:
     kinds: np.ndarray
 
 
+@dataclass
+class Scans:
+    """The hits of several rovers' scans end to end, rover after rover, each rover's rays in order: ``counts[i]``
+    of them are the ``i``-th scanning rover's. One array of each for all, so what a tick publishes is rounded and
+    made lists in one NumPy call each rather than three a rover."""
+
+    angles_deg: np.ndarray
+    distances_m: np.ndarray
+    kinds: np.ndarray
+    counts: np.ndarray
+
+    def split(self) -> list[Scan]:
+        ends = np.cumsum(self.counts)
+        return [Scan(self.angles_deg[a:b], self.distances_m[a:b], self.kinds[a:b])
+                for a, b in zip(ends - self.counts, ends, strict=True)]
+
+
 class Perceiver:
     def __init__(self, scene: Scene, terrain, params: RoverParams) -> None:
         self.scene = scene
@@ -75,8 +92,12 @@ class Perceiver:
 
     def scan(self, xs: np.ndarray, zs: np.ndarray, hs: np.ndarray, which: np.ndarray) -> list[Scan]:
         """Scans of the rovers ``which`` (indices into xs/zs/hs, which hold every rover)."""
+        return self.scans(xs, zs, hs, which).split()
+
+    def scans(self, xs: np.ndarray, zs: np.ndarray, hs: np.ndarray, which: np.ndarray) -> Scans:
+        """The scans of the rovers ``which``, end to end (``Scans``)."""
         if not len(which):
-            return []
+            return Scans(np.zeros(0), np.zeros(0), np.zeros(0, int), np.zeros(0, int))
         radius = self.params.perception.perception_radius
         ox, oz = xs[which], zs[which]
         dx, dz = geo.direction(hs[which][:, None] + self.rel[None, :])
@@ -90,8 +111,8 @@ class Perceiver:
             best[closer], kind[closer] = t_other[closer], k
         use = (best > radius) & (crater <= radius)
         best[use], kind[use] = crater[use], CRATER
-        return [Scan(self.rel[hit], best[i][hit], kind[i][hit]) for i in range(len(which))
-                for hit in [best[i] <= radius]]
+        hit = best <= radius
+        return Scans(self.rel[np.nonzero(hit)[1]], best[hit], kind[hit], hit.sum(axis=1))
 
     def _circles(self, ox, oz, xs, zs, which, radius):
         """Every circle within reach of each scanning rover, as (rover, x, z, radius, source), its source the index

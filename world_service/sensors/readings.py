@@ -48,11 +48,12 @@ class Sensors:
         scenario that cost a rover its goal. Independent rovers do not share a clock phase either."""
         tick, stamp = self.clock.tick, self.clock.sim_time
         which = np.array([i for i, b in enumerate(bodies) if (tick + b.id) % self.perception_period == 0], int)
-        scans = self.perceiver.scan(xs, zs, hs, which)
+        scans = self.perceiver.scans(xs, zs, hs, which)
+        angles, distances = scans.angles_deg.round(3).tolist(), scans.distances_m.round(3).tolist()
+        kinds, ends = KIND_NAMES[scans.kinds].tolist(), np.cumsum(scans.counts)
         return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
-                 m.Perception(stamp=stamp, angles_deg=s.angles_deg.round(3).tolist(),
-                              distances_m=s.distances_m.round(3).tolist(), kinds=KIND_NAMES[s.kinds].tolist()))
-                for i, s in zip(which, scans, strict=True)]
+                 m.Perception(stamp=stamp, angles_deg=angles[a:b], distances_m=distances[a:b], kinds=kinds[a:b]))
+                for i, a, b in zip(which.tolist(), (ends - scans.counts).tolist(), ends.tolist(), strict=True)]
 
     def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:
         pitch = self.pitch.pitch_deg([b.id for b in bodies], xs, zs, hs)
