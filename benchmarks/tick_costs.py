@@ -19,7 +19,7 @@ from importlib import import_module
 
 PARTS: tuple[tuple[str, str, str, str], ...] = (
     ("world: step (actuation, radio, statuses, state)", "world_service.sim", "World", "step"),
-    ("world: perception rays", "world_service.sensors.perception", "Perceiver", "scan"),
+    ("world: perception rays", "world_service.sensors.perception", "Perceiver", "scans"),
     ("world: gyroscopes (terrain pitch)", "world_service.sensors.readings", "Sensors", "_gyroscopes"),
     ("world: taking the agents' answers", "world_service.sim", "World", "receive"),
     ("camera: rendering photos", "world_service.sim", "World", "render"),
