@@ -1,13 +1,12 @@
 """Scale: rover agents as separate processes (or sharing processes) against the real world service, in real time
 and in lockstep, on this machine; real-time factor, CPU and memory per rover, sensor delivery, start-up.
 
-Each measurement starts the world service, the lander and the rover agents as OS processes on loopback, the
-rovers forked from a warm server as ``lunarsim run`` does (see deploy/warm_start.py), on the scenario with N
-rovers in its formation. ``--routing``: in the series of one process per rover and in lockstep the world is
-the Zenoh router the others connect to, as in ``lunarsim run``; the real-time series of shared processes runs
-behind a router process, as a ``lunarsim rover --ids`` deployment would: a world that also routes does the
-routing on its own thread, and fell further behind at 750 and 1,000 rovers (``world`` or ``process`` sets one
-for every series). The benchmark process watches through the same router (see scale_observe.py):
+Each measurement starts the world service, the lander and the rover agents as OS processes on loopback, the rovers
+forked from a warm server as ``lunarsim run`` does (see deploy/warm_start.py), on the scenario with N rovers in its
+formation. ``--routing``: in the series of one process per rover and in lockstep the world is the Zenoh router the
+others connect to, as in ``lunarsim run``; the real-time series of shared processes runs behind a router process, as
+a ``lunarsim rover --ids`` deployment would (``world`` or ``process`` sets one for every series; docs/benchmarks.md
+has 1,000 shared rovers both ways). The benchmark process watches through the same router (see scale_observe.py):
 
 - real time (``--time-scale 1``): after every agent is connected and ``--warmup`` seconds of running clock,
   a window of ``--seconds``: simulated seconds per wall second (from the world's own clock samples), CPU of
