@@ -62,10 +62,13 @@ class Scans:
     kinds: np.ndarray
     counts: np.ndarray
 
-    def split(self) -> list[Scan]:
+    def spans(self) -> list[tuple[int, int]]:
+        """Where each rover's hits start and end in the arrays."""
         ends = np.cumsum(self.counts)
-        return [Scan(self.angles_deg[a:b], self.distances_m[a:b], self.kinds[a:b])
-                for a, b in zip(ends - self.counts, ends, strict=True)]
+        return list(zip((ends - self.counts).tolist(), ends.tolist(), strict=True))
+
+    def split(self) -> list[Scan]:
+        return [Scan(self.angles_deg[a:b], self.distances_m[a:b], self.kinds[a:b]) for a, b in self.spans()]
 
 
 class Perceiver:

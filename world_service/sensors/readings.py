@@ -50,10 +50,10 @@ class Sensors:
         which = np.array([i for i, b in enumerate(bodies) if (tick + b.id) % self.perception_period == 0], int)
         scans = self.perceiver.scans(xs, zs, hs, which)
         angles, distances = scans.angles_deg.round(3).tolist(), scans.distances_m.round(3).tolist()
-        kinds, ends = KIND_NAMES[scans.kinds].tolist(), np.cumsum(scans.counts)
+        kinds = KIND_NAMES[scans.kinds].tolist()
         return [(self.keys.rover(bodies[i].id, ks.PERCEPTION),
                  m.Perception(stamp=stamp, angles_deg=angles[a:b], distances_m=distances[a:b], kinds=kinds[a:b]))
-                for i, a, b in zip(which.tolist(), (ends - scans.counts).tolist(), ends.tolist(), strict=True)]
+                for i, (a, b) in zip(which.tolist(), scans.spans(), strict=True)]
 
     def _gyroscopes(self, bodies, xs, zs, hs) -> list[Out]:
         pitch = self.pitch.pitch_deg([b.id for b in bodies], xs, zs, hs)
