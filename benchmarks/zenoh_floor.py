@@ -1,9 +1,9 @@
 """The bare Zenoh ping-pong floor of the control-loop benchmark (``benchmarks/control_loop_latency.py``).
 
 A round trip through the same router with nothing of LunarSim in it: an echo process, a zenoh-python client with
-the session configuration the rover agent uses, puts every ping back from its subscriber's callback, as
-zenoh-python's own ``z_pong`` example does. The benchmark pings it with the Perception bytes it sends the rover
-(behind an 8-byte ping number), through a link built like the one it plays the world on, so the difference
+the session configuration and Zenoh threads the rover agent uses, puts every ping back from its subscriber's
+callback, as zenoh-python's own ``z_pong`` example does. The benchmark pings it with the Perception bytes it sends
+the rover (behind an 8-byte ping number), through a link built like the one it plays the world on, so the difference
 between the two round trips is what LunarSim adds: the rover's inbox and loop, decoding, deciding, encoding.
 
     python benchmarks/zenoh_floor.py --connect tcp/127.0.0.1:7447   # the echo, as the benchmark starts it
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import zenoh
 
-from bus.zenoh_config import build_config, open_session
+from bus.zenoh_config import build_config, open_session, receive_on_one_thread
 
 PING = "bench/floor/ping"
 PONG = "bench/floor/pong"
@@ -77,6 +77,7 @@ def start_echo(endpoint: str, log: Path) -> subprocess.Popen:
 
 
 def echo(conf: zenoh.Config, where: str, stop: threading.Event) -> None:
+    receive_on_one_thread()  # Zenoh's threads as the rover agent has them
     with open_session(conf, where, 10.0, who="zenoh floor echo") as session:
         publisher = session.declare_publisher(PONG)
         subscriber = session.declare_subscriber(PING, lambda s: publisher.put(s.payload))

@@ -150,6 +150,25 @@ def default_router_missing(args: argparse.Namespace) -> bool:
     return not port_in_use("127.0.0.1", DEFAULT_PORT)
 
 
+ONE_RECEIVING_THREAD = "(rx: (handover: app))"
+"""Zenoh's runtimes as ``ZENOH_RUNTIME`` (RON) gives them: receiving runs on the one thread of the application
+runtime instead of on two threads of its own (``receive_on_one_thread``)."""
+
+
+def receive_on_one_thread() -> None:
+    """For a process that receives a few samples at a time and answers each at once (a rover agent): every sample
+    then crosses one thread fewer, and no second receiving thread wakes to look for work, which on a machine shared
+    with the world and a router is much of a round trip (``docs/benchmarks.md``, the lockstep section). A process
+    that receives every rover's traffic keeps two, so that Zenoh decodes on one while the other waits for Python:
+    on one thread, the world of 1,000 rovers fell seconds behind. Sending keeps its own thread: an agent publishes
+    from its receiving callback (``Bus.handle_directly``), and a put that waits out congestion must not wait on the
+    thread that would drain the queue.
+
+    Zenoh reads the variable once, as the process opens its first session, so this comes before; a value the user
+    set wins."""
+    os.environ.setdefault("ZENOH_RUNTIME", ONE_RECEIVING_THREAD)
+
+
 def open_router(conf: zenoh.Config, listen: Sequence[str], config_file: str | None = None) -> zenoh.Session:
     """A session in router mode, listening: fails at once, naming the endpoints, when it cannot listen (another
     router on the port), since waiting would not free the port."""

@@ -10,7 +10,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from bus import paths, process
-from bus.zenoh_config import add_zenoh_arguments, config_from_args, describe_endpoints, open_session
+from bus.zenoh_config import (
+    add_zenoh_arguments,
+    config_from_args,
+    describe_endpoints,
+    open_session,
+    receive_on_one_thread,
+)
 from schemas.scenario_limits import clip
 
 if TYPE_CHECKING:
@@ -70,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     params = rover_params(args.params)
     keys = Keyspace(args.world)
     who = f"rover {rover_ids[0]}" if len(rover_ids) == 1 else f"rovers {args.ids}"
+    receive_on_one_thread()
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who=who)
     with Bus(session) as bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
         if rover_ids == ["auto"]:

@@ -3,10 +3,12 @@ Zenoh thread's Python state."""
 
 from __future__ import annotations
 
+import os
 import threading
+from pathlib import Path
 
 import pytest
-from procs import wait_for
+from procs import module, stop, wait_for, wait_for_output
 
 from bus.bus import PER_KEY_LIMIT, Bus, zenoh_callback
 from bus.zenoh_config import build_config, open_session
@@ -105,3 +107,27 @@ def test_the_world_puts_on_its_rovers_keys_without_declaring_a_publisher(router)
 
         wait_for(heard, 10, "the world's samples at the agent")
         assert world._publishers == {}, "the world declared publishers"
+
+
+
+def _threads(pid: int) -> list[str]:
+    return sorted(Path(f"/proc/{pid}/task/{task}/comm").read_text().strip() for task in os.listdir(f"/proc/{pid}/task"))
+
+
+@pytest.mark.parametrize(("runtime", "receiving"), [(None, []), ("(rx: (worker_threads: 1))", ["rx-0"])])
+def test_a_rover_agent_receives_on_zenohs_application_thread_unless_zenoh_runtime_says_otherwise(router, runtime,
+                                                                                                  receiving):
+    """A rover agent has Zenoh run its receiving on the application runtime's thread (``receive_on_one_thread``):
+    no thread of Zenoh's receiving runtime exists. A ``ZENOH_RUNTIME`` of the user's wins. Zenoh reads it once per
+    process, so each case is an agent process of its own."""
+    env = {k: v for k, v in os.environ.items() if k != "ZENOH_RUNTIME"}
+    if runtime is not None:
+        env["ZENOH_RUNTIME"] = runtime
+    rover = module("rover_agent", "--id", "1", "--world", "lunar-runtime", "--connect", router, "--no-state", env=env)
+    try:
+        wait_for_output(rover, "waiting for the world's clock", 30)  # its session, subscriptions and token are up
+        threads = _threads(rover.pid)
+    finally:
+        stop(rover)
+    assert [name for name in threads if name.startswith("rx-")] == receiving, threads
+    assert "app-0" in threads and "tx-0" in threads, threads

@@ -45,10 +45,10 @@ def lunarsim(*args: str, **kwargs) -> subprocess.Popen:
                             stderr=subprocess.PIPE, text=True, **kwargs)
 
 
-def module(name: str, *args: str) -> subprocess.Popen:
+def module(name: str, *args: str, env: dict[str, str] | None = None) -> subprocess.Popen:
     """Start ``python -m NAME ARGS``: each LunarSim process also runs alone."""
     return subprocess.Popen([sys.executable, "-m", name, *args], cwd=REPO, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
+                            stderr=subprocess.STDOUT, text=True, env=env)
 
 
 def stop(*procs: subprocess.Popen) -> None:
