@@ -1,5 +1,5 @@
 """The Bus keeps one publisher's samples in order across keys, over a real router, and its callbacks keep their
-Zenoh thread's Python state."""
+Zenoh thread's Python state; a rover agent receives on Zenoh's application thread."""
 
 from __future__ import annotations
 
@@ -107,7 +107,6 @@ def test_the_world_puts_on_its_rovers_keys_without_declaring_a_publisher(router)
 
         wait_for(heard, 10, "the world's samples at the agent")
         assert world._publishers == {}, "the world declared publishers"
-
 
 
 def _threads(pid: int) -> list[str]:
