@@ -138,9 +138,9 @@ def test_an_agent_started_idle_runs_every_thread_in_the_idle_class(tmp_path: Pat
     assert wait_for_port("127.0.0.1", port, 30.0, router)
     proc = children.start("rover1", "rover_agent", "--id", "1", "--connect", endpoint, warm=warm, priority="idle")
     try:
-        def connected() -> dict[str, int] | None:  # Zenoh's receiving threads are up
+        def connected() -> dict[str, int] | None:  # Zenoh's link is up: its sending thread is there
             policies = _thread_policies(proc.pid)
-            return policies if any(" rx-" in thread for thread in policies) else None
+            return policies if any(" tx-" in thread for thread in policies) else None
 
         policies = wait_for(connected, 180.0, "the rover's Zenoh threads") if warm else _thread_policies(proc.pid)
         assert policies and set(policies.values()) == {os.SCHED_IDLE}, policies
