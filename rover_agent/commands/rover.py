@@ -76,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
     params = rover_params(args.params)
     keys = Keyspace(args.world)
     who = f"rover {rover_ids[0]}" if len(rover_ids) == 1 else f"rovers {args.ids}"
-    receive_on_one_thread()
+    if len(rover_ids) == 1:  # a process of many agents receives many samples at a time: Zenoh's default
+        receive_on_one_thread()
     session = open_session(config_from_args(args), describe_endpoints(args), args.router_timeout, who=who)
     with Bus(session) as bus, process.stop_on_signals(process.SHUTDOWN_DEADLINE_S) as stop:
         if rover_ids == ["auto"]:

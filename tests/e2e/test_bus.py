@@ -113,16 +113,20 @@ def _threads(pid: int) -> list[str]:
     return sorted(Path(f"/proc/{pid}/task/{task}/comm").read_text().strip() for task in os.listdir(f"/proc/{pid}/task"))
 
 
-@pytest.mark.parametrize(("runtime", "receiving"), [(None, []), ("(rx: (worker_threads: 1))", ["rx-0"])])
-def test_a_rover_agent_receives_on_zenohs_application_thread_unless_zenoh_runtime_says_otherwise(router, runtime,
-                                                                                                  receiving):
-    """A rover agent has Zenoh run its receiving on the application runtime's thread (``receive_on_one_thread``):
-    no thread of Zenoh's receiving runtime exists. A ``ZENOH_RUNTIME`` of the user's wins. Zenoh reads it once per
-    process, so each case is an agent process of its own."""
+@pytest.mark.parametrize(("rovers", "runtime", "receiving"), [
+    (["--id", "1"], None, []),
+    (["--id", "1"], "(rx: (worker_threads: 1))", ["rx-0"]),
+    (["--ids", "1-3"], None, ["rx-0", "rx-1"]),
+], ids=["one agent", "the user's ZENOH_RUNTIME", "three agents"])
+def test_one_rovers_agent_receives_on_zenohs_application_thread(router, rovers, runtime, receiving):
+    """One rover's agent has Zenoh run its receiving on the application runtime's thread (``receive_on_one_thread``):
+    no thread of Zenoh's receiving runtime exists. A ``ZENOH_RUNTIME`` of the user's wins, and a process of several
+    agents keeps Zenoh's two receiving threads. Zenoh reads the variable once per process, so each case is an agent
+    process of its own."""
     env = {k: v for k, v in os.environ.items() if k != "ZENOH_RUNTIME"}
     if runtime is not None:
         env["ZENOH_RUNTIME"] = runtime
-    rover = module("rover_agent", "--id", "1", "--world", "lunar-runtime", "--connect", router, "--no-state", env=env)
+    rover = module("rover_agent", *rovers, "--world", "lunar-runtime", "--connect", router, "--no-state", env=env)
     try:
         wait_for_output(rover, "waiting for the world's clock", 30)  # its session, subscriptions and token are up
 
