@@ -160,8 +160,8 @@ def receive_on_one_thread() -> None:
     Zenoh's application tasks share one thread, and no second receiving thread wakes to look for work, which on a
     machine shared with the world and a router is much of a round trip (``docs/benchmarks.md``, the lockstep
     section). The world, the lander, routers and a process of many rovers' agents (``--ids``), which receive many
-    rovers' traffic, keep Zenoh's default: with the world's receiving on one thread, 1,000 rovers' agents lagged 2.2
-    s at p99 against 0.6 s. Sending keeps its own thread: an agent publishes from its receiving callback
+    rovers' traffic, keep Zenoh's default: with the world's receiving on one thread, 1,000 rovers' agents lagged
+    2.2 s at p99 against 0.6 s. Sending keeps its own thread: an agent publishes from its receiving callback
     (``Bus.handle_directly``), and a put that waits out congestion must not wait on the thread that would drain the
     queue.
 
